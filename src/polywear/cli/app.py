@@ -1,0 +1,63 @@
+"""The ``polywear`` command: one typer application, sub-commands registered here."""
+
+from __future__ import annotations
+
+import sys
+
+import typer
+
+from .. import __version__
+from .common import UserError
+
+app = typer.Typer(
+    name="polywear",
+    help="Friction-induced lateral self-excited vibration (SEV) of tire tread: "
+    "at which speeds it happens, how strongly, what moves it.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"polywear {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(False, "--version", callback=_version, is_eager=True, help="Show the version."),
+) -> None:
+    """polywear: predict polygonal-wear self-excited vibration of tire tread."""
+
+
+def _register() -> None:
+    from . import params_cmd
+
+    app.add_typer(params_cmd.app, name="params")
+
+
+_register()
+
+
+def main() -> None:
+    """Console entry point: user errors become one line and exit code 2."""
+    from ..params import ParameterError
+
+    try:
+        app(standalone_mode=False)
+    except (ParameterError, UserError) as exc:
+        typer.echo(f"error: {exc}", err=True)
+        sys.exit(2)
+    except typer.Exit as exc:
+        sys.exit(exc.exit_code)
+    except typer.Abort:
+        typer.echo("aborted", err=True)
+        sys.exit(1)
+    except Exception as exc:
+        # click (vendored by typer) usage errors carry .show() and .exit_code (2)
+        if hasattr(exc, "show") and hasattr(exc, "exit_code"):
+            exc.show()
+            sys.exit(exc.exit_code)
+        raise

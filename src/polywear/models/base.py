@@ -1,0 +1,148 @@
+"""The model interface shared by ``tread1dof`` and ``axle4dof``.
+
+A model is data plus compiled kernels. Every kernel is a ``numba.njit`` function of
+``(u, V, p, out)`` that fills ``out`` and returns nothing:
+
+``rhs``   du/dt = f(u, V, p)                       out shape (n,)
+``jac``   df/du                                      out shape (n, n)
+``dfdv``  df/dV                                      out shape (n,)
+``aux``   diagnostics (sliding velocity, friction force, normal load, ...)  out shape (n_aux,)
+
+``u`` is the state, ``V`` the vehicle speed [m/s] and ``p`` the kernel parameter
+vector in SI units (angles in rad), packed from a :class:`~polywear.params.Params` by
+:meth:`Model.pack`. Kernels accept complex arrays too, for complex-step derivatives.
+
+Compiled solvers take the kernels as first-class functions (``numba.cfunc``), so that
+one cached compilation of a solver serves every model.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any, Callable
+
+import numpy as np
+
+from ..params import Params, get_value
+
+__all__ = ["ParamSlot", "Model", "KMH", "kmh_to_ms", "ms_to_kmh"]
+
+KMH = 1.0 / 3.6
+"""1 km/h in m/s."""
+
+
+def kmh_to_ms(v_kmh):
+    """km/h -> m/s."""
+    return np.asarray(v_kmh) * KMH if np.ndim(v_kmh) else float(v_kmh) * KMH
+
+
+def ms_to_kmh(v_ms):
+    """m/s -> km/h."""
+    return np.asarray(v_ms) * 3.6 if np.ndim(v_ms) else float(v_ms) * 3.6
+
+
+@dataclass(frozen=True)
+class ParamSlot:
+    """One entry of a kernel parameter vector.
+
+    ``p[i] = factor * value(key)``: ``key`` is the configuration key, ``factor``
+    converts its unit to SI (``pi/180`` for degrees). ``key`` is ``None`` for a
+    derived entry (e.g. a mode flag), which is never differentiated.
+    """
+
+    name: str
+    key: str | None
+    factor: float = 1.0
+    encode: Callable[[Any], float] | None = None
+
+
+DEG = math.pi / 180.0
+
+
+@dataclass(frozen=True, eq=False)
+class Model:
+    """State layout, parameter layout and compiled kernels of one model."""
+
+    name: str
+    state_names: tuple[str, ...]
+    state_units: tuple[str, ...]
+    aux_names: tuple[str, ...]
+    slots: tuple[ParamSlot, ...]
+    kernels: Any = field(repr=False)
+    """Module (or namespace) with njit ``rhs``, ``jac``, ``dfdv``, ``aux``, ``equilibrium``."""
+
+    @property
+    def n(self) -> int:
+        """Number of states."""
+        return len(self.state_names)
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        return tuple(s.name for s in self.slots)
+
+    def index(self, name: str) -> int:
+        """Index of a state by name."""
+        return self.state_names.index(name)
+
+    def pack(self, params: Params) -> np.ndarray:
+        """Kernel parameter vector ``p`` (SI units) from a parameter set."""
+        out = np.empty(len(self.slots))
+        for i, slot in enumerate(self.slots):
+            value = get_value(params, slot.key) if slot.key else None
+            out[i] = slot.encode(params) if slot.encode else slot.factor * value
+        return out
+
+    def slot_of_key(self, key: str) -> int:
+        """Index in ``p`` of the entry that a configuration key sets."""
+        for i, slot in enumerate(self.slots):
+            if slot.key == key and slot.encode is None:
+                return i
+        raise KeyError(f"{key}: not a parameter of model {self.name}")
+
+    # -- convenient float evaluations -------------------------------------------------
+    def f(self, u, V, p) -> np.ndarray:
+        """du/dt at one state (works for complex arrays too)."""
+        u = np.asarray(u)
+        dtype = np.result_type(u, p, V)
+        out = np.empty(self.n, dtype=dtype)
+        self.kernels.rhs(u.astype(dtype), dtype.type(V), np.asarray(p).astype(dtype), out)
+        return out
+
+    def jacobian(self, u, V, p) -> np.ndarray:
+        """df/du at one state (works for complex arrays too)."""
+        u = np.asarray(u)
+        dtype = np.result_type(u, p, V)
+        out = np.empty((self.n, self.n), dtype=dtype)
+        self.kernels.jac(u.astype(dtype), dtype.type(V), np.asarray(p).astype(dtype), out)
+        return out
+
+    def df_dspeed(self, u, V, p) -> np.ndarray:
+        """df/dV [per (m/s)] at one state."""
+        u = np.asarray(u)
+        dtype = np.result_type(u, p, V)
+        out = np.empty(self.n, dtype=dtype)
+        self.kernels.dfdv(u.astype(dtype), dtype.type(V), np.asarray(p).astype(dtype), out)
+        return out
+
+    def diagnostics(self, u, V, p) -> np.ndarray:
+        """Auxiliary outputs (``aux_names``) for one state or an array of states ``(..., n)``."""
+        u = np.asarray(u, dtype=float)
+        flat = u.reshape(-1, self.n)
+        out = np.empty((flat.shape[0], len(self.aux_names)))
+        p = np.asarray(p, dtype=float)
+        for i in range(flat.shape[0]):
+            self.kernels.aux(flat[i], float(V), p, out[i])
+        return out.reshape(u.shape[:-1] + (len(self.aux_names),))
+
+    def equilibrium(self, V, p) -> np.ndarray:
+        """Steady rolling state at speed ``V`` [m/s] (raises if it cannot be found)."""
+        return self.kernels.equilibrium(float(V), np.asarray(p, dtype=float))
+
+    @cached_property
+    def compiled(self):
+        """First-class (cfunc) kernels ``(rhs, jac, dfdv)`` for compiled solvers."""
+        from ..solvers.kernels import as_cfuncs
+
+        return as_cfuncs(self.kernels)
