@@ -33,9 +33,10 @@ def _root(
 
 
 def _register() -> None:
-    from . import params_cmd
+    from . import params_cmd, stability_cmd
 
     app.add_typer(params_cmd.app, name="params")
+    app.command("stability")(stability_cmd.stability)
 
 
 _register()

@@ -72,6 +72,9 @@ class Model:
     slots: tuple[ParamSlot, ...]
     kernels: Any = field(repr=False)
     """Module (or namespace) with njit ``rhs``, ``jac``, ``dfdv``, ``aux``, ``equilibrium``."""
+    coordinates: tuple[tuple[str, str], ...] = ()
+    """(displacement state, name of its stiffness in ``p``): used to name a mode by the
+    coordinate holding most of its potential energy."""
 
     @property
     def n(self) -> int:

@@ -133,4 +133,5 @@ MODEL = Model(
     aux_names=AUX_NAMES,
     slots=SLOTS,
     kernels=_Kernels,
+    coordinates=(("x", "k"),),
 )

@@ -1,0 +1,337 @@
+"""Linear stability of the steady rolling state along a speed range.
+
+The equilibrium ``u_eq(V)`` of the model is computed at each speed and the
+eigenvalues of its Jacobian decide stability. Hopf points (a complex pair crossing
+the imaginary axis) are bracketed on a speed grid and located by Brent's method on
+the real part of the tracked eigenvalue to ``xtol`` [m/s]; their criticality comes
+from the first Lyapunov coefficient (Kuznetsov, *Elements of Applied Bifurcation
+Theory*, eq. 3.20), computed with exact (complex-step) second derivatives and a
+difference of those for the third.
+
+Speeds are km/h at the interface, m/s inside.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import brentq
+
+from .. import __version__
+from ..models import get_model
+from ..models.base import kmh_to_ms, ms_to_kmh
+from ..params import Params, to_toml
+from .derivatives import bilinear, jac_directional, rhs_directional, trilinear
+
+__all__ = [
+    "HopfPoint",
+    "StabilityResult",
+    "equilibrium_eigenvalues",
+    "locate_hopf",
+    "first_lyapunov_coefficient",
+    "stability_analysis",
+]
+
+
+@dataclass(frozen=True)
+class HopfPoint:
+    """A Hopf point of the equilibrium branch.
+
+    ``q`` and ``w`` are right and left critical eigenvectors with ``J q = i omega q``,
+    ``w^H J = i omega w^H``, ``|q| = 1`` and ``w^H q = 1``. ``dre_dspeed`` is
+    d Re(lambda)/dV [1/m] (> 0: the pair crosses into the right half plane with
+    increasing speed). ``l1`` is the first Lyapunov coefficient (< 0: supercritical,
+    soft; > 0: subcritical, hard).
+    """
+
+    speed: float  # [m/s]
+    omega: float  # [rad/s]
+    u: np.ndarray
+    q: np.ndarray
+    w: np.ndarray
+    dre_dspeed: float
+    l1: float
+    mode: str
+
+    @property
+    def speed_kmh(self) -> float:
+        return ms_to_kmh(self.speed)
+
+    @property
+    def frequency_hz(self) -> float:
+        return self.omega / (2.0 * np.pi)
+
+    @property
+    def criticality(self) -> str:
+        """``"soft"`` (supercritical) or ``"hard"`` (subcritical)."""
+        return "soft" if self.l1 < 0.0 else "hard"
+
+    def summary(self) -> dict:
+        return {
+            "speed_kmh": self.speed_kmh,
+            "frequency_hz": self.frequency_hz,
+            "criticality": self.criticality,
+            "first_lyapunov_coefficient": self.l1,
+            "crossing": "destabilizing" if self.dre_dspeed > 0 else "stabilizing",
+            "mode": self.mode,
+        }
+
+
+def equilibrium_eigenvalues(model, p, speeds) -> tuple[np.ndarray, np.ndarray]:
+    """Equilibria ``(n_speeds, n)`` and Jacobian eigenvalues ``(n_speeds, n)`` at speeds [m/s]."""
+    speeds = np.atleast_1d(np.asarray(speeds, dtype=float))
+    states = np.empty((len(speeds), model.n))
+    eig = np.empty((len(speeds), model.n), dtype=complex)
+    for i, V in enumerate(speeds):
+        states[i] = model.equilibrium(V, p)
+        eig[i] = np.linalg.eigvals(model.jacobian(states[i], V, p))
+    return states, eig
+
+
+def _n_unstable(eigenvalues: np.ndarray) -> np.ndarray:
+    return np.sum(eigenvalues.real > 0.0, axis=-1)
+
+
+def _eigen_nearest(model, p, V, target: complex):
+    """Equilibrium, Jacobian, and the eigenpair nearest ``target`` at speed V."""
+    u = model.equilibrium(V, p)
+    J = model.jacobian(u, V, p)
+    vals, vecs = np.linalg.eig(J)
+    i = int(np.argmin(np.abs(vals - target)))
+    return u, J, vals[i], vecs[:, i]
+
+
+def mode_label(model, p, q: np.ndarray) -> str:
+    """Name of the coordinate that carries most of the mode's potential energy."""
+    best, label = -1.0, ""
+    for state, stiffness_slot in model.coordinates:
+        k = p[model.param_names.index(stiffness_slot)]
+        energy = k * abs(q[model.index(state)]) ** 2
+        if energy > best:
+            best, label = energy, state
+    return label
+
+
+def locate_hopf(model, p, V_lo: float, V_hi: float, lam_lo: complex, lam_hi: complex, xtol=1e-10):
+    """Hopf point of the mode whose eigenvalue goes from ``lam_lo`` at V_lo to ``lam_hi`` at V_hi."""
+
+    def tracked(V):
+        s = (V - V_lo) / (V_hi - V_lo)
+        return _eigen_nearest(model, p, V, lam_lo + s * (lam_hi - lam_lo))
+
+    V = brentq(lambda v: tracked(v)[2].real, V_lo, V_hi, xtol=xtol, rtol=4 * np.finfo(float).eps)
+    u, J, lam, q = tracked(V)
+    omega = abs(lam.imag)
+    if lam.imag < 0:
+        q = q.conj()
+    q = q / np.linalg.norm(q)
+    lvals, lvecs = np.linalg.eig(J.T)
+    w = lvecs[:, int(np.argmin(np.abs(lvals + 1j * omega)))]  # J^T w = -i omega w <=> w^H J = i omega w^H
+    w = w / np.vdot(w, q).conj()  # w^H q = 1
+    dre = _dlambda(model, u, V, p, q, w, dV=1.0).real
+    l1 = first_lyapunov_coefficient(model, u, V, p, q, w, omega, J)
+    return HopfPoint(V, omega, u, q, w, dre, l1, mode_label(model, p, q))
+
+
+def _dlambda(model, u, V, p, q, w, dV=0.0, dp=None) -> complex:
+    """Total derivative of the critical eigenvalue along (dV, dp), equilibrium shift included."""
+    J = model.jacobian(u, V, p)
+    f_theta = rhs_directional(model, u, V, p, dV=dV, dp=dp)
+    du = -np.linalg.solve(J, f_theta)
+    dJ = jac_directional(model, u, V, p, du=du, dV=dV, dp=dp)
+    return np.vdot(w, dJ @ q) / np.vdot(w, q)
+
+
+def first_lyapunov_coefficient(model, u, V, p, q, w, omega, J) -> float:
+    """First Lyapunov coefficient l1 (Kuznetsov 2004, eq. 3.20) [units of 1/(time*|q|^2)].
+
+    ``q``: ``J q = i omega q``, ``|q| = 1``; ``w``: ``w^H J = i omega w^H``, ``w^H q = 1``.
+    """
+    n = len(u)
+    qb = q.conj()
+    b_qq = bilinear(model, u, V, p, q, q)
+    b_qqb = bilinear(model, u, V, p, q, qb)
+    c_qqqb = trilinear(model, u, V, p, q, q, qb)
+    r1 = np.linalg.solve(J, b_qqb)
+    r2 = np.linalg.solve(2j * omega * np.eye(n) - J, b_qq)
+    terms = c_qqqb - 2.0 * bilinear(model, u, V, p, q, r1) + bilinear(model, u, V, p, qb, r2)
+    return float(np.vdot(w, terms).real / (2.0 * omega))
+
+
+@dataclass
+class StabilityResult:
+    """Eigenvalues of the equilibrium along speed, Hopf points and unstable intervals."""
+
+    params: Params
+    speeds_kmh: np.ndarray
+    eigenvalues: np.ndarray  # (n_speeds, n) [1/s]
+    equilibria: np.ndarray  # (n_speeds, n)
+    hopf_points: list[HopfPoint]
+    unstable_intervals_kmh: list[tuple[float, float]]
+    state_names: tuple[str, ...]
+    settings: dict = field(default_factory=dict)
+
+    def summary(self) -> dict:
+        """The JSON summary of ``polywear stability``."""
+        return {
+            "model": self.params.model,
+            "hopf_speeds_kmh": [h.speed_kmh for h in self.hopf_points],
+            "hopf_frequencies_hz": [h.frequency_hz for h in self.hopf_points],
+            "unstable_intervals_kmh": [list(iv) for iv in self.unstable_intervals_kmh],
+            "hopf_points": [h.summary() for h in self.hopf_points],
+        }
+
+    def to_dataset(self):
+        """xarray Dataset: eigenvalues (real, imag) and equilibria against speed."""
+        import xarray as xr
+
+        ds = xr.Dataset(
+            {
+                "eigenvalue_real": (("speed_kmh", "index"), self.eigenvalues.real, {"units": "1/s"}),
+                "eigenvalue_imag": (("speed_kmh", "index"), self.eigenvalues.imag, {"units": "rad/s"}),
+                "equilibrium": (("speed_kmh", "state"), self.equilibria),
+            },
+            coords={"speed_kmh": self.speeds_kmh, "state": list(self.state_names)},
+            attrs={
+                "model": self.params.model,
+                "params_toml": to_toml(self.params),
+                "polywear_version": __version__,
+                "hopf_speeds_kmh": [h.speed_kmh for h in self.hopf_points],
+                "hopf_frequencies_hz": [h.frequency_hz for h in self.hopf_points],
+                **{k: str(v) for k, v in self.settings.items()},
+            },
+        )
+        return ds
+
+    def save(self, path) -> None:
+        """Write the dataset as netCDF (h5netcdf)."""
+        self.to_dataset().to_netcdf(path, engine="h5netcdf")
+
+    def plot(self, ax=None):
+        """Real parts of the eigenvalues against speed; Hopf points marked. Returns artists."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 4))
+        re = self.eigenvalues.real
+        order = np.argsort(-re, axis=1)
+        re_sorted = np.take_along_axis(re, order, axis=1)
+        artists = []
+        for j in range(re_sorted.shape[1]):
+            artists += ax.plot(self.speeds_kmh, re_sorted[:, j], lw=1.0, color=f"C{j % 10}")
+        artists.append(ax.axhline(0.0, color="k", lw=0.8))
+        for lo, hi in self.unstable_intervals_kmh:
+            artists.append(ax.axvspan(lo, hi, color="tab:red", alpha=0.12))
+        for h in self.hopf_points:
+            artists += ax.plot([h.speed_kmh], [0.0], "o", color="tab:red")
+            artists.append(
+                ax.annotate(
+                    f"H {h.speed_kmh:.1f} km/h\n{h.frequency_hz:.0f} Hz, {h.criticality}",
+                    (h.speed_kmh, 0.0), textcoords="offset points", xytext=(4, 8), fontsize=8,
+                )
+            )
+        finite = re_sorted[:, : min(3, re_sorted.shape[1])]
+        lo, hi = np.nanmin(finite), np.nanmax(finite)
+        pad = 0.1 * (hi - lo + 1e-12)
+        ax.set_ylim(lo - pad, hi + pad)
+        ax.set_xlabel("speed [km/h]")
+        ax.set_ylabel("Re(eigenvalue) [1/s]")
+        ax.set_title(f"{self.params.model}: stability of steady rolling (red: unstable)")
+        return artists
+
+
+def stability_analysis(
+    params: Params,
+    speed_range_kmh: tuple[float, float] = (5.0, 300.0),
+    n_speeds: int = 400,
+    xtol_ms: float = 1e-10,
+) -> StabilityResult:
+    """Equilibrium eigenvalues on a speed grid, Hopf points and unstable speed intervals."""
+    lo, hi = (float(v) for v in speed_range_kmh)
+    if not (0.0 < lo < hi):
+        raise ValueError(f"speed range {lo} {hi}: need 0 < low < high [km/h]")
+    if n_speeds < 3:
+        raise ValueError(f"n_speeds = {n_speeds}: need at least 3")
+    model = get_model(params.model)
+    p = model.pack(params)
+    speeds_kmh = np.linspace(lo, hi, n_speeds)
+    speeds = kmh_to_ms(speeds_kmh)
+    states, eig = equilibrium_eigenvalues(model, p, speeds)
+    unstable = _n_unstable(eig)
+    hopfs: list[HopfPoint] = []
+    for i in np.flatnonzero(np.diff(unstable) != 0):
+        hopfs += _hopf_in_bracket(model, p, speeds[i], speeds[i + 1], eig[i], eig[i + 1], xtol_ms)
+    hopfs.sort(key=lambda h: h.speed)
+    intervals = _unstable_intervals(model, p, speeds_kmh, hopfs)
+    return StabilityResult(
+        params=params,
+        speeds_kmh=speeds_kmh,
+        eigenvalues=eig,
+        equilibria=states,
+        hopf_points=hopfs,
+        unstable_intervals_kmh=intervals,
+        state_names=model.state_names,
+        settings={"n_speeds": n_speeds, "xtol_ms": xtol_ms},
+    )
+
+
+def _hopf_in_bracket(model, p, V_lo, V_hi, eig_lo, eig_hi, xtol) -> list[HopfPoint]:
+    """Hopf points between two grid speeds (refining the grid if several modes cross)."""
+    crossing = _crossing_pairs(eig_lo, eig_hi)
+    if crossing is None:  # ambiguous: split the bracket
+        V_mid = 0.5 * (V_lo + V_hi)
+        if V_hi - V_lo < 1e-6:
+            raise RuntimeError(f"cannot separate eigenvalue crossings near {ms_to_kmh(V_lo):.6f} km/h")
+        _, eig_mid = equilibrium_eigenvalues(model, p, [V_mid])
+        return _hopf_in_bracket(model, p, V_lo, V_mid, eig_lo, eig_mid[0], xtol) + _hopf_in_bracket(
+            model, p, V_mid, V_hi, eig_mid[0], eig_hi, xtol
+        )
+    return [locate_hopf(model, p, V_lo, V_hi, a, b, xtol) for a, b in crossing]
+
+
+def _crossing_pairs(eig_lo: np.ndarray, eig_hi: np.ndarray):
+    """Matched (lam_lo, lam_hi) of complex pairs (Im > 0) whose real part changes sign.
+
+    Eigenvalues are matched by nearest distance; returns None when the matching is
+    ambiguous or a real eigenvalue crosses (then the bracket is refined).
+    """
+    from scipy.optimize import linear_sum_assignment
+
+    cost = np.abs(eig_lo[:, None] - eig_hi[None, :])
+    rows, cols = linear_sum_assignment(cost)
+    pairs = []
+    for r, c in zip(rows, cols):
+        a, b = eig_lo[r], eig_hi[c]
+        if np.sign(a.real) != np.sign(b.real):
+            if a.imag > 0 and b.imag > 0:
+                pairs.append((a, b))
+            elif a.imag == 0 or b.imag == 0:
+                if abs(a.imag) + abs(b.imag) == 0:
+                    raise RuntimeError("a real eigenvalue crosses zero (fold of equilibria): not supported")
+                return None
+    # every crossing pair has a conjugate partner; the sign count must match
+    n_change = np.sum(eig_hi.real > 0) - np.sum(eig_lo.real > 0)
+    signed = sum(2 if b.real > 0 else -2 for _, b in pairs)
+    return pairs if signed == n_change else None
+
+
+def _unstable_intervals(model, p, speeds_kmh, hopfs) -> list[tuple[float, float]]:
+    """Speed intervals [km/h] where the equilibrium has an eigenvalue with Re > 0.
+
+    Between consecutive Hopf speeds the number of unstable eigenvalues is constant;
+    it is evaluated at the middle of each piece.
+    """
+    edges = sorted(h.speed_kmh for h in hopfs)
+    points = [float(speeds_kmh[0]), *edges, float(speeds_kmh[-1])]
+    intervals: list[tuple[float, float]] = []
+    for a, b in zip(points[:-1], points[1:]):
+        if b <= a:
+            continue
+        _, eig_mid = equilibrium_eigenvalues(model, p, [kmh_to_ms(0.5 * (a + b))])
+        if _n_unstable(eig_mid)[0] > 0:
+            if intervals and intervals[-1][1] == a:
+                intervals[-1] = (intervals[-1][0], b)
+            else:
+                intervals.append((a, b))
+    return intervals

@@ -1,0 +1,59 @@
+"""``polywear stability``: eigenvalues of steady rolling along speed, Hopf speeds."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+
+from .common import ConfigOpt, JsonOpt, OutOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, save_figure
+
+
+def stability(
+    config: ConfigOpt = None,
+    set_: SetOpt = None,
+    speed_range: Annotated[
+        tuple[float, float], typer.Option("--speed-range", help="Lowest and highest speed [km/h].")
+    ] = (5.0, 300.0),
+    n_speeds: Annotated[int, typer.Option("--n-speeds", help="Speed grid points for bracketing.")] = 400,
+    json_: JsonOpt = False,
+    plot: PlotOpt = None,
+    out: OutOpt = None,
+) -> None:
+    """Linear stability of steady rolling: Hopf speeds, frequencies, unstable speed bands."""
+    params = load(config, set_)
+    from ..analysis.stability import stability_analysis
+
+    try:
+        result = stability_analysis(params, tuple(speed_range), n_speeds=n_speeds)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    if out:
+        result.save(out)
+        info(f"wrote {out}")
+    if plot:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(7, 4))
+        result.plot(ax)
+        save_figure(fig, plot)
+        info(f"wrote {plot}")
+    summary = result.summary()
+    if json_:
+        emit_json(summary)
+        return
+    typer.echo(f"model {summary['model']}")
+    if not result.hopf_points:
+        typer.echo("no Hopf point in the speed range: steady rolling is "
+                   + ("unstable throughout" if summary["unstable_intervals_kmh"] else "stable throughout"))
+    for h in result.hopf_points:
+        s = h.summary()
+        typer.echo(
+            f"Hopf {s['speed_kmh']:9.3f} km/h  {s['frequency_hz']:7.2f} Hz  {s['criticality']:4s} "
+            f"({s['crossing']}, mode {s['mode']}, l1 = {s['first_lyapunov_coefficient']:.3g})"
+        )
+    for lo, hi in summary["unstable_intervals_kmh"]:
+        typer.echo(f"steady rolling unstable from {lo:.3f} to {hi:.3f} km/h")
