@@ -21,6 +21,7 @@ __all__ = [
     "stribeck",
     "stribeck_dv",
     "bristle_rate",
+    "bristle_decay_rate",
     "friction_coefficient",
     "steady_deflection",
     "steady_friction",
@@ -61,9 +62,15 @@ def stribeck_dv(v, mu_s, mu_c, v_s, delta):
 
 
 @njit(cache=True)
+def bristle_decay_rate(v, sigma0, g):
+    """sigma0 |v| / G [1/s]: the rate at which the bristle forgets its deflection."""
+    return sigma0 * real_abs(v) / g
+
+
+@njit(cache=True)
 def bristle_rate(v, z, sigma0, g):
     """dz/dt = v - sigma0 |v| z / G [m/s] for sliding velocity v and G = g."""
-    return v - sigma0 * real_abs(v) * z / g
+    return v - bristle_decay_rate(v, sigma0, g) * z
 
 
 @njit(cache=True)
