@@ -1,0 +1,271 @@
+"""Pseudo-arclength continuation of periodic orbits in the speed V.
+
+Each step predicts along the unit tangent, corrects with Newton on the collocation
+equations plus the integral phase condition and the arclength condition, and takes
+the next tangent from the same bordered matrix. Step length adapts to the number of
+Newton iterations. All norms are weighted by scales (state amplitudes, period,
+speed) so that the arclength mixes quantities of order one.
+
+Along the branch: Floquet multipliers at every point (monodromy by condensation,
+with the trivial multiplier as accuracy check), folds of cycles located by secant
+iteration on the speed component of the tangent, period doubling and torus
+(Neimark-Sacker) bifurcations detected by multipliers crossing the unit circle
+at -1 or as a complex pair.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from .collocation import Collocation, PeriodicOrbit, monodromy
+
+__all__ = ["ContinuationSettings", "BranchPoint", "Branch", "continue_from_hopf"]
+
+
+@dataclass(frozen=True)
+class ContinuationSettings:
+    """Numerical settings of the cycle continuation (dimensionless unless stated)."""
+
+    n_intervals: int = 40
+    degree: int = 4
+    ds_initial: float = 0.02
+    ds_min: float = 1e-7
+    ds_max: float = 0.5
+    max_steps: int = 400
+    newton_tol: float = 1e-10
+    max_newton: int = 8
+    adapt_every: int = 3
+    fold_tol: float = 1e-9
+    min_amplitude: float = 1e-3
+    """The branch ends (at a Hopf point) once the scaled amplitude falls below this."""
+    max_amplitude: float = 1e3
+    """The branch stops once the scaled amplitude exceeds this."""
+
+
+@dataclass
+class BranchPoint:
+    """One converged orbit of a branch, with its Floquet multipliers."""
+
+    orbit: PeriodicOrbit
+    multipliers: np.ndarray
+    tangent_speed: float
+    newton_iterations: int
+    label: str = ""
+
+    @property
+    def trivial_multiplier_error(self) -> float:
+        """|mu - 1| of the multiplier nearest 1 (accuracy check of the monodromy)."""
+        return float(np.min(np.abs(self.multipliers - 1.0)))
+
+    @property
+    def n_unstable(self) -> int:
+        """Number of multipliers outside the unit circle, the trivial one excluded."""
+        mu = self.multipliers
+        trivial = int(np.argmin(np.abs(mu - 1.0)))
+        others = np.delete(mu, trivial)
+        return int(np.sum(np.abs(others) > 1.0))
+
+    @property
+    def stable(self) -> bool:
+        return self.n_unstable == 0
+
+
+@dataclass
+class Branch:
+    """A branch of periodic orbits continued from a Hopf point."""
+
+    points: list[BranchPoint] = field(default_factory=list)
+    special: list[tuple[str, BranchPoint]] = field(default_factory=list)
+    end_reason: str = ""
+    scales: np.ndarray | None = None
+
+
+class _Stepper:
+    """Newton corrector and tangent for one mesh; rebuilt when the mesh changes."""
+
+    def __init__(self, model, p, mesh, settings: ContinuationSettings, scales, speed_scale, period_scale):
+        self.coll = Collocation(model, p, mesh, settings.degree)
+        self.settings = settings
+        c = self.coll
+        node_w = np.repeat(c.node_weights, c.n) / np.tile(scales, c.N * c.m) ** 2
+        self.weights = np.concatenate([node_w, [1.0 / period_scale**2, 1.0 / speed_scale**2]])
+        self.inv_scale = np.concatenate(
+            [np.tile(1.0 / scales, c.N * c.m), [1.0 / period_scale, 1.0 / speed_scale]]
+        )
+
+    def norm(self, dX: np.ndarray) -> float:
+        return float(np.sqrt(np.sum(self.weights * dX * dX)))
+
+    def unit(self, t: np.ndarray) -> np.ndarray:
+        return t / self.norm(t)
+
+    def correct(self, X0, t0, ds, phase_ref: PeriodicOrbit):
+        """Newton from the predictor X0 + ds t0.
+
+        Returns ``(X, tangent, iterations, multipliers)`` or None when Newton fails.
+        """
+        c = self.coll
+        X = X0 + ds * t0
+        border = np.vstack([c.phase_row(phase_ref), self.weights * t0])
+        for it in range(1, self.settings.max_newton + 1):
+            values = np.array([border[0] @ X, border[1] @ (X - X0) - ds])
+            out = c.solve(X, border, values)
+            if out is None:
+                return None
+            dX, t, CL, CR = out
+            X = X + dX
+            if np.max(np.abs(dX * self.inv_scale)) < self.settings.newton_tol:
+                t = self.unit(t)
+                if t @ (self.weights * t0) < 0:  # keep the direction of travel
+                    t = -t
+                return X, t, it, np.linalg.eigvals(monodromy(CL, CR))
+        return None
+
+
+def _first_harmonic(orbit: PeriodicOrbit, scales: np.ndarray) -> np.ndarray:
+    """Scaled first Fourier coefficient of the orbit about its mean."""
+    tau, u = orbit.dense(8)
+    u = u[:-1] / scales
+    tau = tau[:-1]
+    weights = np.gradient(np.append(tau, 1.0))[:-1]
+    return (u - u.mean(axis=0)).T @ (weights * np.exp(-2j * np.pi * tau))
+
+
+def _scaled_amplitude(orbit: PeriodicOrbit, scales: np.ndarray) -> float:
+    return float(np.max(np.ptp(orbit.nodes, axis=0) / scales)) * 0.5
+
+
+def continue_from_hopf(
+    model,
+    p,
+    hopf,
+    speed_bounds: tuple[float, float],
+    settings: ContinuationSettings = ContinuationSettings(),
+    amplitude_ref: float = 1e-4,
+    on_step=None,
+) -> Branch:
+    """Continue the cycles born at ``hopf`` (a stability.HopfPoint) within ``speed_bounds`` [m/s].
+
+    ``amplitude_ref`` [m] sets the scale of the tread displacement ``x`` (other states
+    scale with the critical eigenvector); ``on_step(branch)`` is called after every step.
+    The branch ends when it leaves the speed range, returns to an equilibrium (a Hopf
+    point: detected when the first harmonic of the orbit changes sign, i.e. the
+    amplitude passed through zero), exceeds the amplitude limit, or fails to converge.
+    """
+    q = hopf.q / hopf.q[model.index("x")]  # x component 1
+    scales = np.maximum(np.abs(q), 1e-6 * np.abs(q).max()) * amplitude_ref
+    period_scale = 2.0 * np.pi / hopf.omega
+    speed_scale = 0.1 * hopf.speed
+    N = settings.n_intervals
+    mesh = np.linspace(0.0, 1.0, N + 1)
+    stepper = _Stepper(model, p, mesh, settings, scales, speed_scale, period_scale)
+    c = stepper.coll
+    tau = (mesh[:-1, None] + np.diff(mesh)[:, None] * c.sch.nodes[None, :-1]).ravel()
+    psi = np.real(q[None, :] * np.exp(2j * np.pi * tau)[:, None]) * amplitude_ref
+    trivial = PeriodicOrbit(mesh, np.tile(hopf.u, (N * c.m, 1)), period_scale, hopf.speed, c.m)
+    X0 = c.pack(trivial)
+    t0 = stepper.unit(np.concatenate([psi.ravel(), [0.0, 0.0]]))
+    phase_ref = PeriodicOrbit(mesh, psi, period_scale, hopf.speed, c.m)
+
+    branch = Branch(scales=scales)
+    ds = settings.ds_initial
+    prev: BranchPoint | None = None
+    prev_harmonic = None
+    steps_since_adapt = 0
+    for _ in range(settings.max_steps):
+        out = stepper.correct(X0, t0, ds, phase_ref)
+        if out is None:
+            ds *= 0.5
+            if ds < settings.ds_min:
+                branch.end_reason = "step size underflow (Newton did not converge)"
+                break
+            continue
+        X, t, iterations, multipliers = out
+        orbit = c.unpack(X)
+        harmonic = _first_harmonic(orbit, scales)
+        if prev_harmonic is not None and np.real(np.vdot(prev_harmonic, harmonic)) < 0:
+            branch.end_reason = "returned to an equilibrium (Hopf point)"
+            break
+        point = BranchPoint(orbit, multipliers, float(t[-1]), iterations)
+        if prev is not None and np.sign(point.tangent_speed) != np.sign(prev.tangent_speed):
+            fold = _locate_fold(stepper, X0, t0, ds, phase_ref, prev, point, settings)
+            if fold is not None:
+                branch.special.append(("LP", fold))
+        if prev is not None:
+            for label in _multiplier_events(prev, point):
+                branch.special.append((label, point))
+        branch.points.append(point)
+        if on_step is not None:
+            on_step(branch)
+        amplitude = _scaled_amplitude(orbit, scales)
+        if not (speed_bounds[0] <= orbit.speed <= speed_bounds[1]):
+            branch.end_reason = "left the speed range"
+            break
+        if amplitude < settings.min_amplitude and len(branch.points) > 3:
+            branch.end_reason = "returned to an equilibrium (Hopf point)"
+            break
+        if amplitude > settings.max_amplitude:
+            branch.end_reason = "amplitude limit reached"
+            break
+        prev, prev_harmonic = point, harmonic
+        X0, t0, phase_ref = X, t, orbit
+        ds = min(settings.ds_max, ds * (1.5 if iterations <= 3 else 1.0 if iterations <= 5 else 0.5))
+        steps_since_adapt += 1
+        if settings.adapt_every and steps_since_adapt >= settings.adapt_every:
+            steps_since_adapt = 0
+            new_mesh = c.adapted_mesh(orbit)
+            tangent_orbit = c.unpack(t)
+            stepper = _Stepper(model, p, new_mesh, settings, scales, speed_scale, period_scale)
+            c = stepper.coll
+            phase_ref = orbit.with_mesh(new_mesh)
+            X0 = c.pack(phase_ref)
+            t0 = stepper.unit(c.pack(tangent_orbit.with_mesh(new_mesh)))
+    else:
+        branch.end_reason = "maximum number of steps"
+    return branch
+
+
+def _multiplier_events(a: BranchPoint, b: BranchPoint) -> list[str]:
+    """Period doubling (PD) and torus (NS) crossings between two consecutive points."""
+
+    def counts(point):
+        mu = point.multipliers
+        trivial = int(np.argmin(np.abs(mu - 1.0)))
+        mu = np.delete(mu, trivial)
+        outside = np.abs(mu) > 1.0
+        real_neg = outside & (np.abs(mu.imag) < 1e-8 * np.abs(mu)) & (mu.real < 0)
+        complex_ = outside & (np.abs(mu.imag) >= 1e-8 * np.abs(mu))
+        return int(real_neg.sum()), int(complex_.sum())
+
+    (pd_a, ns_a), (pd_b, ns_b) = counts(a), counts(b)
+    events = []
+    if pd_a != pd_b:
+        events.append("PD")
+    if ns_a != ns_b:
+        events.append("NS")
+    return events
+
+
+def _locate_fold(stepper, X0, t0, ds, phase_ref, prev, point, settings):
+    """Secant iteration on the arclength from X0 for a zero of the speed component of the tangent."""
+    s_a, g_a = 0.0, prev.tangent_speed
+    s_b, g_b = ds, point.tangent_speed
+    best = None
+    for _ in range(30):
+        s = s_b - g_b * (s_b - s_a) / (g_b - g_a)
+        if not min(s_a, s_b) < s < max(s_a, s_b):
+            s = 0.5 * (s_a + s_b)
+        out = stepper.correct(X0, t0, s, phase_ref)
+        if out is None:
+            return best
+        X, t, iterations, multipliers = out
+        g = float(t[-1])
+        best = BranchPoint(stepper.coll.unpack(X), multipliers, g, iterations, "LP")
+        if abs(g) < settings.fold_tol:
+            break
+        if np.sign(g) == np.sign(g_a):
+            s_a, g_a = s, g
+        else:
+            s_b, g_b = s, g
+    return best
