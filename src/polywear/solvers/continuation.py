@@ -76,7 +76,8 @@ class Branch:
     """A branch of periodic orbits continued from a Hopf point."""
 
     points: list[BranchPoint] = field(default_factory=list)
-    special: list[tuple[str, BranchPoint]] = field(default_factory=list)
+    special: list[tuple[str, BranchPoint, int]] = field(default_factory=list)
+    """(label, point, index): the special point lies between points[index - 1] and points[index]."""
     end_reason: str = ""
     scales: np.ndarray | None = None
 
@@ -191,10 +192,10 @@ def continue_from_hopf(
         if prev is not None and np.sign(point.tangent_speed) != np.sign(prev.tangent_speed):
             fold = _locate_fold(stepper, X0, t0, ds, phase_ref, prev, point, settings)
             if fold is not None:
-                branch.special.append(("LP", fold))
+                branch.special.append(("LP", fold, len(branch.points)))
         if prev is not None:
             for label in _multiplier_events(prev, point):
-                branch.special.append((label, point))
+                branch.special.append((label, point, len(branch.points)))
         branch.points.append(point)
         if on_step is not None:
             on_step(branch)

@@ -1,0 +1,457 @@
+"""The bifurcation diagram of tread amplitude against speed (the paper's Fig. 6, by continuation).
+
+Pipeline: equilibria and their stability along speed (:mod:`.stability`), Hopf points
+with criticality, cycle branches continued from every Hopf point not already reached
+by an earlier branch (:mod:`polywear.solvers.continuation`), special points (folds
+LP, period doubling PD, torus NS), and from these the speed bands of MODEL.md
+section 5:
+
+* linear band: where steady rolling is unstable (between Hopf speeds);
+* SEV band: where self-excited vibration persists after a large disturbance, i.e.
+  where a stable cycle exists or steady rolling is unstable; its bounds are the
+  paper's first and second bifurcation speeds;
+* hard regions: SEV band minus linear band, where a stable cycle coexists with stable
+  steady rolling; the unstable cycle there is the trigger amplitude.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import __version__
+from ..models import get_model
+from ..models.base import kmh_to_ms, ms_to_kmh
+from ..params import Params, to_toml
+from ..solvers.continuation import Branch, ContinuationSettings, continue_from_hopf
+from .stability import HopfPoint, StabilityResult, stability_analysis
+
+__all__ = ["BifurcationDiagram", "CyclePoint", "bifurcation_diagram"]
+
+
+@dataclass(frozen=True)
+class CyclePoint:
+    """Summary of one periodic orbit: speed [m/s], period [s], amplitude per state, stability."""
+
+    branch: int
+    speed: float
+    period: float
+    amplitude: np.ndarray
+    mean: np.ndarray
+    stable: bool
+    n_unstable: int
+    max_multiplier: float
+    trivial_multiplier_error: float
+    label: str = ""
+
+
+@dataclass
+class BifurcationDiagram:
+    """Equilibria, Hopf points, cycle branches, special points and speed bands."""
+
+    params: Params
+    stability: StabilityResult
+    cycles: list[CyclePoint]
+    branches: list[Branch] = field(repr=False)
+    branch_info: list[dict]
+    special: list[tuple[str, CyclePoint]]
+    settings: ContinuationSettings
+    speed_range_kmh: tuple[float, float]
+
+    # -- bands ---------------------------------------------------------------------------
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        return self.stability.state_names
+
+    @property
+    def hopf_points(self) -> list[HopfPoint]:
+        return self.stability.hopf_points
+
+    @property
+    def folds(self) -> list[CyclePoint]:
+        return [p for label, p in self.special if label == "LP"]
+
+    @property
+    def linear_band_kmh(self) -> list[tuple[float, float]]:
+        return list(self.stability.unstable_intervals_kmh)
+
+    def stable_cycle_intervals_kmh(self) -> list[tuple[float, float]]:
+        """Speed intervals [km/h] covered by stable cycles.
+
+        A stable run of a branch ends at its Hopf point, at a fold (located), at the
+        edge of the speed range, or where the largest multiplier modulus crosses 1
+        (interpolated in log|mu| between the two points, for PD/NS).
+        """
+        intervals = []
+        for b, branch in enumerate(self.branches):
+            pts = [c for c in self.cycles if c.branch == b]
+            if not pts:
+                continue
+            # cycle points of a branch start with its Hopf end, hence index + 1
+            folds = {idx + 1: ms_to_kmh(pt.orbit.speed) for label, pt, idx in branch.special if label == "LP"}
+            info = self.branch_info[b]
+            run_start = info["from_hopf_kmh"] if pts[0].stable else None
+            for i in range(1, len(pts)):
+                a, c = pts[i - 1], pts[i]
+                if a.stable == c.stable:
+                    continue
+                edge = folds.get(i, _crossing_speed(a, c))
+                if c.stable:
+                    run_start = edge
+                else:
+                    intervals.append((run_start, edge))
+                    run_start = None
+            if run_start is not None:
+                end = info["to_hopf_kmh"]
+                if end is None:
+                    end = ms_to_kmh(pts[-1].speed)
+                intervals.append((run_start, end))
+        lo, hi = self.speed_range_kmh
+        clipped = [(max(min(a, b), lo), min(max(a, b), hi)) for a, b in intervals]
+        return _union([iv for iv in clipped if iv[1] > iv[0]])
+
+    @property
+    def sev_band_kmh(self) -> list[tuple[float, float]]:
+        """Where SEV persists after a large disturbance: stable cycles or unstable rolling."""
+        return _union(self.stable_cycle_intervals_kmh() + self.linear_band_kmh)
+
+    @property
+    def hard_regions_kmh(self) -> list[tuple[float, float]]:
+        """SEV band minus linear band: stable rolling and stable SEV coexist."""
+        return _subtract(self.sev_band_kmh, self.linear_band_kmh)
+
+    def trigger_amplitude(self, state: str = "x") -> list[dict]:
+        """Per hard region: range of the unstable-cycle amplitude (the disturbance that starts SEV)."""
+        i = self.state_names.index(state)
+        out = []
+        for lo, hi in self.hard_regions_kmh:
+            amps = [
+                c.amplitude[i]
+                for c in self.cycles
+                if not c.stable and lo - 1e-9 <= ms_to_kmh(c.speed) <= hi + 1e-9
+            ]
+            if amps:
+                out.append(
+                    {"speed_range_kmh": [lo, hi], f"min_{state}": float(min(amps)), f"max_{state}": float(max(amps))}
+                )
+        return out
+
+    def trigger_amplitude_at(self, speed_kmh: float, state: str = "x") -> float | None:
+        """Smallest unstable-cycle amplitude [state units] at a speed where rolling is stable."""
+        i = self.state_names.index(state)
+        values = []
+        for b in range(len(self.branches)):
+            pts = [c for c in self.cycles if c.branch == b]
+            for a, c in zip(pts[:-1], pts[1:]):
+                v0, v1 = ms_to_kmh(a.speed), ms_to_kmh(c.speed)
+                if (a.stable or c.stable) or not (min(v0, v1) <= speed_kmh <= max(v0, v1)) or v0 == v1:
+                    continue
+                s = (speed_kmh - v0) / (v1 - v0)
+                values.append((1 - s) * a.amplitude[i] + s * c.amplitude[i])
+        return min(values) if values else None
+
+    # -- outputs -------------------------------------------------------------------------
+    def summary(self) -> dict:
+        """The JSON summary of ``polywear bifurcation``."""
+        sev = self.sev_band_kmh
+        x = self.state_names.index("x")
+        return {
+            "model": self.params.model,
+            "method": "continuation",
+            "speed_range_kmh": list(self.speed_range_kmh),
+            "hopf_points": [h.summary() for h in self.hopf_points],
+            "folds": [
+                {
+                    "speed_kmh": ms_to_kmh(f.speed),
+                    "amplitude_x_m": float(f.amplitude[x]),
+                    "frequency_hz": 1.0 / f.period,
+                }
+                for f in self.folds
+            ],
+            "period_doublings": [ms_to_kmh(p.speed) for label, p in self.special if label == "PD"],
+            "torus_bifurcations": [ms_to_kmh(p.speed) for label, p in self.special if label == "NS"],
+            "linear_band_kmh": [list(b) for b in self.linear_band_kmh],
+            "sev_band_kmh": [list(b) for b in sev],
+            "first_bifurcation_speed_kmh": sev[0][0] if sev else None,
+            "second_bifurcation_speed_kmh": sev[-1][1] if sev else None,
+            "hard_regions_kmh": [list(b) for b in self.hard_regions_kmh],
+            "trigger_amplitude": self.trigger_amplitude("x"),
+            "branches": self.branch_info,
+        }
+
+    def to_dataset(self):
+        """Tidy xarray Dataset: one row per cycle point, and the equilibrium line."""
+        import xarray as xr
+
+        names = list(self.state_names)
+        cyc = self.cycles
+        data = {
+            "branch": ("cycle", np.array([c.branch for c in cyc], dtype=int)),
+            "speed_kmh": ("cycle", np.array([ms_to_kmh(c.speed) for c in cyc]), {"units": "km/h"}),
+            "period": ("cycle", np.array([c.period for c in cyc]), {"units": "s"}),
+            "frequency": ("cycle", np.array([1.0 / c.period for c in cyc]), {"units": "Hz"}),
+            "amplitude": (("cycle", "state"), np.array([c.amplitude for c in cyc]).reshape(len(cyc), len(names)),
+                          {"long_name": "half peak-to-peak"}),
+            "mean": (("cycle", "state"), np.array([c.mean for c in cyc]).reshape(len(cyc), len(names))),
+            "stable": ("cycle", np.array([c.stable for c in cyc], dtype=bool)),
+            "n_unstable_multipliers": ("cycle", np.array([c.n_unstable for c in cyc], dtype=int)),
+            "max_multiplier_modulus": ("cycle", np.array([c.max_multiplier for c in cyc])),
+            "trivial_multiplier_error": ("cycle", np.array([c.trivial_multiplier_error for c in cyc])),
+            "label": ("cycle", np.array([c.label for c in cyc], dtype=str)),
+            "equilibrium": (("speed", "state"), self.stability.equilibria),
+            "equilibrium_stable": ("speed", (self.stability.eigenvalues.real <= 0).all(axis=1)),
+            "max_real_eigenvalue": ("speed", self.stability.eigenvalues.real.max(axis=1), {"units": "1/s"}),
+        }
+        ds = xr.Dataset(
+            data,
+            coords={"state": names, "speed": ("speed", self.stability.speeds_kmh, {"units": "km/h"})},
+            attrs={
+                "model": self.params.model,
+                "params_toml": to_toml(self.params),
+                "polywear_version": __version__,
+                "settings": repr(self.settings),
+                "summary_json": _json(self.summary()),
+            },
+        )
+        return ds
+
+    def save(self, path) -> None:
+        """netCDF (.nc) via h5netcdf, or CSV of the cycle table (.csv)."""
+        path = str(path)
+        if path.endswith(".csv"):
+            self.cycle_table().to_csv(path, index=False)
+        else:
+            self.to_dataset().to_netcdf(path, engine="h5netcdf")
+
+    def cycle_table(self):
+        """pandas DataFrame, one row per cycle point (amplitude_<state> columns)."""
+        import pandas as pd
+
+        rows = []
+        for c in self.cycles:
+            row = {
+                "branch": c.branch,
+                "speed_kmh": ms_to_kmh(c.speed),
+                "period_s": c.period,
+                "frequency_hz": 1.0 / c.period,
+                "stable": c.stable,
+                "n_unstable_multipliers": c.n_unstable,
+                "max_multiplier_modulus": c.max_multiplier,
+                "label": c.label,
+            }
+            row.update({f"amplitude_{s}": a for s, a in zip(self.state_names, c.amplitude)})
+            rows.append(row)
+        return pd.DataFrame(rows)
+
+    def plot(self, ax=None, state: str = "x", scale: float | None = None, unit: str | None = None):
+        """Amplitude of ``state`` against speed: stable cycles solid, unstable dashed. Returns artists."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(8, 4.5))
+        i = self.state_names.index(state)
+        if scale is None:
+            scale, unit = (1e3, "mm") if state == "x" else (1.0, "")
+        artists = []
+        # equilibrium line (amplitude zero), stable solid, unstable dotted red
+        V = self.stability.speeds_kmh
+        stable_eq = (self.stability.eigenvalues.real <= 0).all(axis=1)
+        artists += ax.plot(V, np.where(stable_eq, 0.0, np.nan), "k-", lw=2, label="steady rolling, stable")
+        artists += ax.plot(V, np.where(~stable_eq, 0.0, np.nan), color="tab:red", ls=":", lw=2,
+                           label="steady rolling, unstable")
+        for lo, hi in self.sev_band_kmh:
+            artists.append(ax.axvspan(lo, hi, color="tab:orange", alpha=0.10))
+        first = True
+        for b in range(len(self.branches)):
+            pts = [c for c in self.cycles if c.branch == b]
+            if not pts:
+                continue
+            v = np.array([ms_to_kmh(c.speed) for c in pts])
+            a = np.array([c.amplitude[i] for c in pts]) * scale
+            st = np.array([c.stable for c in pts])
+            for flag, style, lab in ((True, "-", "stable cycle"), (False, "--", "unstable cycle")):
+                mask = st == flag
+                # keep segments contiguous: include the neighbours at a stability change
+                seg = mask | np.r_[mask[1:], False] | np.r_[False, mask[:-1]]
+                y = np.where(seg, a, np.nan)
+                artists += ax.plot(v, y, style, color="tab:blue", lw=1.8, label=lab if first else None)
+            first = False
+        for k, h in enumerate(self.hopf_points, 1):
+            artists += ax.plot([h.speed_kmh], [0.0], "o", color="tab:red", ms=7)
+            artists.append(ax.annotate(f"H{k} {h.speed_kmh:.1f}\n({h.criticality})", (h.speed_kmh, 0.0),
+                                       textcoords="offset points", xytext=(4, 6), fontsize=8))
+        for k, f in enumerate(self.folds, 1):
+            y = f.amplitude[i] * scale
+            artists += ax.plot([ms_to_kmh(f.speed)], [y], "s", color="tab:green", ms=7)
+            artists.append(ax.annotate(f"LP{k} {ms_to_kmh(f.speed):.1f}", (ms_to_kmh(f.speed), y),
+                                       textcoords="offset points", xytext=(5, 5), fontsize=8))
+        for label, p in self.special:
+            if label in ("PD", "NS"):
+                artists += ax.plot([ms_to_kmh(p.speed)], [p.amplitude[i] * scale], "^", color="tab:purple")
+                artists.append(ax.annotate(label, (ms_to_kmh(p.speed), p.amplitude[i] * scale), fontsize=8))
+        sev = self.sev_band_kmh
+        if sev:
+            ax.set_title(
+                f"{self.params.model}: SEV from {sev[0][0]:.1f} to {sev[-1][1]:.1f} km/h "
+                f"(first/second bifurcation speeds)", fontsize=10)
+        ax.set_xlabel("speed [km/h]")
+        ax.set_ylabel(f"amplitude of {state} [{unit}]" if unit else f"amplitude of {state}")
+        ax.set_xlim(*self.speed_range_kmh)
+        ax.legend(loc="upper left", fontsize=8)
+        return artists
+
+
+def _json(payload) -> str:
+    import json
+
+    return json.dumps(payload, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o))
+
+
+def _union(intervals):
+    out: list[tuple[float, float]] = []
+    for lo, hi in sorted(intervals):
+        if out and lo <= out[-1][1] + 1e-9:
+            out[-1] = (out[-1][0], max(out[-1][1], hi))
+        else:
+            out.append((lo, hi))
+    return out
+
+
+def _subtract(a, b):
+    """Intervals of ``a`` not covered by ``b`` (both unions of closed intervals)."""
+    out = []
+    for lo, hi in a:
+        pieces = [(lo, hi)]
+        for blo, bhi in b:
+            nxt = []
+            for plo, phi in pieces:
+                if bhi <= plo or blo >= phi:
+                    nxt.append((plo, phi))
+                    continue
+                if plo < blo:
+                    nxt.append((plo, blo))
+                if bhi < phi:
+                    nxt.append((bhi, phi))
+            pieces = nxt
+        out += [p for p in pieces if p[1] - p[0] > 1e-9]
+    return out
+
+
+def _crossing_speed(a: CyclePoint, c: CyclePoint) -> float:
+    """Speed [km/h] between two cycle points where the largest multiplier modulus crosses 1."""
+    la, lc = np.log(max(a.max_multiplier, 1e-300)), np.log(max(c.max_multiplier, 1e-300))
+    s = 0.5 if la == lc else float(np.clip(-la / (lc - la), 0.0, 1.0))
+    return ms_to_kmh((1 - s) * a.speed + s * c.speed)
+
+
+def _cycle_point(branch_index, point, label="") -> CyclePoint:
+    orbit = point.orbit
+    lo, hi = orbit.extrema()
+    mu = point.multipliers
+    trivial = int(np.argmin(np.abs(mu - 1.0)))
+    others = np.delete(mu, trivial)
+    return CyclePoint(
+        branch=branch_index,
+        speed=orbit.speed,
+        period=orbit.period,
+        amplitude=0.5 * (hi - lo),
+        mean=0.5 * (hi + lo),
+        stable=point.stable,
+        n_unstable=point.n_unstable,
+        max_multiplier=float(np.abs(others).max()) if others.size else 0.0,
+        trivial_multiplier_error=point.trivial_multiplier_error,
+        label=label or point.label,
+    )
+
+
+def bifurcation_diagram(
+    params: Params,
+    speed_range_kmh: tuple[float, float] = (20.0, 300.0),
+    settings: ContinuationSettings = ContinuationSettings(),
+    n_speeds: int = 400,
+    on_step=None,
+) -> BifurcationDiagram:
+    """Continuation of equilibria and of the cycles from every Hopf point in the speed range.
+
+    ``on_step(branch_index, speed_kmh)`` is called after every continuation step.
+    """
+    lo, hi = (float(v) for v in speed_range_kmh)
+    stab = stability_analysis(params, (lo, hi), n_speeds=n_speeds)
+    model = get_model(params.model)
+    p = model.pack(params)
+    bounds = (kmh_to_ms(lo), kmh_to_ms(hi))
+    branches: list[Branch] = []
+    info: list[dict] = []
+    cycles: list[CyclePoint] = []
+    special: list[tuple[str, CyclePoint]] = []
+    reached: set[int] = set()
+    for k, hopf in enumerate(stab.hopf_points):
+        if k in reached:
+            continue
+        b = len(branches)
+        callback = None if on_step is None else (lambda br, b=b: on_step(b, ms_to_kmh(br.points[-1].orbit.speed)))
+        branch = continue_from_hopf(model, p, hopf, bounds, settings, on_step=callback)
+        branches.append(branch)
+        end_hopf = None
+        if branch.end_reason.startswith("returned") and branch.points:
+            end_hopf = _nearest_hopf(stab.hopf_points, branch.points[-1], exclude=k)
+            if end_hopf is not None:
+                reached.add(end_hopf)
+        info.append(
+            {
+                "branch": b,
+                "from_hopf_kmh": hopf.speed_kmh,
+                "to_hopf_kmh": stab.hopf_points[end_hopf].speed_kmh if end_hopf is not None else None,
+                "end_reason": branch.end_reason,
+                "n_points": len(branch.points),
+                "max_trivial_multiplier_error": max((pt.trivial_multiplier_error for pt in branch.points), default=0.0),
+            }
+        )
+        points = [_cycle_point(b, pt) for pt in branch.points]
+        if points:  # the branch's ends at Hopf points are cycles of zero amplitude
+            points.insert(0, _hopf_end(b, hopf, points[0]))
+            if end_hopf is not None:
+                points.append(_hopf_end(b, stab.hopf_points[end_hopf], points[-1]))
+        cycles += points
+        special += [(label, _cycle_point(b, pt, label)) for label, pt, _ in branch.special]
+    return BifurcationDiagram(
+        params=params,
+        stability=stab,
+        cycles=cycles,
+        branches=branches,
+        branch_info=info,
+        special=special,
+        settings=settings,
+        speed_range_kmh=(lo, hi),
+    )
+
+
+def _hopf_end(branch_index: int, hopf: HopfPoint, neighbour: CyclePoint) -> CyclePoint:
+    """The zero-amplitude end of a branch at a Hopf point (stability of its neighbour)."""
+    return CyclePoint(
+        branch=branch_index,
+        speed=hopf.speed,
+        period=2.0 * np.pi / hopf.omega,
+        amplitude=np.zeros_like(neighbour.amplitude),
+        mean=np.asarray(hopf.u, dtype=float),
+        stable=neighbour.stable,
+        n_unstable=neighbour.n_unstable,
+        max_multiplier=1.0,
+        trivial_multiplier_error=0.0,
+        label="HB",
+    )
+
+
+def _nearest_hopf(hopfs: list[HopfPoint], last_point, exclude: int) -> int | None:
+    """Index of the Hopf point a branch ended at (nearest speed, matching frequency)."""
+    V = last_point.orbit.speed
+    f = 1.0 / last_point.orbit.period
+    best, best_d = None, np.inf
+    for k, h in enumerate(hopfs):
+        if k == exclude and len(hopfs) > 1:
+            continue
+        d = abs(h.speed - V) / h.speed + abs(h.frequency_hz - f) / h.frequency_hz
+        if d < best_d:
+            best, best_d = k, d
+    return best if best_d < 0.2 else None
