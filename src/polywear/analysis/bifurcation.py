@@ -244,6 +244,29 @@ class BifurcationDiagram:
             rows.append(row)
         return pd.DataFrame(rows)
 
+    def coordinates(self) -> list[str]:
+        """Displacement coordinates (states q with a velocity state q + "dot"), tread x first."""
+        names = self.state_names
+        coords = [q for q in names if q + "dot" in names]
+        return sorted(coords, key=lambda q: q != "x")
+
+    def figure(self, states: list[str] | None = None):
+        """Figure with one amplitude panel per coordinate (x large on top)."""
+        import matplotlib.pyplot as plt
+
+        states = states or self.coordinates()
+        heights = [3] + [1.6] * (len(states) - 1)
+        fig, axes = plt.subplots(len(states), 1, figsize=(8, sum(heights) + 1.0), sharex=True,
+                                 gridspec_kw={"height_ratios": heights}, squeeze=False)
+        for ax, state in zip(axes[:, 0], states):
+            unit = _UNITS.get(state)
+            self.plot(ax, state=state, scale=unit[0] if unit else 1.0, unit=unit[1] if unit else "")
+            if ax is not axes[0, 0]:
+                ax.set_title("")
+                ax.get_legend().remove()
+        fig.tight_layout()
+        return fig
+
     def plot(self, ax=None, state: str = "x", scale: float | None = None, unit: str | None = None):
         """Amplitude of ``state`` against speed: stable cycles solid, unstable dashed. Returns artists."""
         import matplotlib.pyplot as plt
@@ -252,7 +275,7 @@ class BifurcationDiagram:
             _, ax = plt.subplots(figsize=(8, 4.5))
         i = self.state_names.index(state)
         if scale is None:
-            scale, unit = (1e3, "mm") if state == "x" else (1.0, "")
+            scale, unit = _UNITS.get(state, (1.0, ""))
         artists = []
         # equilibrium line (amplitude zero), stable solid, unstable dotted red
         V = self.stability.speeds_kmh
@@ -300,6 +323,9 @@ class BifurcationDiagram:
         ax.set_xlim(*self.speed_range_kmh)
         ax.legend(loc="upper left", fontsize=8)
         return artists
+
+
+_UNITS = {"x": (1e3, "mm"), "alpha": (1e3, "mrad"), "beta": (1e3, "mrad"), "gamma": (1e3, "mrad")}
 
 
 def _json(payload) -> str:

@@ -33,10 +33,11 @@ def _root(
 
 
 def _register() -> None:
-    from . import params_cmd, stability_cmd
+    from . import bifurcation_cmd, params_cmd, stability_cmd
 
     app.add_typer(params_cmd.app, name="params")
     app.command("stability")(stability_cmd.stability)
+    app.command("bifurcation")(bifurcation_cmd.bifurcation)
 
 
 _register()

@@ -76,13 +76,15 @@ def progress(description: str, total: float | None, enabled: bool = True) -> Ite
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
     console = Console(stderr=True)
+    count = "{task.completed:.0f}/{task.total:.0f}" if total is not None else "{task.completed:.0f} steps"
     columns = [
         TextColumn("[progress.description]{task.description}"),
         BarColumn(),
-        TextColumn("{task.completed:.0f}/{task.total:.0f}"),
+        TextColumn(count),
         TimeElapsedColumn(),
-        TimeRemainingColumn(),
     ]
+    if total is not None:
+        columns.append(TimeRemainingColumn())
     with Progress(*columns, console=console, transient=True) as bar:
         task = bar.add_task(description, total=total)
         yield lambda n=1: bar.advance(task, n)

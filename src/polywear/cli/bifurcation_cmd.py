@@ -1,0 +1,111 @@
+"""``polywear bifurcation``: the bifurcation diagram of tread amplitude against speed."""
+
+from __future__ import annotations
+
+from enum import Enum
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from .common import ConfigOpt, JsonOpt, OutOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, progress, save_figure
+
+
+class Method(str, Enum):
+    continuation = "continuation"
+    sweep = "sweep"
+
+
+def bifurcation(
+    config: ConfigOpt = None,
+    set_: SetOpt = None,
+    speed_range: Annotated[
+        tuple[float, float], typer.Option("--speed-range", help="Lowest and highest speed [km/h].")
+    ] = (20.0, 300.0),
+    method: Annotated[
+        Method, typer.Option("--method", help="continuation (default) or the paper's brute-force sweep.")
+    ] = Method.continuation,
+    n_intervals: Annotated[int, typer.Option("--ntst", min=4, help="Collocation mesh intervals.")] = 40,
+    n_speeds: Annotated[
+        Optional[int], typer.Option("--n-speeds", min=3, help="Speeds of the sweep (30) / stability grid (400).")
+    ] = None,
+    csv: Annotated[Optional[Path], typer.Option("--csv", help="Write the branch table as CSV.")] = None,
+    json_: JsonOpt = False,
+    plot: PlotOpt = None,
+    out: OutOpt = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
+) -> None:
+    """Bifurcation diagram: Hopf points, cycle branches (stable and unstable), folds, SEV band."""
+    params = load(config, set_)
+    lo, hi = speed_range
+    if not 0.0 < lo < hi:
+        raise UserError(f"--speed-range {lo} {hi}: need 0 < low < high [km/h]")
+    if method is Method.sweep:
+        result = _sweep(params, (lo, hi), n_speeds or 30, quiet)
+    else:
+        from ..analysis.bifurcation import bifurcation_diagram
+        from ..solvers.continuation import ContinuationSettings
+
+        with progress("continuation", total=None, enabled=not quiet) as advance:
+            result = bifurcation_diagram(
+                params,
+                (lo, hi),
+                ContinuationSettings(n_intervals=n_intervals),
+                n_speeds=n_speeds or 400,
+                on_step=lambda b, v: advance(1),
+            )
+    if out:
+        result.save(out)
+        info(f"wrote {out}", quiet)
+    if csv:
+        result.save(csv if str(csv).endswith(".csv") else Path(f"{csv}.csv"))
+        info(f"wrote {csv}", quiet)
+    if plot:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        fig = result.figure()
+        save_figure(fig, plot)
+        info(f"wrote {plot}", quiet)
+    summary = result.summary()
+    if json_:
+        emit_json(summary)
+    else:
+        _print_summary(summary)
+
+
+def _sweep(params, speed_range, n_speeds, quiet):
+    import numpy as np
+
+    from ..analysis.sweep import sweep
+
+    speeds = np.linspace(speed_range[0], speed_range[1], n_speeds)
+    with progress("sweep", total=4 * n_speeds, enabled=not quiet) as advance:
+        return sweep(params, speeds, on_run=lambda *a: advance(1))
+
+
+def _print_summary(s: dict) -> None:
+    typer.echo(f"model {s['model']} ({s['method']})")
+    for h in s.get("hopf_points", []):
+        typer.echo(f"  Hopf   {h['speed_kmh']:9.3f} km/h  {h['frequency_hz']:7.2f} Hz  {h['criticality']}")
+    for f in s.get("folds", []):
+        typer.echo(
+            f"  fold   {f['speed_kmh']:9.3f} km/h  {f['frequency_hz']:7.2f} Hz  amplitude {f['amplitude_x_m'] * 1e3:.4f} mm"
+        )
+    for lo, hi in s.get("linear_band_kmh", []):
+        typer.echo(f"  steady rolling unstable      {lo:9.3f} .. {hi:9.3f} km/h")
+    for lo, hi in s.get("sev_band_kmh", []):
+        typer.echo(f"  SEV after large disturbance  {lo:9.3f} .. {hi:9.3f} km/h")
+    if s.get("first_bifurcation_speed_kmh") is not None:
+        typer.echo(
+            f"  first / second bifurcation speed: {s['first_bifurcation_speed_kmh']:.3f} / "
+            f"{s['second_bifurcation_speed_kmh']:.3f} km/h"
+        )
+    else:
+        typer.echo("  no self-excited vibration in the speed range")
+    for t in s.get("trigger_amplitude", []):
+        lo, hi = t["speed_range_kmh"]
+        typer.echo(
+            f"  hard excitation {lo:.3f} .. {hi:.3f} km/h: a disturbance of x above "
+            f"{t['min_x'] * 1e3:.4f} .. {t['max_x'] * 1e3:.4f} mm starts SEV"
+        )
