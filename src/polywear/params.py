@@ -226,7 +226,7 @@ def get_value(params: Params, key: str) -> Any:
     parts = key.split(".")
     obj: Any = params
     for part in parts:
-        if not hasattr(obj, "model_fields") or part not in type(obj).model_fields:
+        if not isinstance(obj, BaseModel) or part not in type(obj).model_fields:
             raise ParameterError(f"{key}: unknown key")
         obj = getattr(obj, part)
     return obj

@@ -1,0 +1,134 @@
+"""Collocation, the structured linear solver and continuation against closed forms."""
+
+import numpy as np
+import pytest
+
+from polywear.analysis.stability import equilibrium_eigenvalues, locate_hopf
+from polywear.solvers.bordered import solve_bordered
+from polywear.solvers.collocation import Collocation, PeriodicOrbit, monodromy, scheme
+from polywear.solvers.continuation import ContinuationSettings, continue_from_hopf
+
+from .normal_form import MODEL, P, cycle_radius2
+
+
+def dense_matrix(blocks, tcol, vcol, border, m):
+    N, mn, _ = blocks.shape
+    n = mn // m
+    size = N * mn + 2
+    A = np.zeros((size, size))
+    for j in range(N):
+        for l in range(m + 1):
+            node = (j * m + l) % (N * m)
+            A[j * mn:(j + 1) * mn, node * n:(node + 1) * n] += blocks[j][:, l * n:(l + 1) * n]
+    A[: N * mn, -2] = tcol
+    A[: N * mn, -1] = vcol
+    A[-2:] = border
+    return A
+
+
+@pytest.mark.parametrize("N,m,n", [(2, 2, 1), (3, 4, 3), (10, 4, 3), (7, 3, 9), (25, 4, 9)])
+def test_bordered_solver_matches_dense_lu(N, m, n):
+    rng = np.random.default_rng(N * 100 + m * 10 + n)
+    mn = m * n
+    size = N * mn + 2
+    blocks = rng.normal(size=(N, mn, (m + 1) * n))
+    tcol, vcol = rng.normal(size=N * mn), rng.normal(size=N * mn)
+    border = rng.normal(size=(2, size))
+    rhs = rng.normal(size=(size, 2))
+    A = dense_matrix(blocks, tcol, vcol, border, m)
+    CL, CR = np.empty((N, n, n)), np.empty((N, n, n))
+    x = solve_bordered(blocks, tcol, vcol, border, rhs, m, CL, CR)
+    assert np.allclose(A @ x, rhs, atol=1e-10 * np.linalg.norm(A) * np.abs(x).max())
+
+
+def test_scheme_integrates_and_differentiates_polynomials_exactly():
+    sch = scheme(4)
+    assert np.isclose(sch.weights.sum(), 1.0)
+    # Gauss quadrature with 4 points is exact to degree 7
+    assert np.isclose(sch.weights @ sch.gauss**7, 1.0 / 8.0)
+    # interpolation of a degree-4 polynomial and its derivative at the Gauss points
+    poly = np.polynomial.Polynomial([0.3, -1.0, 2.0, 0.5, -0.7])
+    vals = poly(sch.nodes)
+    assert np.allclose(sch.basis @ vals, poly(sch.gauss))
+    assert np.allclose(sch.dbasis @ vals, poly.deriv()(sch.gauss))
+    assert np.isclose(sch.mth @ vals, poly.deriv(4)(0.0))
+
+
+def exact_orbit(V, branch, mesh, m=4):
+    r = np.sqrt(cycle_radius2(V, branch))
+    orbit = PeriodicOrbit(mesh, np.zeros(((len(mesh) - 1) * m, 3)), 1.0, V, m)
+    tau = orbit.node_times()
+    nodes = np.stack([r * np.cos(2 * np.pi * tau), r * np.sin(2 * np.pi * tau), 0 * tau], axis=1)
+    return PeriodicOrbit(mesh, nodes, 1.0, V, m)
+
+
+def test_collocation_residual_is_small_on_the_exact_cycle_and_converges_with_order():
+    errs = []
+    for N in (10, 20, 40):
+        mesh = np.linspace(0.0, 1.0, N + 1)
+        coll = Collocation(MODEL, P, mesh)
+        res, *_ = coll.evaluate(coll.pack(exact_orbit(0.9, +1, mesh)))
+        errs.append(np.abs(res).max())
+    rates = np.log2(np.array(errs[:-1]) / np.array(errs[1:]))
+    assert np.all(rates > 3.5), rates  # interpolation error of degree-4 polynomials, O(h^4)
+
+
+def test_monodromy_of_exact_cycle_matches_closed_form_multipliers():
+    V = 0.9
+    mesh = np.linspace(0.0, 1.0, 41)
+    coll = Collocation(MODEL, P, mesh)
+    orbit = exact_orbit(V, +1, mesh)
+    X = coll.pack(orbit)
+    border = np.zeros((2, coll.size))
+    border[0] = coll.phase_row(orbit)
+    border[1, -1] = 1.0
+    _, _, CL, CR = coll.solve(X, border, np.zeros(2))
+    mu = np.sort(np.abs(np.linalg.eigvals(monodromy(CL, CR))))
+    r2 = cycle_radius2(V, +1)
+    expected = np.sort([1.0, np.exp(2 * r2 * (1 - 2 * r2)), np.exp(-P[1])])
+    assert np.allclose(mu[1:], expected[1:], rtol=1e-6)
+    assert np.isclose(mu[1:].max(), 1.0, atol=1e-8) or np.isclose(mu[-1], 1.0, atol=1e-8)
+
+
+@pytest.fixture(scope="module")
+def normal_form_branch():
+    speeds = np.linspace(1.1, 0.9, 3)
+    _, eig = equilibrium_eigenvalues(MODEL, P, speeds[[0, -1]])
+    lam_hi, lam_lo = (e[np.argmax(e.imag)] for e in eig)
+    hopf = locate_hopf(MODEL, P, 0.9, 1.1, lam_lo, lam_hi)
+    branch = continue_from_hopf(
+        MODEL, P, hopf, (0.5, 1.5), ContinuationSettings(n_intervals=20, ds_max=0.2), amplitude_ref=0.3
+    )
+    return hopf, branch
+
+
+def test_hopf_point_of_normal_form_is_exact_and_subcritical(normal_form_branch):
+    hopf, _ = normal_form_branch
+    assert abs(hopf.speed - 1.0) < 1e-12
+    assert abs(hopf.omega - P[0]) < 1e-10
+    assert hopf.l1 > 0  # subcritical (hard)
+    assert abs(hopf.dre_dspeed - 1.0) < 1e-10
+
+
+def test_continued_cycles_match_closed_form_radius_and_stability(normal_form_branch):
+    _, branch = normal_form_branch
+    assert len(branch.points) > 10
+    for pt in branch.points:
+        V = pt.orbit.speed
+        r2_num = np.mean(np.sum(pt.orbit.nodes[:, :2] ** 2, axis=1))
+        r2_options = [cycle_radius2(V, b) for b in (+1, -1) if 1 + 4 * (V - 1) >= 0]
+        err = min(abs(r2_num - r2) for r2 in r2_options)
+        assert err < 1e-7, (V, r2_num, r2_options)  # discretisation error, N = 20
+        assert abs(pt.orbit.period - 1.0) < 1e-9
+        assert pt.trivial_multiplier_error < 1e-8
+        assert pt.stable == (r2_num > 0.5)
+
+
+def test_fold_of_cycles_located_at_closed_form(normal_form_branch):
+    _, branch = normal_form_branch
+    folds = [pt for label, pt, _ in branch.special if label == "LP"]
+    assert len(folds) == 1
+    fold = folds[0]
+    assert abs(fold.orbit.speed - 0.75) < 1e-9
+    r2 = np.mean(np.sum(fold.orbit.nodes[:, :2] ** 2, axis=1))
+    assert abs(r2 - 0.5) < 1e-6  # r^2 is flat in V at the fold: sqrt of the speed error

@@ -1,0 +1,102 @@
+"""Linear stability of tread1dof against the closed forms of MODEL.md section 3."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from polywear.analysis.stability import stability_analysis
+from polywear.models import get_model
+from polywear.params import Params, with_updates
+from polywear.solvers.continuation import continue_from_hopf
+
+from .oracles import characteristic_polynomial, routh_hurwitz_hopf_speeds
+
+MODEL = get_model("tread1dof")
+
+
+def test_jacobian_eigenvalues_are_the_roots_of_the_cubic():
+    p = MODEL.pack(Params())
+    for V_kmh in (10.0, 58.0, 110.0, 207.0, 290.0):
+        V = V_kmh / 3.6
+        J = MODEL.jacobian(MODEL.equilibrium(V, p), V, p)
+        eig = np.sort_complex(np.linalg.eigvals(J))
+        roots = np.sort_complex(np.roots(characteristic_polynomial(V, p)))
+        assert np.allclose(eig, roots, rtol=1e-9, atol=1e-9 * np.abs(roots).max())
+
+
+def test_default_hopf_speeds_match_routh_hurwitz_and_model_md():
+    result = stability_analysis(Params(), (5.0, 300.0))
+    p = MODEL.pack(Params())
+    oracle = routh_hurwitz_hopf_speeds(p, 5 / 3.6, 300 / 3.6)
+    speeds = [h.speed for h in result.hopf_points]
+    assert len(speeds) == 2
+    assert np.allclose(speeds, oracle, rtol=1e-9)
+    # MODEL.md section 7: ~58.1 km/h (soft, ~127 Hz) and ~207.8 km/h (hard, ~147 Hz)
+    (h1, h2) = result.hopf_points
+    assert abs(h1.speed_kmh - 58.1) < 0.1 and abs(h2.speed_kmh - 207.8) < 0.1
+    assert abs(h1.frequency_hz - 127) < 1 and abs(h2.frequency_hz - 147) < 1
+    assert (h1.criticality, h2.criticality) == ("soft", "hard")
+    # at a Hopf point of a cubic the frequency is sqrt(a1/a3)
+    for h in result.hopf_points:
+        a3, a2, a1, a0 = characteristic_polynomial(h.speed, p)
+        assert math.isclose(h.omega, math.sqrt(a1 / a3), rel_tol=1e-8)
+    assert result.unstable_intervals_kmh == [(h1.speed_kmh, h2.speed_kmh)]
+
+
+@settings(max_examples=8, deadline=None)
+@given(toe=st.floats(0.2, 2.0))
+def test_hopf_speeds_scale_exactly_as_one_over_sin_toe(toe):
+    base = stability_analysis(Params(), (5.0, 300.0))
+    # widen the range so that the scaled Hopf speeds stay inside it
+    factor = math.sin(math.radians(0.5)) / math.sin(math.radians(toe))
+    moved = stability_analysis(
+        with_updates(Params(), {"operating.toe_deg": toe}), (5.0 * factor, 300.0 * factor)
+    )
+    expected = [h.speed * factor for h in base.hopf_points]
+    assert np.allclose([h.speed for h in moved.hopf_points], expected, rtol=1e-9)
+
+
+@settings(max_examples=8, deadline=None)
+@given(scale=st.floats(0.1, 10.0))
+def test_hopf_speeds_invariant_when_m_k_c_n_scale_together(scale):
+    base = Params()
+    scaled = with_updates(
+        base,
+        {
+            "tread.mass_kg": base.tread.mass_kg * scale,
+            "tread.lateral_stiffness_n_per_m": base.tread.lateral_stiffness_n_per_m * scale,
+            "tread.lateral_damping_ns_per_m": base.tread.lateral_damping_ns_per_m * scale,
+            "operating.vertical_load_n": base.operating.vertical_load_n * scale,
+        },
+    )
+    a = stability_analysis(base, (5.0, 300.0))
+    b = stability_analysis(scaled, (5.0, 300.0))
+    assert np.allclose([h.speed for h in a.hopf_points], [h.speed for h in b.hopf_points], rtol=1e-9)
+    assert np.allclose([h.omega for h in a.hopf_points], [h.omega for h in b.hopf_points], rtol=1e-9)
+
+
+@pytest.mark.parametrize("index", [0, 1])
+def test_first_lyapunov_coefficient_predicts_the_emerging_cycle(index):
+    """Near a Hopf point the cycle amplitude is 2 |q_x| sqrt(-mu / (omega l1)) (normal form),
+    with mu = dRe(lambda)/dV (V - V_H); a second method (continuation) must agree, and the
+    branch must leave to the side and with the stability that the sign of l1 implies."""
+    params = Params()
+    p = MODEL.pack(params)
+    hopf = stability_analysis(params, (5.0, 300.0)).hopf_points[index]
+    branch = continue_from_hopf(MODEL, p, hopf, (20 / 3.6, 300 / 3.6))
+    first = branch.points[0]
+    mu = hopf.dre_dspeed * (first.orbit.speed - hopf.speed)
+    predicted = 2 * abs(hopf.q[0]) * math.sqrt(-mu / (hopf.omega * hopf.l1))
+    assert first.orbit.amplitude()[0] == pytest.approx(predicted, rel=1e-3)
+    # soft: cycles on the unstable side of the equilibrium, stable; hard: the opposite
+    unstable_side = np.sign(hopf.dre_dspeed) * (first.orbit.speed - hopf.speed) > 0
+    assert unstable_side == (hopf.l1 < 0)
+    assert first.stable == (hopf.l1 < 0)
+
+
+def test_bad_speed_range_is_rejected():
+    with pytest.raises(ValueError, match="speed range"):
+        stability_analysis(Params(), (300.0, 5.0))
