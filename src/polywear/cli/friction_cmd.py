@@ -1,0 +1,246 @@
+"""``polywear friction``: static curve, hysteresis loops, fitting to measured data."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from .common import (
+    ConfigOpt,
+    JsonOpt,
+    OutOpt,
+    PlotOpt,
+    SetOpt,
+    UserError,
+    emit_json,
+    info,
+    load,
+    progress,
+    save_figure,
+)
+
+app = typer.Typer(help="LuGre friction: static curve, hysteresis loops, fit to measured mu(v).",
+                  no_args_is_help=True)
+
+
+def _operating_sliding_velocity(params) -> float:
+    """Sliding velocity v_r of steady rolling at the operating point [m/s]."""
+    from ..models import get_model
+    from ..models.base import kmh_to_ms
+
+    model = get_model(params.model)
+    p = model.pack(params)
+    speed = kmh_to_ms(params.operating.speed_kmh)
+    aux = model.diagnostics(model.equilibrium(speed, p), speed, p)
+    return float(aux[model.aux_names.index("sliding_velocity")])
+
+
+def _write_plot(result, path: Path, extra=None) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    result.plot(ax=ax)
+    if extra is not None:
+        extra(ax)
+    save_figure(fig, path)
+    info(f"wrote {path}")
+
+
+def _save(result, out: Path | None) -> None:
+    if out is None:
+        return
+    if out.suffix != ".nc":
+        raise UserError(f"--out {out}: expected a .nc (netCDF) file name")
+    result.save(out)
+    info(f"wrote {out}")
+
+
+@app.command("curve")
+def curve(
+    config: ConfigOpt = None,
+    set_: SetOpt = None,
+    v_max: Annotated[float, typer.Option("--v-max", min=1e-9, help="Velocity range -v_max..v_max [m/s].")] = 1.5,
+    points: Annotated[int, typer.Option("--points", min=3, help="Points of the curve.")] = 601,
+    json_: JsonOpt = False,
+    plot: PlotOpt = None,
+    out: OutOpt = None,
+) -> None:
+    """Static (Stribeck) friction curve mu_ss(v), its falling branch and the operating point."""
+    import numpy as np
+
+    from ..analysis.friction import steady_curve
+    from ..physics.lugre import steady_friction, steady_friction_slope
+
+    params = load(config, set_)
+    f = params.friction
+    result = steady_curve(f, np.linspace(-v_max, v_max, points))
+    v_op = _operating_sliding_velocity(params)
+    args = (f.sigma2_s_per_m, f.mu_static, f.mu_coulomb, f.stribeck_velocity_m_per_s, f.stribeck_exponent)
+    mu_op = float(steady_friction(v_op, *args))
+    slope_op = float(steady_friction_slope(v_op, *args)) if v_op != 0.0 else None
+    _save(result, out)
+    if plot:
+
+        def mark_operating_point(ax):
+            ax.plot([v_op], [mu_op], "o", color="C3", label=f"operating point, $v_r$ = {v_op:.3g} m/s")
+            ax.legend(fontsize="small")
+
+        _write_plot(result, plot, mark_operating_point)
+    summary = {
+        **result.summary(),
+        "operating_sliding_velocity_m_per_s": v_op,
+        "operating_mu": mu_op,
+        "operating_slope_s_per_m": slope_op,
+    }
+    if json_:
+        emit_json(summary)
+        return
+    typer.echo(f"mu_s = {f.mu_static:g}, mu_c = {f.mu_coulomb:g}, v_s = {f.stribeck_velocity_m_per_s:g} m/s, "
+               f"delta = {f.stribeck_exponent:g}, sigma2 = {f.sigma2_s_per_m:g} s/m")
+    branch = result.falling_branch
+    if branch is None:
+        typer.echo("no falling branch: d mu_ss/dv >= 0 for all v > 0 (no negative damping from friction)")
+    else:
+        typer.echo(f"falling branch (d mu_ss/dv < 0): {branch[0]:.4g} to {branch[1]:.4g} m/s")
+    slope_text = f"{slope_op:.4g} s/m" if slope_op is not None else "undefined (v_r = 0)"
+    typer.echo(f"operating point: v_r = {v_op:.4g} m/s, mu_ss = {mu_op:.4g}, d mu_ss/dv = {slope_text}")
+
+
+def _parse_frequencies(text: str) -> list[float]:
+    try:
+        values = [float(item) for item in text.split(",") if item.strip()]
+    except ValueError:
+        raise UserError(f"--frequencies {text!r}: expected comma-separated numbers, e.g. 0.5,5,50") from None
+    if not values or any(not math.isfinite(x) or x <= 0.0 for x in values):
+        raise UserError(f"--frequencies {text!r}: need one or more finite frequencies > 0 [Hz]")
+    return values
+
+
+@app.command("loops")
+def loops(
+    config: ConfigOpt = None,
+    set_: SetOpt = None,
+    frequencies: Annotated[
+        str, typer.Option("--frequencies", help="Excitation frequencies [Hz], comma-separated.")
+    ] = "0.5,5,50",
+    v_mean: Annotated[
+        Optional[float],
+        typer.Option("--v-mean", help="Mean sliding velocity [m/s] (default: that of steady rolling at the "
+                     "operating point)."),
+    ] = None,
+    v_amplitude: Annotated[
+        float, typer.Option("--v-amplitude", min=1e-12, help="Amplitude of the sliding velocity [m/s].")
+    ] = 0.2,
+    points: Annotated[int, typer.Option("--points", min=8, help="Samples per loop.")] = 400,
+    json_: JsonOpt = False,
+    plot: PlotOpt = None,
+    out: OutOpt = None,
+) -> None:
+    """Friction hysteresis loops for v_r = v_mean + v_amplitude sin(2 pi f t) (paper Fig. 1)."""
+    from ..analysis.friction import hysteresis_loops
+
+    params = load(config, set_)
+    freqs = _parse_frequencies(frequencies)
+    if v_mean is None:
+        v_mean = _operating_sliding_velocity(params)
+    elif not math.isfinite(v_mean):
+        raise UserError(f"--v-mean {v_mean}: must be finite")
+    with progress("loops", total=len(freqs), enabled=not json_) as advance:
+        result = hysteresis_loops(params.friction, v_mean, v_amplitude, freqs, points_per_period=points,
+                                  progress=advance)
+    _save(result, out)
+    if plot:
+        _write_plot(result, plot)
+    summary = result.summary()
+    if json_:
+        emit_json(summary)
+        return
+    typer.echo(f"v_r = {v_mean:.4g} + {v_amplitude:.4g} sin(2 pi f t) m/s")
+    typer.echo(f"{'f [Hz]':>10} {'max |mu - mu_ss|':>17} {'area [m/s]':>11} {'mu min':>8} {'mu max':>8}")
+    for row in summary["loops"]:
+        typer.echo(f"{row['frequency_hz']:10.4g} {row['max_deviation_from_static']:17.4g} "
+                   f"{row['area_m_per_s']:11.4g} {row['mu_min']:8.4f} {row['mu_max']:8.4f}")
+
+
+@app.command("fit")
+def fit(
+    file: Annotated[
+        Optional[Path],
+        typer.Argument(help="CSV with columns sliding_velocity_m_per_s [m/s] and friction_coefficient [-].",
+                       show_default=False),
+    ] = None,
+    sample: Annotated[bool, typer.Option("--sample", help="Fit the shipped sample data instead of FILE.")] = False,
+    config: ConfigOpt = None,
+    set_: SetOpt = None,
+    fix: Annotated[
+        Optional[list[str]],
+        typer.Option("--fix", help="Keep a [friction] key at its configured value instead of fitting it "
+                     "(repeatable): mu_static, mu_coulomb, stribeck_velocity_m_per_s, stribeck_exponent, "
+                     "sigma2_s_per_m."),
+    ] = None,
+    confidence: Annotated[
+        float, typer.Option("--confidence", min=0.5, max=0.9999, help="Level of the confidence intervals.")
+    ] = 0.95,
+    json_: JsonOpt = False,
+    plot: PlotOpt = None,
+    out: Annotated[
+        Optional[Path],
+        typer.Option("--out", "-o", help="Write the parameter set with the fitted values (.toml) or the fit (.nc)."),
+    ] = None,
+) -> None:
+    """Fit mu_s, mu_c, v_s, delta, sigma2 of the static curve to measured steady mu(v) points."""
+    from ..analysis.friction import STEADY_PARAMETERS, FrictionDataError, fit_steady_curve, read_steady_csv, sample_path
+
+    if sample == (file is not None):
+        raise UserError("give either a CSV FILE or --sample")
+    if out is not None and out.suffix not in (".toml", ".nc"):
+        raise UserError(f"--out {out}: expected a .toml (parameter file) or .nc (fit result) file name")
+    path = sample_path() if sample else file
+    params = load(config, set_)
+    unknown = sorted(set(fix or ()) - set(STEADY_PARAMETERS))
+    if unknown:
+        raise UserError(f"--fix {', '.join(unknown)}: not a fitted key (choose from {', '.join(STEADY_PARAMETERS)})")
+    free = tuple(name for name in STEADY_PARAMETERS if name not in (fix or ()))
+    if not free:
+        raise UserError("--fix: every key is fixed, nothing left to fit")
+    try:
+        velocity, mu = read_steady_csv(path)
+        result = fit_steady_curve(velocity, mu, params.friction, fit=free, confidence=confidence, source=str(path))
+    except FrictionDataError as exc:
+        raise UserError(str(exc)) from None
+    if out is not None:
+        if out.suffix == ".toml":
+            from ..params import to_toml
+
+            out.write_text(to_toml(result.updated_params(params), comments=True))
+            info(f"wrote {out}")
+        else:
+            _save(result, out)
+    if plot:
+        _write_plot(result, plot)
+    summary = result.summary()
+    if json_:
+        emit_json(summary)
+        return
+    typer.echo(f"{path}: {result.n_points} points"
+               + (" (negative-velocity values read as magnitudes)" if result.magnitudes else ""))
+    level = f"{100 * confidence:g}%"
+    typer.echo(f"{'key':<28} {'value':>12} {'std. error':>11}  {level} interval")
+    for name, row in summary["parameters"].items():
+        if not row["fitted"]:
+            typer.echo(f"{name:<28} {row['value']:12.6g} {'(fixed)':>11}")
+            continue
+        se, lo_hi = row["standard_error"], row["interval"]
+        se_text = f"{se:11.3g}" if se is not None else f"{'n/a':>11}"
+        ci_text = f"[{lo_hi[0]:.6g}, {lo_hi[1]:.6g}]" if se is not None else "not identifiable"
+        typer.echo(f"{name:<28} {row['value']:12.6g} {se_text}  {ci_text}" + ("  at bound" if row["at_bound"] else ""))
+    typer.echo(f"rms residual {result.rms:.4g}, R^2 {result.r_squared:.6f}, "
+               f"{'converged' if result.converged else 'NOT converged'} ({result.message}, {result.nfev} evaluations)")
+    typer.echo("")
+    typer.echo(result.to_toml(), nl=False)
