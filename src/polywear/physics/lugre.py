@@ -21,6 +21,7 @@ __all__ = [
     "stribeck",
     "stribeck_dv",
     "bristle_rate",
+    "bristle_rate_partials",
     "bristle_decay_rate",
     "friction_coefficient",
     "steady_deflection",
@@ -71,6 +72,13 @@ def bristle_decay_rate(v, sigma0, g):
 def bristle_rate(v, z, sigma0, g):
     """dz/dt = v - sigma0 |v| z / G [m/s] for sliding velocity v and G = g."""
     return v - bristle_decay_rate(v, sigma0, g) * z
+
+
+@njit(cache=True)
+def bristle_rate_partials(v, z, sigma0, g, dg):
+    """(d(dz/dt)/dv [-], d(dz/dt)/dz [1/s]) of :func:`bristle_rate`; ``dg`` = dG/dv at v."""
+    dzd_dv = 1.0 - sigma0 * z * (real_sign(v) * g - real_abs(v) * dg) / (g * g)
+    return dzd_dv, -bristle_decay_rate(v, sigma0, g)
 
 
 @njit(cache=True)

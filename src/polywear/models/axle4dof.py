@@ -1,0 +1,124 @@
+"""Model ``axle4dof``: twist-beam trailing arm + lateral tread (MODEL.md section 4).
+
+One trailing arm of the twist beam with its wheel carrier and wheel is a rigid body
+rotating about the bushing centre O, ``R = Rz(toe0 + alpha) Ry(-gamma) Rx(camber0 + beta)``;
+the tread is a particle at the contact point C, sliding along the body y axis on a
+spring and damper, with LuGre friction against the drum and a vertical tire spring.
+The equations are derived in :mod:`.axle4dof_derivation` and compiled from the
+generated module ``_axle4dof_generated`` (see ``docs/model_axle4dof.md``).
+
+States ``u = (alpha, beta, gamma [rad], x [m], alpha', beta', gamma' [rad/s], x' [m/s],
+z [m])``: dynamic toe (toe-in positive), dynamic camber (top outward positive), arm
+pitch (positive moves C down), lateral tread deflection (inboard positive), rates and
+the LuGre bristle deflection.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _axle4dof_generated as _gen
+from .base import DEG, Model, ParamSlot
+
+_KEYS = {
+    "m": ("tread.mass_kg", 1.0),
+    "k": ("tread.lateral_stiffness_n_per_m", 1.0),
+    "c": ("tread.lateral_damping_ns_per_m", 1.0),
+    "N0": ("operating.vertical_load_n", 1.0),
+    "toe0": ("operating.toe_deg", DEG),
+    "camber0": ("operating.camber_deg", DEG),
+    "R_e": ("operating.rolling_radius_m", 1.0),
+    "sigma0": ("friction.sigma0_per_m", 1.0),
+    "sigma1": ("friction.sigma1_s_per_m", 1.0),
+    "sigma2": ("friction.sigma2_s_per_m", 1.0),
+    "mu_s": ("friction.mu_static", 1.0),
+    "mu_c": ("friction.mu_coulomb", 1.0),
+    "v_s": ("friction.stribeck_velocity_m_per_s", 1.0),
+    "delta": ("friction.stribeck_exponent", 1.0),
+    "J1": ("axle.inertia_x_kgm2", 1.0),
+    "J2": ("axle.inertia_y_kgm2", 1.0),
+    "J3": ("axle.inertia_z_kgm2", 1.0),
+    "k_alpha": ("axle.toe_stiffness_nm_per_rad", 1.0),
+    "c_alpha": ("axle.toe_damping_nms_per_rad", 1.0),
+    "k_beta": ("axle.camber_stiffness_nm_per_rad", 1.0),
+    "c_beta": ("axle.camber_damping_nms_per_rad", 1.0),
+    "k_gamma": ("axle.pitch_stiffness_nm_per_rad", 1.0),
+    "c_gamma": ("axle.pitch_damping_nms_per_rad", 1.0),
+    "L": ("axle.arm_length_m", 1.0),
+    "b": ("axle.lateral_offset_m", 1.0),
+    "H": ("axle.pivot_height_m", 1.0),
+    "eps": ("axle.camber_thrust_factor", 1.0),
+    "I_w": ("axle.wheel_spin_inertia_kgm2", 1.0),
+    "k_z": ("tire.vertical_stiffness_n_per_m", 1.0),
+    "c_z": ("tire.vertical_damping_ns_per_m", 1.0),
+}
+
+REFERENCES = ("running", "unloaded")
+"""Values of ``axle.reference``; the kernel flag is the index (0 = running, 1 = unloaded)."""
+
+
+def _reference_flag(params) -> float:
+    return float(REFERENCES.index(params.axle.reference))
+
+
+SLOTS = tuple(
+    ParamSlot("reference", None, encode=_reference_flag)
+    if name == "reference"
+    else ParamSlot(name, _KEYS[name][0], _KEYS[name][1])
+    for name in _gen.PARAM_NAMES
+)
+"""Kernel parameter vector layout (order fixed by the derivation)."""
+
+STATE_NAMES = _gen.STATE_NAMES
+AUX_NAMES = ("sliding_velocity", "friction_force", "normal_load", "contact_lost")
+
+_TOE0 = _gen.PARAM_NAMES.index("toe0")
+_CAMBER0 = _gen.PARAM_NAMES.index("camber0")
+_REFERENCE = _gen.PARAM_NAMES.index("reference")
+
+
+def equilibrium(V, p):
+    """Steady rolling state at speed ``V`` [m/s].
+
+    ``running`` reference: closed form, alpha = beta = gamma = 0, x' = 0 and the steady
+    LuGre state. ``unloaded``: Newton solve (``scipy.optimize.root``, analytic Jacobian)
+    from the running-reference state; the steady tire force deflects the axle, and
+    :func:`running_alignment` gives the resulting toe and camber.
+    """
+    u0 = np.empty(len(STATE_NAMES))
+    _gen.running_equilibrium(float(V), p, u0)
+    if p[_REFERENCE] == 0.0:
+        return u0
+    from scipy.optimize import root
+
+    sol = root(MODEL.f, u0, args=(V, p), jac=lambda u, V, p: MODEL.jacobian(u, V, p), method="hybr", tol=1e-13)
+    scale = np.abs(MODEL.f(u0, V, p)).max()
+    if not sol.success or np.abs(MODEL.f(sol.x, V, p)).max() > 1e-9 * max(scale, 1.0):
+        raise RuntimeError(f"axle4dof: no unloaded-reference equilibrium at V = {V} m/s ({sol.message})")
+    return sol.x
+
+
+def running_alignment(u, p) -> tuple[float, float]:
+    """Running toe and camber [rad] of state ``u``: ``toe0 + alpha``, ``camber0 + beta``."""
+    return p[_TOE0] + u[0], p[_CAMBER0] + u[1]
+
+
+class _Kernels:
+    rhs = _gen.rhs
+    jac = _gen.jac
+    dfdv = _gen.dfdv
+    aux = _gen.aux
+    equilibrium = staticmethod(equilibrium)
+
+
+rhs_python = _gen.rhs_python
+
+MODEL = Model(
+    name="axle4dof",
+    state_names=STATE_NAMES,
+    state_units=("rad", "rad", "rad", "m", "rad/s", "rad/s", "rad/s", "m/s", "m"),
+    aux_names=AUX_NAMES,
+    slots=SLOTS,
+    kernels=_Kernels,
+    coordinates=(("alpha", "k_alpha"), ("beta", "k_beta"), ("gamma", "k_gamma"), ("x", "k")),
+)
