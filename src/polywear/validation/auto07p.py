@@ -1,0 +1,529 @@
+"""The ``tread1dof`` bifurcation diagram computed by AUTO-07p, as an independent reference.
+
+AUTO-07p (Doedel et al.) is the reference continuation code; it is reached through the
+``bifpy`` package (PyPI, optional extra ``polywear[auto07p]``), which compiles AUTO-07p
+from source at install time (gfortran and GNU make: ``scripts/ensure-auto07p.sh``).
+
+The equations are written here again, from MODEL.md section 3, independently of the
+numba kernels in :mod:`polywear.models.tread1dof` (the tests check that both agree), as
+plain Python that bifpy traces symbolically and compiles to a native AUTO-07p
+executable (``transpile=True``). AUTO works in scaled units so that every unknown is of
+order one and its relative tolerances mean the same for every state: displacement and
+bristle deflection in mm, time in ms (so the tread velocity stays in m/s = mm/ms and the
+period comes out in ms); the vehicle speed ``V`` [m/s] is PAR(1).
+
+Runs: (1) the steady rolling state continued in ``V`` over the speed range, Hopf
+points detected (HB); (2) from every Hopf point not already reached by an earlier
+branch, the family of periodic orbits continued in ``V`` with folds (LP) and
+Floquet stability, until it returns to a Hopf point (AUTO reports a branch point, BP,
+where the cycle shrinks onto the equilibrium) or leaves the speed range. Every branch
+point's orbit is stored (NPR = 1) so amplitudes come from the orbit itself; the cycle at
+the operating speed of ``params`` is located exactly (UZR).
+
+AUTO's scratch files live in a temporary directory that is removed afterwards, also when
+AUTO fails.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import shutil
+import tempfile
+import time
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+from typing import Any, Iterator
+
+import numpy as np
+
+from ..models.base import kmh_to_ms, ms_to_kmh
+from ..models.tread1dof import MODEL
+from ..params import ParameterError, Params
+
+__all__ = [
+    "AutoSettings",
+    "Auto07pError",
+    "INSTALL_HINT",
+    "STATE_UNIT",
+    "TIME_UNIT_S",
+    "auto07p_available",
+    "auto_rhs",
+    "auto_jacobian",
+    "orbit_extremes",
+    "tread1dof_diagram",
+    "refinement_study",
+]
+
+INSTALL_HINT = (
+    "AUTO-07p is not available: run `scripts/ensure-auto07p.sh .venv` (installs gfortran "
+    "if missing, then `pip install polywear[auto07p]`, i.e. bifpy, which compiles AUTO-07p)"
+)
+
+TIME_UNIT_S = 1.0e-3
+"""AUTO's time unit [s] (1 ms)."""
+STATE_UNIT = (1.0e-3, 1.0e-3 / TIME_UNIT_S, 1.0e-3)
+"""SI value of one AUTO unit of each state (x [mm], x' [mm/ms = m/s], z [mm])."""
+_RATE_FACTOR = tuple(TIME_UNIT_S / unit for unit in STATE_UNIT)
+"""d(scaled state)/d(scaled time) per unit of the SI rate d(state)/dt."""
+
+SPEED_INDEX = 1
+"""AUTO's PAR index (1-based) of the vehicle speed V [m/s]."""
+
+
+class Auto07pError(RuntimeError):
+    """AUTO-07p did not complete a run (its output, already deleted, is quoted)."""
+
+
+@dataclass(frozen=True)
+class AutoSettings:
+    """AUTO-07p constants for :func:`tread1dof_diagram` (names as in AUTO's manual).
+
+    The defaults were chosen by the refinement study in docs/validation_auto07p.md:
+    doubling ``ntst``, tightening the tolerances tenfold and halving the steps moves
+    the Hopf speeds, fold and operating-speed amplitude by far less than 1e-4.
+    """
+
+    ntst: int = 40
+    """Mesh intervals per orbit (adapted along the branch, IAD = 3)."""
+    ncol: int = 4
+    """Collocation points per mesh interval."""
+    epsl: float = 1e-8
+    """Newton tolerance on the parameters (relative)."""
+    epsu: float = 1e-8
+    """Newton tolerance on the solution (relative; states are O(1) in AUTO's units)."""
+    epss: float = 1e-6
+    """Tolerance locating special points (HB, LP, BP, UZ)."""
+    ds: float = 0.01
+    """First pseudo-arclength step."""
+    dsmin: float = 1e-6
+    """Smallest step before AUTO gives up."""
+    dsmax_equilibrium: float = 2.0
+    """Largest step on the equilibrium branch (V in m/s, states in mm)."""
+    dsmax_cycles: float = 2.0
+    """Largest step on a branch of periodic orbits."""
+    nmx: int = 5000
+    """Largest number of steps per branch."""
+    samples_per_interval: int = 32
+    """Points per mesh interval at which the collocation polynomial is evaluated for
+    the amplitude (the orbit AUTO stores has ``ncol + 1`` per interval)."""
+    transpile: bool = True
+    """Compile the model to a native AUTO executable (True) or call back into Python."""
+
+    def refined(self) -> AutoSettings:
+        """Twice the mesh intervals, tolerances / 10, steps / 2 (for refinement studies)."""
+        return replace(
+            self,
+            ntst=2 * self.ntst,
+            epsl=self.epsl / 10,
+            epsu=self.epsu / 10,
+            epss=self.epss / 10,
+            ds=self.ds / 2,
+            dsmax_equilibrium=self.dsmax_equilibrium / 2,
+            dsmax_cycles=self.dsmax_cycles / 2,
+            nmx=2 * self.nmx,
+        )
+
+
+def auto07p_available() -> tuple[bool, str]:
+    """(True, "") when bifpy imports and gfortran is on PATH, else (False, how to install)."""
+    try:
+        import bifpy.auto  # noqa: F401
+    except ImportError:
+        return False, INSTALL_HINT
+    if shutil.which("gfortran") is None:
+        return False, INSTALL_HINT
+    return True, ""
+
+
+# -- the model, in AUTO's form --------------------------------------------------------
+def _coefficients(p) -> dict[str, float]:
+    """Named SI parameters of ``tread1dof`` from its packed vector ``p``."""
+    coeff = dict(zip(MODEL.param_names, (float(v) for v in p)))
+    coeff["sin_toe"] = math.sin(coeff["toe"])
+    return coeff
+
+
+def _lugre_terms(u, speed, c):
+    """SI state and LuGre terms at AUTO state ``u`` (mm, m/s, mm) and speed [m/s].
+
+    Written with ``abs`` and ``np.exp`` only, so bifpy can trace it symbolically.
+    """
+    x = u[0] * STATE_UNIT[0]
+    xdot = u[1] * STATE_UNIT[1]
+    z = u[2] * STATE_UNIT[2]
+    slide = speed * c["sin_toe"] - xdot  # v_r [m/s]
+    ratio = abs(slide) / c["v_s"]
+    decay = np.exp(-(ratio ** c["delta"]))
+    g = c["mu_c"] + (c["mu_s"] - c["mu_c"]) * decay  # Stribeck curve G(v_r)
+    zdot = slide - c["sigma0"] * abs(slide) * z / g
+    force = c["N"] * (c["sigma0"] * z + c["sigma1"] * zdot + c["sigma2"] * slide)
+    return x, xdot, z, slide, ratio, decay, g, zdot, force
+
+
+def auto_rhs(p):
+    """AUTO's FUNC for ``tread1dof`` with parameter vector ``p``: ``func(u, par)``.
+
+    ``u`` = (x [mm], x' [m/s], z [mm]), ``par[0]`` = V [m/s]; returns du/dT with T in
+    ms (MODEL.md section 3 in these units).
+    """
+    c = _coefficients(p)
+
+    def func(u, par):
+        x, xdot, _, _, _, _, _, zdot, force = _lugre_terms(u, par[0], c)
+        xddot = (force - c["c"] * xdot - c["k"] * x) / c["m"]
+        return [_RATE_FACTOR[0] * xdot, _RATE_FACTOR[1] * xddot, _RATE_FACTOR[2] * zdot]
+
+    return func
+
+
+def auto_jacobian(p, icu):
+    """AUTO's analytic Jacobian of :func:`auto_rhs`: ``jac(u, par) -> (d/du, d/dPAR(icu))``.
+
+    Hand-derived (bifpy's automatic derivative of ``abs`` prints invalid Fortran in
+    bifpy 0.3.0 with sympy 1.14); tested against finite differences and the kernel's.
+    Columns of PAR indices other than the speed are zero (the period is AUTO's own).
+    """
+    c = _coefficients(p)
+
+    def jac(u, par):
+        _, _, z, slide, ratio, decay, g, _, _ = _lugre_terms(u, par[0], c)
+        sgn = slide / abs(slide)  # the model is not differentiable at v_r = 0 itself
+        dg = -(c["mu_s"] - c["mu_c"]) * decay * c["delta"] * ratio ** (c["delta"] - 1.0) * sgn / c["v_s"]
+        dzdot_dslide = 1.0 - c["sigma0"] * z * (sgn * g - abs(slide) * dg) / (g * g)
+        dzdot_dz = -c["sigma0"] * abs(slide) / g
+        dforce_dslide = c["N"] * (c["sigma1"] * dzdot_dslide + c["sigma2"])
+        dforce_dz = c["N"] * (c["sigma0"] + c["sigma1"] * dzdot_dz)
+        m = c["m"]
+        # SI: d(x', x'', z')/d(x, x', z), with d v_r/d x' = -1, and d/dV (d v_r/dV = sin toe)
+        d_state_si = [
+            [0.0, 1.0, 0.0],
+            [-c["k"] / m, (-c["c"] - dforce_dslide) / m, dforce_dz / m],
+            [0.0, -dzdot_dslide, dzdot_dz],
+        ]
+        d_speed_si = [0.0, dforce_dslide * c["sin_toe"] / m, dzdot_dslide * c["sin_toe"]]
+        d_state = [
+            [_RATE_FACTOR[i] * d_state_si[i][j] * STATE_UNIT[j] for j in range(3)] for i in range(3)
+        ]
+        d_par = [
+            [_RATE_FACTOR[i] * d_speed_si[i] if index == SPEED_INDEX else 0.0 for index in icu]
+            for i in range(3)
+        ]
+        return d_state, d_par
+
+    return jac
+
+
+def _starting_point(u_eq, speed):
+    """AUTO's STPNT: the closed-form equilibrium ``u_eq`` (SI) at ``speed`` [m/s]."""
+    scaled = [float(u_eq[i]) / STATE_UNIT[i] for i in range(3)]
+
+    def stpnt(u, par, t):
+        par[0] = speed
+        for i in range(3):
+            u[i] = scaled[i]
+
+    return stpnt
+
+
+# -- orbits ---------------------------------------------------------------------------
+def _lagrange_basis(ncol: int, samples: int) -> np.ndarray:
+    """Degree-``ncol`` Lagrange basis on equispaced nodes of [0, 1] at ``samples`` points."""
+    nodes = np.linspace(0.0, 1.0, ncol + 1)
+    s = np.linspace(0.0, 1.0, samples)[:, None]
+    basis = np.ones((samples, ncol + 1))
+    for j in range(ncol + 1):
+        for k in range(ncol + 1):
+            if k != j:
+                basis[:, j] *= (s[:, 0] - nodes[k]) / (nodes[j] - nodes[k])
+    return basis
+
+
+def orbit_extremes(state, ncol: int, samples_per_interval: int = 32) -> tuple[np.ndarray, np.ndarray]:
+    """Per-state minimum and maximum of AUTO's piecewise-polynomial orbit.
+
+    ``state`` is an orbit as AUTO stores it: ``ntst * ncol + 1`` rows, ``ncol + 1``
+    equispaced values per mesh interval (shared at interval ends), which define the
+    degree-``ncol`` collocation polynomial of that interval. The polynomial is evaluated
+    at ``samples_per_interval`` points per interval, so extrema between stored points
+    are not missed.
+    """
+    values = np.asarray(state, dtype=float)
+    ntst, rest = divmod(len(values) - 1, ncol)
+    if rest or ntst < 1:
+        raise ValueError(f"orbit of {len(values)} points is not ntst * {ncol} + 1")
+    pieces = np.stack([values[i * ncol : (i + 1) * ncol + 1] for i in range(ntst)])
+    fine = np.einsum("sk,ikn->isn", _lagrange_basis(ncol, samples_per_interval), pieces)
+    return fine.min(axis=(0, 1)), fine.max(axis=(0, 1))
+
+
+def _cycle_summary(point, speed: float, sin_toe: float, settings: AutoSettings) -> dict[str, Any]:
+    """Speed, period, per-state amplitude (SI), stability of one periodic-orbit point."""
+    orbit = point.periodic_orbit
+    if orbit is None:
+        raise Auto07pError(f"AUTO stored no orbit for point {point.point_number} (NPR = 1 expected)")
+    low, high = orbit_extremes(orbit.state, orbit.collocation_points_per_interval, settings.samples_per_interval)
+    units = np.asarray(STATE_UNIT)
+    multipliers = np.asarray(point.floquet_multipliers or (), dtype=complex)
+    if multipliers.size:  # drop the trivial multiplier (the one nearest 1)
+        multipliers = np.delete(multipliers, np.argmin(np.abs(multipliers - 1.0)))
+    return {
+        "speed_kmh": float(ms_to_kmh(speed)),
+        "period_s": float(orbit.period) * TIME_UNIT_S,
+        "amplitude": {
+            name: float(a) for name, a in zip(MODEL.state_names, 0.5 * (high - low) * units)
+        },
+        "min_sliding_velocity_m_per_s": float(speed * sin_toe - high[1] * STATE_UNIT[1]),
+        "stable": point.stability.name == "STABLE",
+        "floquet_max_modulus": float(np.abs(multipliers).max()) if multipliers.size else None,
+    }
+
+
+# -- running AUTO ---------------------------------------------------------------------
+@contextmanager
+def _scratch_directory() -> Iterator[str]:
+    """Point the ``tempfile`` default at a fresh directory, removed on exit.
+
+    bifpy makes its run directories with ``tempfile.mkdtemp()`` and keeps them when a
+    run fails; routing them into this directory removes every scratch file.
+    """
+    previous = tempfile.tempdir
+    with tempfile.TemporaryDirectory(prefix="polywear-auto07p-") as scratch:
+        tempfile.tempdir = scratch
+        try:
+            yield scratch
+        finally:
+            tempfile.tempdir = previous
+
+
+def _auto_seconds(output_directory: str | None) -> float:
+    """AUTO's own reported run time ("Total Time" in its output) [s]."""
+    if output_directory is None:
+        return math.nan
+    path = Path(output_directory) / "stdout.txt"
+    match = re.search(r"Total Time\s+([0-9.EeDd+-]+)", path.read_text()) if path.exists() else None
+    return float(match.group(1).replace("D", "E").replace("d", "e")) if match else math.nan
+
+
+def _call_auto(entry, *args, **kwargs):
+    """Run bifpy's ``run``/``restart``; AUTO's own run time alongside the result."""
+    from bifpy import auto
+
+    try:
+        result = entry(*args, keep_output=True, **kwargs)
+    except auto.AutoError as exc:
+        tail = "\n".join(str(exc).strip().splitlines()[-12:])
+        raise Auto07pError(f"AUTO-07p failed:\n{tail}") from None
+    return result, _auto_seconds(result.output_directory)
+
+
+def _constants(settings: AutoSettings, ips: int, lo: float, hi: float, dsmax: float) -> dict[str, Any]:
+    return dict(
+        ips=ips, ndim=3, npar=SPEED_INDEX, jac=1, ilp=1, isp=2, iad=3,
+        ntst=settings.ntst, ncol=settings.ncol, nmx=settings.nmx, npr=1,
+        ds=settings.ds, dsmin=settings.dsmin, dsmax=dsmax, rl0=lo, rl1=hi,
+        epsl=settings.epsl, epsu=settings.epsu, epss=settings.epss,
+    )  # fmt: skip
+
+
+def _return_to_hopf(amplitude: np.ndarray, speed: np.ndarray, hopf_speeds: list[float]) -> tuple[int, int | None]:
+    """(index, Hopf index) where a cycle branch first shrinks back onto a Hopf point.
+
+    AUTO passes through such a point as through a regular one (only sometimes flagging
+    a BP a step later) and would go round the closed family again, so the branch is
+    cut at the first local minimum of the amplitude below 1 % of its maximum, after it
+    has grown past 10 %, if that speed is within 1e-3 of a Hopf speed. (None: no return.)
+    """
+    big = amplitude.max(initial=0.0)
+    if big <= 0.0 or not hopf_speeds:
+        return len(amplitude) - 1, None
+    grown = int(np.argmax(amplitude > 0.1 * big))
+    for k in range(grown, len(amplitude)):
+        if amplitude[k] < 0.01 * big and (k == len(amplitude) - 1 or amplitude[k + 1] >= amplitude[k]):
+            nearest = int(np.argmin([abs(speed[k] - h) for h in hopf_speeds]))
+            if abs(speed[k] - hopf_speeds[nearest]) <= 1e-3 * hopf_speeds[nearest]:
+                return k, nearest
+    return len(amplitude) - 1, None
+
+
+def _end_reason(point, lo: float, hi: float) -> str:
+    """Why AUTO stopped a branch that did not return to a Hopf point."""
+    name = point.point_type.name
+    if name == "END_POINT" and not lo < point.parameters[0] < hi:
+        return "speed_range"
+    return {"ABNORMAL_TERMINATION": "no_convergence", "BRANCH_POINT": "branch_point"}.get(name, "step_limit")
+
+
+def tread1dof_diagram(
+    params: Params,
+    speed_range_kmh: tuple[float, float] = (20.0, 300.0),
+    settings: AutoSettings = AutoSettings(),
+) -> dict[str, Any]:
+    """Bifurcation diagram of ``tread1dof`` in the vehicle speed, by AUTO-07p.
+
+    Parameters
+    ----------
+    params : every value is used (``MODEL.pack(params)``); the operating speed is also
+        located on every cycle branch that passes it.
+    speed_range_kmh : (low, high) speed range [km/h], low > 0.
+    settings : AUTO constants, :class:`AutoSettings`.
+
+    Returns
+    -------
+    A JSON-serializable dict: ``hopf`` (speed_kmh, frequency_hz), ``folds``
+    (speed_kmh, amplitude_x_m, period_s), ``operating_point`` (cycles at the operating
+    speed), ``equilibrium`` (speed_kmh, stable), ``cycles`` (one entry per branch:
+    arrays speed_kmh, period_s, amplitude per state [m, m/s, m], stable,
+    floquet_max_modulus, min_sliding_velocity_m_per_s, and how the branch ended),
+    ``auto`` (versions, settings) and ``wall_time_s`` / ``auto_time_s`` (AUTO's own
+    solver time, without tracing, compiling and parsing).
+    """
+    try:
+        from bifpy import auto
+    except ImportError:
+        raise ImportError(INSTALL_HINT) from None
+    from importlib.metadata import version
+
+    if params.model != "tread1dof":
+        raise ParameterError(f"model = {params.model!r}: the AUTO-07p validation covers tread1dof only")
+    lo_kmh, hi_kmh = (float(v) for v in speed_range_kmh)
+    if not 0.0 < lo_kmh < hi_kmh:
+        raise ParameterError(f"speed range {speed_range_kmh!r} km/h: need 0 < low < high")
+    lo, hi = kmh_to_ms(lo_kmh), kmh_to_ms(hi_kmh)
+    operating = kmh_to_ms(params.operating.speed_kmh)
+    p = MODEL.pack(params)
+    sin_toe = math.sin(_coefficients(p)["toe"])
+    func = auto_rhs(p)
+    common = dict(transpile=settings.transpile)
+    start = time.perf_counter()
+    auto_time = 0.0
+
+    with _scratch_directory():
+        eq_constants = _constants(settings, auto.IPS_EQUILIBRIUM, lo, hi, settings.dsmax_equilibrium)
+        equilibrium, seconds = _call_auto(
+            auto.run, func, _starting_point(MODEL.equilibrium(lo, p), lo), eq_constants,
+            icu=[SPEED_INDEX], jac=auto_jacobian(p, [SPEED_INDEX]), **common,
+        )  # fmt: skip
+        auto_time += seconds
+        eq_points = [pt for branch in equilibrium.branches for pt in branch.points]
+        hopf_points = [pt for pt in eq_points if pt.point_type == auto.PointType.HOPF_BIFURCATION]
+        hopf = [
+            {
+                "speed_kmh": float(ms_to_kmh(pt.all_parameters[SPEED_INDEX - 1])),
+                "frequency_hz": 1.0 / (pt.all_parameters[auto.PERIOD_INDEX - 1] * TIME_UNIT_S),
+            }
+            for pt in hopf_points
+        ]
+        hopf_speeds = [pt.all_parameters[SPEED_INDEX - 1] for pt in hopf_points]
+
+        cycle_constants = _constants(settings, auto.IPS_PERIODIC_ORBIT, lo, hi, settings.dsmax_cycles)
+        icu = [SPEED_INDEX, auto.PERIOD_INDEX]
+        cycles, folds, at_operating, reached = [], [], [], set()
+        for index, hb in enumerate(hopf_points):
+            if index in reached:
+                continue
+            result, seconds = _call_auto(
+                auto.restart, func, cycle_constants, restart_point=hb, icu=icu,
+                isw=auto.ISW_HOPF_TO_PERIODIC_ORBIT, source_ips=auto.IPS_EQUILIBRIUM,
+                jac=auto_jacobian(p, icu), stop=["BP1"],
+                uzr={SPEED_INDEX: [operating]} if lo < operating < hi else None, **common,
+            )  # fmt: skip
+            auto_time += seconds
+            points = [pt for branch in result.branches for pt in branch.points]
+            rows = [_cycle_summary(pt, pt.parameters[0], sin_toe, settings) for pt in points]
+            end, hopf_index = _return_to_hopf(
+                np.array([r["amplitude"]["x"] for r in rows]),
+                np.array([pt.parameters[0] for pt in points]),
+                hopf_speeds,
+            )
+            ended = "hopf" if hopf_index is not None else _end_reason(points[-1], lo, hi)
+            if hopf_index is not None:
+                reached.add(hopf_index)
+            points, rows = points[: end + 1], rows[: end + 1]
+            end_speed = points[-1].parameters[0]
+            largest = max(r["amplitude"]["x"] for r in rows)
+            for pt, row in zip(points, rows):
+                # AUTO also flags LP where the branch turns back through a Hopf point
+                # (amplitude -> 0): a fold of the parametrization, not of cycles
+                if pt.point_type == auto.PointType.FOLD and row["amplitude"]["x"] > 0.01 * largest:
+                    folds.append(
+                        {"speed_kmh": row["speed_kmh"], "amplitude_x_m": row["amplitude"]["x"],
+                         "period_s": row["period_s"], "amplitude": row["amplitude"]}
+                    )  # fmt: skip
+                if pt.point_type == auto.PointType.USER_SPECIFIED_VALUE:
+                    at_operating.append(row)
+            cycles.append(
+                {
+                    "from_hopf_kmh": hopf[index]["speed_kmh"],
+                    "ended": ended,
+                    "end_speed_kmh": float(ms_to_kmh(end_speed)),
+                    "speed_kmh": [r["speed_kmh"] for r in rows],
+                    "period_s": [r["period_s"] for r in rows],
+                    "amplitude": {n: [r["amplitude"][n] for r in rows] for n in MODEL.state_names},
+                    "stable": [r["stable"] for r in rows],
+                    "floquet_max_modulus": [r["floquet_max_modulus"] for r in rows],
+                    "min_sliding_velocity_m_per_s": [r["min_sliding_velocity_m_per_s"] for r in rows],
+                }
+            )
+
+    return {
+        "model": MODEL.name,
+        "params": params.model_dump(),
+        "speed_range_kmh": [lo_kmh, hi_kmh],
+        "hopf": hopf,
+        "folds": folds,
+        "operating_point": {"speed_kmh": params.operating.speed_kmh, "cycles": at_operating},
+        "equilibrium": {
+            "speed_kmh": [float(ms_to_kmh(pt.parameters[0])) for pt in eq_points],
+            "stable": [pt.stability.name == "STABLE" for pt in eq_points],
+        },
+        "cycles": cycles,
+        "auto": {
+            "package": f"bifpy {version('bifpy')}",
+            "settings": asdict(settings),
+            "units": "AUTO works in mm (x, z), m/s (x'), ms (time); results here are SI",
+        },
+        "wall_time_s": time.perf_counter() - start,
+        "auto_time_s": auto_time,
+    }
+
+
+def _headline(diagram: dict[str, Any]) -> dict[str, float]:
+    """The numbers a refinement study compares, by name."""
+    out = {}
+    for i, h in enumerate(diagram["hopf"]):
+        out[f"hopf{i + 1}_speed_kmh"] = h["speed_kmh"]
+        out[f"hopf{i + 1}_frequency_hz"] = h["frequency_hz"]
+    for i, f in enumerate(diagram["folds"]):
+        out[f"fold{i + 1}_speed_kmh"] = f["speed_kmh"]
+        out[f"fold{i + 1}_amplitude_x_m"] = f["amplitude_x_m"]
+        out[f"fold{i + 1}_period_s"] = f["period_s"]
+    for i, c in enumerate(diagram["operating_point"]["cycles"]):
+        out[f"operating{i + 1}_amplitude_x_m"] = c["amplitude"]["x"]
+        out[f"operating{i + 1}_period_s"] = c["period_s"]
+    return out
+
+
+def refinement_study(
+    params: Params,
+    speed_range_kmh: tuple[float, float] = (20.0, 300.0),
+    settings: AutoSettings = AutoSettings(),
+) -> dict[str, Any]:
+    """Run the diagram at ``settings`` and at ``settings.refined()``; relative changes.
+
+    Returns ``{"base": {...}, "refined": {...}, "relative_change": {...},
+    "max_relative_change": float}`` over the Hopf speeds and frequencies, fold speeds,
+    amplitudes and periods, and the amplitude and period at the operating speed.
+    """
+    base = _headline(tread1dof_diagram(params, speed_range_kmh, settings))
+    fine = _headline(tread1dof_diagram(params, speed_range_kmh, settings.refined()))
+    if base.keys() != fine.keys():
+        raise Auto07pError(f"refinement changed the special points found: {sorted(base)} vs {sorted(fine)}")
+    change = {k: abs(fine[k] - base[k]) / abs(fine[k]) for k in base}
+    return {
+        "base": base,
+        "refined": fine,
+        "relative_change": change,
+        "max_relative_change": max(change.values(), default=0.0),
+    }
