@@ -30,6 +30,7 @@ __all__ = [
     "equilibrium_eigenvalues",
     "locate_hopf",
     "first_lyapunov_coefficient",
+    "critical_eigenvalue_derivative",
     "stability_analysis",
 ]
 
@@ -129,13 +130,16 @@ def locate_hopf(model, p, V_lo: float, V_hi: float, lam_lo: complex, lam_hi: com
     lvals, lvecs = np.linalg.eig(J.T)
     w = lvecs[:, int(np.argmin(np.abs(lvals + 1j * omega)))]  # J^T w = -i omega w <=> w^H J = i omega w^H
     w = w / np.vdot(w, q).conj()  # w^H q = 1
-    dre = _dlambda(model, u, V, p, q, w, dV=1.0).real
+    dre = critical_eigenvalue_derivative(model, u, V, p, q, w, dV=1.0).real
     l1 = first_lyapunov_coefficient(model, u, V, p, q, w, omega, J)
     return HopfPoint(V, omega, u, q, w, dre, l1, mode_label(model, p, q))
 
 
-def _dlambda(model, u, V, p, q, w, dV=0.0, dp=None) -> complex:
-    """Total derivative of the critical eigenvalue along (dV, dp), equilibrium shift included."""
+def critical_eigenvalue_derivative(model, u, V, p, q, w, dV=0.0, dp=None) -> complex:
+    """Total derivative of the critical eigenvalue along (dV, dp), equilibrium shift included.
+
+    ``dlambda = w^H (J_u du + J_V dV + J_p dp) q / (w^H q)`` with ``du = -J^{-1} (f_V dV + f_p dp)``.
+    """
     J = model.jacobian(u, V, p)
     f_theta = rhs_directional(model, u, V, p, dV=dV, dp=dp)
     du = -np.linalg.solve(J, f_theta)

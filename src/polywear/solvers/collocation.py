@@ -257,6 +257,32 @@ class Collocation:
         )
         return res, blocks, tcol, vcol
 
+    def sparse_matrix(self, X: np.ndarray, border: np.ndarray):
+        """The bordered Newton matrix at X as scipy CSC (for transposed solves)."""
+        from scipy.sparse import coo_matrix
+
+        _, blocks, tcol, vcol = self.evaluate(X)
+        N, m, n = self.N, self.m, self.n
+        nc = N * m * n
+        rows_local = np.arange(m * n)
+        cols_local = np.arange((m + 1) * n)
+        r = np.arange(N)[:, None] * m * n + rows_local[None, :]
+        node = (np.arange(N)[:, None] * m + cols_local[None, :] // n) % (N * m)
+        c = node * n + cols_local[None, :] % n
+        brow = np.broadcast_to(r[:, :, None], blocks.shape).ravel()
+        bcol = np.broadcast_to(c[:, None, :], blocks.shape).ravel()
+        erow = np.repeat(np.arange(nc, nc + 2), self.size)
+        ecol = np.tile(np.arange(self.size), 2)
+        rows = np.concatenate([brow, np.arange(nc), np.arange(nc), erow])
+        cols = np.concatenate([bcol, np.full(nc, nc), np.full(nc, nc + 1), ecol])
+        vals = np.concatenate([blocks.ravel(), tcol, vcol, border.ravel()])
+        return coo_matrix((vals, (rows, cols)), shape=(self.size, self.size)).tocsc()
+
+    def gauss_states(self, orbit: PeriodicOrbit) -> np.ndarray:
+        """(N m, n) states at the Gauss points, interval-major."""
+        vals = orbit.interval_nodes() if np.array_equal(orbit.mesh, self.mesh) else orbit.with_mesh(self.mesh).interval_nodes()
+        return np.einsum("kl,jln->jkn", self.sch.basis, vals).reshape(self.N * self.m, self.n)
+
     def phase_row(self, reference: PeriodicOrbit) -> np.ndarray:
         """Row of the integral phase condition  int u . u_ref' dtau = 0  (linear in the nodes)."""
         sch = self.sch

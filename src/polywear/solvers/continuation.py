@@ -49,9 +49,15 @@ class BranchPoint:
 
     orbit: PeriodicOrbit
     multipliers: np.ndarray
-    tangent_speed: float
+    tangent: np.ndarray = field(repr=False)
+    """Unit tangent of the branch (same layout as the collocation unknowns)."""
     newton_iterations: int
     label: str = ""
+
+    @property
+    def tangent_speed(self) -> float:
+        """dV/ds, the speed component of the unit tangent (zero at a fold)."""
+        return float(self.tangent[-1])
 
     @property
     def trivial_multiplier_error(self) -> float:
@@ -188,7 +194,7 @@ def continue_from_hopf(
         if prev_harmonic is not None and np.real(np.vdot(prev_harmonic, harmonic)) < 0:
             branch.end_reason = "returned to an equilibrium (Hopf point)"
             break
-        point = BranchPoint(orbit, multipliers, float(t[-1]), iterations)
+        point = BranchPoint(orbit, multipliers, t, iterations)
         if prev is not None and np.sign(point.tangent_speed) != np.sign(prev.tangent_speed):
             fold = _locate_fold(stepper, X0, t0, ds, phase_ref, prev, point, settings)
             if fold is not None:
@@ -262,7 +268,7 @@ def _locate_fold(stepper, X0, t0, ds, phase_ref, prev, point, settings):
             return best
         X, t, iterations, multipliers = out
         g = float(t[-1])
-        best = BranchPoint(stepper.coll.unpack(X), multipliers, g, iterations, "LP")
+        best = BranchPoint(stepper.coll.unpack(X), multipliers, t, iterations, "LP")
         if abs(g) < settings.fold_tol:
             break
         if np.sign(g) == np.sign(g_a):

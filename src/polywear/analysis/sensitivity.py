@@ -1,0 +1,308 @@
+"""Local sensitivity of the bifurcation speeds (the paper's eq. 3, made exact).
+
+Quantities: every Hopf speed (``hopf_1``, ``hopf_2``, ...), every fold of cycles
+(``fold_1``, ...), and the bounds of the SEV band (``first_bifurcation``,
+``second_bifurcation``), which are a Hopf speed or a fold speed.
+
+Methods:
+
+* ``forward``: the paper's eq. (3), ``M = (f(p + dp) - f(p)) / dp``;
+* ``central``: ``(f(p + dp) - f(p - dp)) / (2 dp)``;
+* ``exact``: the implicit-function theorem on the defining system, no step:
+  for a Hopf point ``Re lambda(V, p) = 0`` gives ``dV/dp = -Re(dlambda/dp) / Re(dlambda/dV)``,
+  ``dlambda = w^H dJ q`` with the equilibrium shift included; for a fold of cycles
+  ``G(X, V, p) = 0`` (collocation + phase condition) with ``G_X`` singular,
+  ``dV/dp = -psi^T G_p / psi^T G_V`` where ``psi`` is the left null vector of
+  ``G_X``. Partial derivatives come from complex-step evaluations of the kernels.
+
+Parameters are configuration keys, plus the reading ``adhesion_scale`` of the
+paper's "adhesion coefficient": mu_s and mu_c scaled together by one factor
+(nominal 1). ``friction.mu_static`` is the other reading (peak friction alone).
+Derivatives are reported in km/h per unit of the key; ``normalized`` is
+``S = (p / V) dV/dp`` (None where the nominal p is 0).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import __version__
+from ..models import get_model
+from ..models.base import ms_to_kmh
+from ..params import Params, get_value, with_updates
+from .bifurcation import BifurcationDiagram, bifurcation_diagram
+from .derivatives import rhs_directional
+from .stability import critical_eigenvalue_derivative
+
+__all__ = [
+    "PAPER_PARAMETERS",
+    "ADHESION_SCALE",
+    "SensitivityResult",
+    "local_sensitivity",
+    "parameter_direction",
+    "hopf_speed_derivative",
+    "fold_speed_derivative",
+]
+
+ADHESION_SCALE = "adhesion_scale"
+"""mu_s and mu_c scaled together (the paper's adhesion coefficient, second reading)."""
+
+PAPER_PARAMETERS = (
+    "tread.lateral_stiffness_n_per_m",
+    "tread.lateral_damping_ns_per_m",
+    "operating.toe_deg",
+    "operating.camber_deg",
+    "friction.mu_static",
+    ADHESION_SCALE,
+    "tread.mass_kg",
+    "operating.vertical_load_n",
+)
+"""The paper's seven parameters (Fig. 9), adhesion read both ways."""
+
+PARAMETER_LABELS = {
+    "tread.lateral_stiffness_n_per_m": "tread lateral stiffness",
+    "tread.lateral_damping_ns_per_m": "tread lateral damping",
+    "operating.toe_deg": "toe angle",
+    "operating.camber_deg": "camber angle",
+    "friction.mu_static": "adhesion (mu_s alone)",
+    ADHESION_SCALE: "adhesion (mu_s, mu_c scaled)",
+    "tread.mass_kg": "tread mass",
+    "operating.vertical_load_n": "vertical load",
+}
+
+
+def parameter_direction(model, params: Params, key: str) -> np.ndarray:
+    """d p / d(key): the change of the kernel parameter vector per unit of the key.
+
+    Zero vector when the key does not enter the model (e.g. camber in tread1dof).
+    """
+    direction = np.zeros(len(model.slots))
+    if key == ADHESION_SCALE:
+        direction[model.param_names.index("mu_s")] = params.friction.mu_static
+        direction[model.param_names.index("mu_c")] = params.friction.mu_coulomb
+        return direction
+    get_value(params, key)  # raises ParameterError for an unknown key
+    for i, slot in enumerate(model.slots):
+        if slot.key == key and slot.encode is None:
+            direction[i] = slot.factor
+    return direction
+
+
+def nominal_value(params: Params, key: str) -> float:
+    return 1.0 if key == ADHESION_SCALE else float(get_value(params, key))
+
+
+def perturbed(params: Params, key: str, value: float) -> Params:
+    """Parameters with ``key`` set to ``value`` (``adhesion_scale`` scales mu_s and mu_c)."""
+    if key == ADHESION_SCALE:
+        return with_updates(
+            params,
+            {
+                "friction.mu_static": params.friction.mu_static * value,
+                "friction.mu_coulomb": params.friction.mu_coulomb * value,
+            },
+        )
+    return with_updates(params, {key: value})
+
+
+# -- exact derivatives ----------------------------------------------------------------
+def hopf_speed_derivative(model, p, hopf, direction: np.ndarray) -> float:
+    """dV_H/dθ [m/s per unit θ] where dp/dθ = ``direction``."""
+    if not np.any(direction):
+        return 0.0
+    num = critical_eigenvalue_derivative(model, hopf.u, hopf.speed, p, hopf.q, hopf.w, dp=direction).real
+    den = critical_eigenvalue_derivative(model, hopf.u, hopf.speed, p, hopf.q, hopf.w, dV=1.0).real
+    return -num / den
+
+
+def fold_speed_derivative(model, p, fold, direction: np.ndarray, degree: int = 4) -> float:
+    """dV_fold/dθ [m/s per unit θ] for a fold of cycles (a continuation BranchPoint)."""
+    if not np.any(direction):
+        return 0.0
+    from scipy.sparse.linalg import splu
+
+    from ..solvers.collocation import Collocation
+
+    orbit = fold.orbit
+    coll = Collocation(model, p, orbit.mesh, orbit.m)
+    X = coll.pack(orbit)
+    # bordered matrix [[G_X, G_V], [phase, 0], [r^T, 0]] with r the fold tangent (null vector of G_X)
+    tangent = fold.tangent.copy()
+    tangent[-1] = 0.0
+    border = np.vstack([coll.phase_row(orbit), tangent])
+    A = coll.sparse_matrix(X, border)
+    e = np.zeros(coll.size)
+    e[-1] = 1.0
+    psi = splu(A).solve(e, trans="T")  # psi^T A = e^T: left null vector of [G_X; phase]
+    _, _, _, vcol = coll.evaluate(X)
+    # G_p: collocation residual u' - T f(u, V, p) differentiated along the direction
+    states = coll.gauss_states(orbit)
+    gp = np.concatenate([-orbit.period * rhs_directional(model, u, orbit.speed, p, dp=direction) for u in states])
+    nc = len(gp)
+    return -float(psi[:nc] @ gp) / float(psi[:nc] @ vcol)
+
+
+# -- the analysis -----------------------------------------------------------------------
+@dataclass
+class SensitivityResult:
+    """Sensitivities of the bifurcation speeds to parameters (one row per quantity and parameter)."""
+
+    params: Params
+    method: str
+    rows: list[dict]
+    settings: dict = field(default_factory=dict)
+
+    def summary(self) -> dict:
+        return {"model": self.params.model, "method": self.method, "rows": self.rows}
+
+    def table(self):
+        """pandas DataFrame of the rows."""
+        import pandas as pd
+
+        return pd.DataFrame(self.rows)
+
+    def save(self, path) -> None:
+        """CSV (.csv) or JSON (other suffix) of the rows, with settings and version."""
+        import json
+
+        path = str(path)
+        if path.endswith(".csv"):
+            self.table().to_csv(path, index=False)
+            return
+        payload = {**self.summary(), "settings": self.settings, "polywear_version": __version__}
+        with open(path, "w") as fh:
+            json.dump(payload, fh, indent=2)
+
+    def plot(self, ax=None, quantity: str = "first_bifurcation", normalized: bool = True):
+        """Bar chart of one quantity's sensitivities, parameters ranked (the paper's Fig. 9)."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 3.5))
+        rows = [r for r in self.rows if r["quantity"] == quantity]
+        key = "normalized" if normalized else "derivative"
+        values = [(r[key] if r[key] is not None else 0.0) for r in rows]
+        order = np.argsort(-np.abs(values))
+        labels = [PARAMETER_LABELS.get(rows[i]["param"], rows[i]["param"]) for i in order]
+        heights = [values[i] for i in order]
+        colors = ["tab:red" if h > 0 else "tab:blue" for h in heights]
+        bars = ax.barh(range(len(heights)), heights, color=colors)
+        ax.set_yticks(range(len(heights)), labels, fontsize=8)
+        ax.invert_yaxis()
+        ax.axvline(0.0, color="k", lw=0.8)
+        speed = rows[0]["speed_kmh"] if rows else float("nan")
+        ax.set_title(f"{quantity.replace('_', ' ')} ({speed:.1f} km/h)", fontsize=10)
+        ax.set_xlabel("S = (p/V) dV/dp [-]" if normalized else "dV/dp [km/h per unit]")
+        return list(bars)
+
+    def figure(self, normalized: bool = True):
+        """One bar chart per bifurcation speed (the paper's Fig. 9a, 9b and the rest)."""
+        import matplotlib.pyplot as plt
+
+        quantities = list(dict.fromkeys(r["quantity"] for r in self.rows))
+        fig, axes = plt.subplots(len(quantities), 1, figsize=(7, 2.6 * len(quantities)), squeeze=False)
+        for ax, q in zip(axes[:, 0], quantities):
+            self.plot(ax, q, normalized)
+        fig.tight_layout()
+        return fig
+
+
+def _quantities(diagram: BifurcationDiagram) -> dict[str, tuple[str, object]]:
+    """name -> (kind, object): Hopf points, folds, and the SEV band bounds mapped to them."""
+    out: dict[str, tuple[str, object]] = {}
+    for k, h in enumerate(diagram.hopf_points, 1):
+        out[f"hopf_{k}"] = ("hopf", h)
+    fold_points = [pt for b in diagram.branches for label, pt, _ in b.special if label == "LP"]
+    for k, f in enumerate(fold_points, 1):
+        out[f"fold_{k}"] = ("fold", f)
+    sev = diagram.sev_band_kmh
+    if sev:
+        for name, speed in (("first_bifurcation", sev[0][0]), ("second_bifurcation", sev[-1][1])):
+            match = min(out.items(), key=lambda kv: abs(_speed_kmh(kv[1]) - speed), default=None)
+            if match is not None and abs(_speed_kmh(match[1]) - speed) < 1e-6 * max(speed, 1.0):
+                out[name] = match[1]
+    return out
+
+
+def _speed_kmh(entry) -> float:
+    kind, obj = entry
+    return obj.speed_kmh if kind == "hopf" else ms_to_kmh(obj.orbit.speed)
+
+
+def local_sensitivity(
+    params: Params,
+    keys=PAPER_PARAMETERS,
+    method: str = "exact",
+    step: float = 1e-4,
+    speed_range_kmh: tuple[float, float] = (20.0, 300.0),
+    diagram: BifurcationDiagram | None = None,
+    **diagram_options,
+) -> SensitivityResult:
+    """Sensitivity of every bifurcation speed to every parameter key.
+
+    ``step`` is relative to the nominal value (absolute where the nominal is 0) for the
+    finite-difference methods. ``diagram`` reuses a nominal diagram already computed.
+    """
+    if method not in ("exact", "central", "forward"):
+        raise ValueError(f"method = {method!r}: must be exact, central or forward")
+    if not step > 0:
+        raise ValueError(f"step = {step!r}: must be positive")
+    model = get_model(params.model)
+    p = model.pack(params)
+    diagram = diagram or bifurcation_diagram(params, speed_range_kmh, **diagram_options)
+    nominal_q = _quantities(diagram)
+    rows = []
+    for key in keys:
+        direction = parameter_direction(model, params, key)
+        p0 = nominal_value(params, key)
+        if method == "exact":
+            derivs = {}
+            for name, (kind, obj) in nominal_q.items():
+                if kind == "hopf":
+                    d = hopf_speed_derivative(model, p, obj, direction)
+                else:
+                    d = fold_speed_derivative(model, p, obj, direction)
+                derivs[name] = ms_to_kmh(d)
+        else:
+            derivs = _finite_difference(params, key, p0, method, step, speed_range_kmh, nominal_q, diagram_options)
+        for name, (kind, obj) in nominal_q.items():
+            V = _speed_kmh((kind, obj))
+            d = derivs.get(name)
+            rows.append(
+                {
+                    "quantity": name,
+                    "param": key,
+                    "nominal": p0,
+                    "speed_kmh": V,
+                    "derivative": d,
+                    "normalized": (p0 / V * d + 0.0) if (d is not None and p0 != 0.0) else None,
+                }
+            )
+    return SensitivityResult(
+        params=params,
+        method=method,
+        rows=rows,
+        settings={"step": step, "speed_range_kmh": list(speed_range_kmh), "keys": list(keys)},
+    )
+
+
+def _finite_difference(params, key, p0, method, step, speed_range_kmh, nominal_q, diagram_options):
+    """Forward or central differences of the quantities, matched by name."""
+    h = step * abs(p0) if p0 != 0.0 else step
+    plus = _quantities(bifurcation_diagram(perturbed(params, key, p0 + h), speed_range_kmh, **diagram_options))
+    if method == "forward":
+        base, lower, denom = nominal_q, None, h
+    else:
+        lower = _quantities(bifurcation_diagram(perturbed(params, key, p0 - h), speed_range_kmh, **diagram_options))
+        base, denom = None, 2.0 * h
+    out = {}
+    for name in nominal_q:
+        if name not in plus or (lower is not None and name not in lower):
+            out[name] = None  # the point disappeared under the perturbation
+            continue
+        hi = _speed_kmh(plus[name])
+        lo = _speed_kmh(lower[name]) if lower is not None else _speed_kmh(base[name])
+        out[name] = (hi - lo) / denom
+    return out
