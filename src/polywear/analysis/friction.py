@@ -768,7 +768,7 @@ def fit_steady_curve(
         rms=float(np.sqrt(np.mean(res**2))),
         r_squared=1.0 - float(np.sum(res**2)) / ss_tot if ss_tot > 0.0 else float("nan"),
         converged=bool(best.status > 0),
-        message=str(best.message),
+        message=str(best.message).rstrip("."),
         nfev=int(best.nfev),
         at_bound=at_bound,
         source=source,
