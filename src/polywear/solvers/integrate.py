@@ -127,13 +127,28 @@ class DenseOutput:
     def __call__(self, t) -> np.ndarray:
         """State at time(s) ``t`` [s]: shape (n,) for a scalar, (len(t), n) for an array."""
         t_arr = np.atleast_1d(np.asarray(t, dtype=float))
-        if t_arr.size and (t_arr.min() < self.t_min - 1e-12 or t_arr.max() > self.t_max + 1e-12):
+        out = np.empty((t_arr.size, self.coefficients.shape[2]))
+        if not _dense_eval(self.t_start, self.h, self.coefficients, t_arr, out):
             raise ValueError(f"t outside the dense-output window [{self.t_min}, {self.t_max}] s")
-        i = np.clip(np.searchsorted(self.t_start, t_arr, side="right") - 1, 0, len(self.h) - 1)
-        theta = ((t_arr - self.t_start[i]) / self.h[i])[:, None]
-        y0, y1, k1, k2 = (self.coefficients[i, j] for j in range(4))
-        out = (1.0 - theta) * y0 + theta * (y1 + (1.0 - theta) * (k1 + theta * k2))
         return out[0] if np.ndim(t) == 0 else out
+
+
+@njit(cache=True)
+def _dense_eval(t_start, h, coef, times, out):
+    """Fill ``out[i]`` with the dense output at ``times[i]``; False if a time is outside."""
+    m = h.size
+    slack = 1e-12 * max(1.0, abs(t_start[m - 1] + h[m - 1]))
+    for i in range(times.size):
+        tau = times[i]
+        if tau < t_start[0] - slack or tau > t_start[m - 1] + h[m - 1] + slack:
+            return False
+        j = min(max(np.searchsorted(t_start, tau, side="right") - 1, 0), m - 1)
+        theta = (tau - t_start[j]) / h[j]
+        for q in range(coef.shape[2]):
+            out[i, q] = (1.0 - theta) * coef[j, 0, q] + theta * (
+                coef[j, 1, q] + (1.0 - theta) * (coef[j, 2, q] + theta * coef[j, 3, q])
+            )
+    return True
 
 
 @dataclass(frozen=True)

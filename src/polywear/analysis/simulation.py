@@ -1,0 +1,536 @@
+"""Time simulation from a disturbed steady rolling state; steady state, amplitudes, phase portraits.
+
+A run starts from the equilibrium ``u_eq(V)`` plus a disturbance of the tread
+displacement ``x`` (or from any full state), is integrated by
+:func:`polywear.solvers.integrate.integrate`, and its final part is classified
+(:func:`classify_window`):
+
+``"equilibrium"``
+    every state has come back to ``u_eq`` to within ``equilibrium_rtol`` times the
+    largest deviation it had during the run, and is not moving away again;
+``"cycle"``
+    the maxima of the lead state (``x``) repeat every m-th one (m = 1 for a simple
+    cycle, more for stick-slip ringing or period doubling), there are at least
+    ``min_cycles`` such periods in the window, and the period and the maxima are
+    settled to ``cycle_rtol`` (relative to the period and to the lead state's range):
+    their change over the window plus the change still to come, extrapolated
+    geometrically from the two halves of the window (a slowly converging run near a
+    Hopf point or a fold is not taken for a cycle);
+``"transient"``
+    neither (still growing or decaying; ``steady`` is False).
+
+Amplitude of a state = half its peak-to-peak over the whole periods in the window;
+each peak is refined to the time where the state's derivative (the model's rhs)
+vanishes, by Brent's method on the continuous (dense) solution, so it does not depend
+on the output grid. Frequency = 1 / mean period between refined maxima of the lead state.
+
+Speeds are km/h at the interface, m/s inside.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from .. import __version__
+from ..models import get_model
+from ..models.base import kmh_to_ms
+from ..params import Params, get_value, to_toml, with_updates
+from ..solvers.integrate import METHODS, StepStats, integrate
+
+__all__ = [
+    "SimulationSettings",
+    "SteadyState",
+    "SimulationResult",
+    "SimulationSet",
+    "simulate",
+    "simulate_disturbances",
+    "simulate_values",
+    "classify_window",
+    "initial_state",
+    "phase_pairs",
+    "polygon_order",
+]
+
+AUX_UNITS = {"sliding_velocity": "m/s", "friction_force": "N", "normal_load": "N"}
+_PLOT_UNITS = {"m": (1e3, "mm"), "rad": (1e3, "mrad")}
+
+
+@dataclass(frozen=True)
+class SimulationSettings:
+    """Integrator and steady-state settings of a simulation."""
+
+    method: str = "rodas"
+    rtol: float = 1e-8
+    atol: float = 1e-12
+    dt_out: float = 2e-5
+    """Output grid [s] (the peaks are refined on the continuous solution, not on this grid)."""
+    lead_state: str = "x"
+    """State whose maxima define the period and the cycle test."""
+    min_cycles: int = 5
+    cycle_rtol: float = 1e-3
+    equilibrium_rtol: float = 1e-4
+    window_fraction: float = 0.5
+    """Final fraction of a run that is analysed."""
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ValueError(f"method = {self.method!r}: must be one of {', '.join(METHODS)}")
+        for name in ("rtol", "atol", "dt_out", "cycle_rtol", "equilibrium_rtol"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError(f"{name} = {value!r}: must be positive and finite")
+        if not 0.0 < self.window_fraction <= 1.0:
+            raise ValueError(f"window_fraction = {self.window_fraction!r}: must be in (0, 1]")
+        if self.min_cycles < 2:
+            raise ValueError(f"min_cycles = {self.min_cycles!r}: must be at least 2")
+
+
+@dataclass(frozen=True)
+class SteadyState:
+    """What the end of a run settled on, with amplitudes per state."""
+
+    outcome: str
+    """``"equilibrium"``, ``"cycle"`` or ``"transient"``."""
+    amplitude: np.ndarray
+    """Half peak-to-peak per state over the analysed periods [state units]."""
+    mean: np.ndarray
+    """Time average per state over the analysed periods [state units]."""
+    maximum: np.ndarray
+    minimum: np.ndarray
+    period: float
+    """Mean period of the lead state [s] (NaN at equilibrium or with too few cycles)."""
+    n_cycles: int
+    """Whole periods in the analysed window."""
+    maxima_per_period: int
+    """Maxima of the lead state per period (1 for a simple cycle)."""
+    period_change: float
+    """Relative change of the period over the window plus its extrapolated remainder
+    (NaN with < 2 periods)."""
+    amplitude_change: float
+    """The same for the lead state's per-period peak-to-peak value."""
+
+    @property
+    def steady(self) -> bool:
+        """True if the run ended on the equilibrium or on a cycle."""
+        return self.outcome != "transient"
+
+    @property
+    def frequency(self) -> float:
+        """1 / period [Hz]."""
+        return 1.0 / self.period if self.period > 0 else math.nan
+
+
+def phase_pairs(model) -> list[tuple[str, str]]:
+    """(displacement, velocity) state pairs: ``q`` and ``q + "dot"``."""
+    return [(q, q + "dot") for q in model.state_names if q + "dot" in model.state_names]
+
+
+def polygon_order(frequency_hz: float, speed_kmh: float, rolling_radius_m: float) -> float:
+    """Polygon order n = f_SEV / f_rot with f_rot = V / (2 pi R_e) [-]."""
+    return frequency_hz * 2.0 * math.pi * rolling_radius_m / float(kmh_to_ms(speed_kmh))
+
+
+def initial_state(model, p, V: float, disturbance: float = 0.0, initial=None) -> np.ndarray:
+    """Start state: ``initial`` if given, else the equilibrium with ``x`` moved by
+    ``disturbance`` [m]."""
+    if initial is not None:
+        u0 = np.array(initial, dtype=float)
+        if u0.shape != (model.n,):
+            raise ValueError(f"initial state: expected {model.n} values {model.state_names}, got {u0.shape}")
+        return u0
+    if not math.isfinite(disturbance):
+        raise ValueError(f"disturbance = {disturbance!r} m: must be finite")
+    u0 = model.equilibrium(V, p).copy()
+    u0[model.index("x")] += disturbance
+    return u0
+
+
+# -- steady-state analysis ---------------------------------------------------------------
+def _refined_extrema(model, V, p, t, s, dense, q, kind, largest=None):
+    """Times and values of the local maxima (kind = 1) or minima (-1) of state q.
+
+    Sample extrema of ``s`` on the grid ``t`` (only the ``largest`` ones by value, if
+    given) are refined by Brent's method on d u_q/dt = f_q(u(t)) = 0 with u(t) from the
+    dense output; where the derivative does not change sign over the two neighbouring
+    intervals the sample is kept.
+    """
+    from scipy.optimize import brentq
+
+    d = np.diff(kind * s)
+    idx = np.nonzero((d[:-1] > 0.0) & (d[1:] <= 0.0))[0] + 1
+    if largest is not None:
+        idx = idx[np.argsort(-kind * s[idx])[:largest]]
+    times = t[idx].copy()
+    values = s[idx].copy()
+
+    def slope(tau):
+        return model.f(dense(tau), V, p)[q]
+
+    for j, i in enumerate(idx):
+        lo, hi = t[i - 1], t[i + 1]
+        g_lo, g_hi = slope(lo), slope(hi)
+        if kind * g_lo > 0.0 > kind * g_hi:
+            tau = brentq(slope, lo, hi, xtol=1e-14, rtol=4 * np.finfo(float).eps)
+            value = dense(tau)[q]
+            if kind * value >= kind * values[j]:
+                times[j], values[j] = tau, value
+    return times, values
+
+
+def _settling_change(seq, scale, tol) -> float:
+    """Change of a per-period sequence over the window plus its geometric extrapolation,
+    relative to ``scale``: with changes s1, s2 over the two halves, rho = s2/s1 and the
+    change still to come is s2 rho / (1 - rho) (infinite if the change is not shrinking).
+    Changes in the second half below 1e-3 tol (round-off) count as settled."""
+    if len(seq) < 2:
+        return math.nan
+    mid = len(seq) // 2
+    s1, s2 = abs(seq[mid] - seq[0]), abs(seq[-1] - seq[mid])
+    spread = float(np.ptp(seq)) / scale
+    if s2 <= 1e-3 * tol * scale:
+        return spread
+    if s2 >= s1:
+        return math.inf
+    rho = s2 / s1
+    return spread + s2 * rho / (1.0 - rho) / scale
+
+
+def _maxima_per_period(t_max, v_max, span, tol, most=20) -> int:
+    """Smallest m for which the maxima repeat every m-th one (value to tol * span, time
+    to tol); 1 if none does. m > 1: a cycle with several maxima per period (stick-slip
+    ringing, period doubling)."""
+    for m in range(1, min(most, (len(t_max) - 1) // 2) + 1):
+        periods = t_max[m:] - t_max[:-m]
+        if (np.abs(v_max[m:] - v_max[:-m]).max() < tol * span
+                and np.ptp(periods) < tol * periods.mean()):
+            return m
+    return 1
+
+
+def classify_window(model, V, p, t, u, dense, u_eq, deviation_scale, settings: SimulationSettings) -> SteadyState:
+    """Classify the window ``t, u`` (grid samples, with its dense output) of a run.
+
+    ``deviation_scale`` (n,) is the largest ``|u - u_eq|`` per state seen during the run.
+    """
+    n = model.n
+    dev = np.abs(u - u_eq)
+    half = len(t) // 2
+    last, previous = dev[half:].max(axis=0), dev[: max(half, 1)].max(axis=0)
+    lead = model.index(settings.lead_state)
+    nan = np.full(n, np.nan)
+    if np.all(last <= settings.equilibrium_rtol * deviation_scale) and np.all(last <= previous):
+        return SteadyState(
+            outcome="equilibrium", amplitude=0.5 * np.ptp(u[half:], axis=0), mean=u[half:].mean(axis=0),
+            maximum=u[half:].max(axis=0), minimum=u[half:].min(axis=0), period=math.nan,
+            n_cycles=0, maxima_per_period=0, period_change=math.nan, amplitude_change=math.nan,
+        )
+    s = u[:, lead]
+    span = float(np.ptp(s))
+    t_max, v_max = _refined_extrema(model, V, p, t, s, dense, lead, 1)
+    m = _maxima_per_period(t_max, v_max, span, settings.cycle_rtol) if len(t_max) > 2 else 1
+    n_cycles = max(len(t_max) - 1, 0) // m
+    if n_cycles < 1:
+        return SteadyState("transient", nan, u.mean(axis=0), u.max(axis=0), u.min(axis=0),
+                           math.nan, 0, m, math.nan, math.nan)
+    first = len(t_max) - 1 - n_cycles * m  # whole periods ending at the last maximum
+    t_max, v_max = t_max[first:], v_max[first:]
+    periods = t_max[m:] - t_max[:-m]
+    period_change = _settling_change(periods, periods.mean(), settings.cycle_rtol)
+    amplitude_change = max(_settling_change(v_max[j::m], span, settings.cycle_rtol) for j in range(m))
+    steady_cycle = (
+        n_cycles >= settings.min_cycles
+        and period_change < settings.cycle_rtol
+        and amplitude_change < settings.cycle_rtol
+    )
+    # every state over the whole periods [t_max[0], t_max[-1]]: its extreme values are
+    # among the refinements of the few most extreme samples
+    inside = (t >= t_max[0]) & (t <= t_max[-1])
+    maximum, minimum = np.empty(n), np.empty(n)
+    for q in range(n):
+        for kind, out in ((1, maximum), (-1, minimum)):
+            _, vq = _refined_extrema(model, V, p, t[inside], u[inside, q], dense, q, kind, largest=3)
+            sample = kind * u[inside, q]
+            out[q] = kind * max(sample.max(), (kind * vq).max() if len(vq) else -np.inf)
+    tw = t[inside]
+    mean = np.trapezoid(u[inside], tw, axis=0) / (tw[-1] - tw[0]) if tw[-1] > tw[0] else u[inside].mean(axis=0)
+    return SteadyState(
+        outcome="cycle" if steady_cycle else "transient",
+        amplitude=0.5 * (maximum - minimum), mean=mean, maximum=maximum, minimum=minimum,
+        period=float((t_max[-1] - t_max[0]) / n_cycles), n_cycles=n_cycles, maxima_per_period=m,
+        period_change=float(period_change), amplitude_change=float(amplitude_change),
+    )
+
+
+# -- results -----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class SimulationResult:
+    """One simulation run: inputs, settings, time series, steady state."""
+
+    params: Params
+    speed_kmh: float
+    duration_s: float
+    initial: np.ndarray
+    equilibrium: np.ndarray
+    settings: SimulationSettings
+    t: np.ndarray
+    u: np.ndarray
+    aux: np.ndarray
+    steady: SteadyState
+    stats: StepStats
+    label: str = ""
+    version: str = __version__
+
+    @property
+    def model(self):
+        return get_model(self.params.model)
+
+    @property
+    def polygon_order(self) -> float:
+        """n = f_SEV / f_rot [-] (NaN without a frequency)."""
+        return polygon_order(self.steady.frequency, self.speed_kmh, self.params.operating.rolling_radius_m)
+
+    def summary(self) -> dict:
+        """JSON-ready summary: model, speed, per-state amplitude, frequency, steady flag, n."""
+        names = self.model.state_names
+        st = self.steady
+        return {
+            "model": self.params.model,
+            "speed_kmh": self.speed_kmh,
+            "duration_s": self.duration_s,
+            **({"label": self.label} if self.label else {}),
+            "outcome": st.outcome,
+            "steady_state": st.steady,
+            "amplitude": {q: _finite(a) for q, a in zip(names, st.amplitude)},
+            "units": dict(zip(names, self.model.state_units)),
+            "frequency_hz": _finite(st.frequency),
+            "polygon_order": _finite(self.polygon_order),
+            "cycles_analysed": st.n_cycles,
+            "steps": {"accepted": self.stats.accepted, "rejected": self.stats.rejected},
+        }
+
+    def to_dataset(self):
+        """xarray Dataset: states and diagnostics against time, steady-state values per state."""
+        import xarray as xr
+
+        model = self.model
+        data = {
+            q: ("time", self.u[:, i], {"units": unit})
+            for i, (q, unit) in enumerate(zip(model.state_names, model.state_units))
+        }
+        for j, name in enumerate(model.aux_names):
+            data[name] = ("time", self.aux[:, j], {"units": AUX_UNITS.get(name, "")})
+        st = self.steady
+        for name, values in (("amplitude", st.amplitude), ("mean", st.mean), ("maximum", st.maximum),
+                             ("minimum", st.minimum), ("initial", self.initial),
+                             ("equilibrium", self.equilibrium)):
+            data[name] = ("state", values, {"units": " ".join(model.state_units)})
+        ds = xr.Dataset(
+            data,
+            coords={"time": ("time", self.t, {"units": "s"}), "state": list(model.state_names)},
+            attrs={
+                "model": self.params.model,
+                "speed_kmh": self.speed_kmh,
+                "duration_s": self.duration_s,
+                "label": self.label,
+                "outcome": st.outcome,
+                "steady_state": int(st.steady),
+                "frequency_hz": st.frequency,
+                "period_s": st.period,
+                "polygon_order": self.polygon_order,
+                "cycles_analysed": st.n_cycles,
+                "maxima_per_period": st.maxima_per_period,
+                "period_change": st.period_change,
+                "amplitude_change": st.amplitude_change,
+                "steps_accepted": -1 if self.stats.accepted is None else self.stats.accepted,
+                "steps_rejected": -1 if self.stats.rejected is None else self.stats.rejected,
+                "rhs_evaluations": self.stats.rhs_evals,
+                "settings": json.dumps(asdict(self.settings)),
+                "params_toml": to_toml(self.params),
+                "polywear_version": self.version,
+            },
+        )
+        return ds
+
+    def save(self, path) -> None:
+        """Write :meth:`to_dataset` as netCDF (h5netcdf)."""
+        self.to_dataset().to_netcdf(path, engine="h5netcdf")
+
+    def plot(self, ax=None, pairs=None, **line_kw):
+        """Phase portraits, one axes per (displacement, velocity) pair. Returns the artists.
+
+        ``ax``: one Axes (with one pair) or a sequence of Axes, one per pair; by default a
+        new figure. The start is marked with a dot.
+        """
+        return _phase_portraits([self], ax, pairs, **line_kw)
+
+
+@dataclass(frozen=True)
+class SimulationSet:
+    """Several runs that differ in one thing (disturbance or a parameter value)."""
+
+    runs: tuple[SimulationResult, ...]
+    label: str
+    """What differs: ``"disturbance_m"`` or a configuration key."""
+    values: tuple = field(default=())
+
+    def summary(self) -> dict:
+        return {"varied": self.label, "values": list(self.values), "runs": [r.summary() for r in self.runs]}
+
+    def to_dataset(self):
+        """The runs' datasets stacked along ``run`` (the varied value as coordinate)."""
+        import xarray as xr
+
+        sets = [r.to_dataset() for r in self.runs]
+        if any(len(ds.time) != len(sets[0].time) for ds in sets):
+            raise ValueError("runs of different length cannot be stacked")
+        per_run = ("speed_kmh", "label", "outcome", "steady_state", "frequency_hz", "period_s",
+                   "polygon_order", "cycles_analysed", "maxima_per_period", "period_change", "amplitude_change",
+                   "steps_accepted", "steps_rejected", "rhs_evaluations", "params_toml")
+        stacked = xr.concat([ds.drop_attrs() for ds in sets], dim="run")
+        for key in per_run:
+            values = [ds.attrs[key] for ds in sets]
+            stacked[key] = ("run", np.asarray(values))
+        for name in stacked.data_vars:
+            if name in sets[0]:
+                stacked[name].attrs = sets[0][name].attrs
+        stacked = stacked.assign_coords(run=("run", np.asarray(self.values, dtype=float)))
+        stacked.attrs = {
+            "varied": self.label, "model": sets[0].attrs["model"],
+            "settings": sets[0].attrs["settings"], "polywear_version": sets[0].attrs["polywear_version"],
+            "duration_s": sets[0].attrs["duration_s"],
+        }
+        return stacked
+
+    def save(self, path) -> None:
+        """Write :meth:`to_dataset` as netCDF (h5netcdf)."""
+        self.to_dataset().to_netcdf(path, engine="h5netcdf")
+
+    def plot(self, ax=None, pairs=None, **line_kw):
+        """Overlaid phase portraits of all runs, one axes per pair. Returns the artists."""
+        return _phase_portraits(list(self.runs), ax, pairs, **line_kw)
+
+
+def _finite(value):
+    return float(value) if np.isfinite(value) else None
+
+
+def _phase_portraits(runs, ax, pairs, **line_kw):
+    import matplotlib.pyplot as plt
+
+    model = runs[0].model
+    pairs = phase_pairs(model) if pairs is None else list(pairs)
+    if ax is None:
+        cols = min(len(pairs), 2)
+        rows = math.ceil(len(pairs) / cols)
+        _, axes = plt.subplots(rows, cols, figsize=(5.0 * cols, 4.2 * rows), squeeze=False)
+        axes = list(axes.ravel())
+        for extra in axes[len(pairs):]:
+            extra.set_visible(False)
+    else:
+        axes = list(np.atleast_1d(ax))
+    if len(axes) < len(pairs):
+        raise ValueError(f"{len(pairs)} phase pairs {pairs} need as many axes, got {len(axes)}")
+    artists = []
+    for axis, (q, qd) in zip(axes, pairs):
+        i, j = model.index(q), model.index(qd)
+        fx, ux = _PLOT_UNITS.get(model.state_units[i], (1.0, model.state_units[i]))
+        fy, uy = _PLOT_UNITS.get(model.state_units[j], (1.0, model.state_units[j]))
+        for k, run in enumerate(runs):
+            color = f"C{k % 10}"
+            kw = {"lw": 0.6, "color": color, **line_kw}
+            artists += axis.plot(fx * run.u[:, i], fy * run.u[:, j], label=run.label or None, **kw)
+            artists += axis.plot(fx * run.u[0, i], fy * run.u[0, j], "o", ms=3, color=kw["color"])
+        axis.set_xlabel(f"{q} [{ux}]")
+        axis.set_ylabel(f"{qd} [{uy}]")
+        axis.set_title(f"{q}: phase portrait")
+        if any(run.label for run in runs):
+            axis.legend(fontsize=7, loc="best")
+    first = runs[0]
+    axes[0].figure.suptitle(f"{first.params.model} at {first.speed_kmh:g} km/h", fontsize=10)
+    return artists
+
+
+# -- running -----------------------------------------------------------------------------
+def _run(params: Params, speed_kmh, duration_s, disturbance, initial, settings, label):
+    model = get_model(params.model)
+    p = model.pack(params)
+    speed_kmh = float(params.operating.speed_kmh if speed_kmh is None else speed_kmh)
+    if not (math.isfinite(duration_s) and duration_s > 0.0):
+        raise ValueError(f"duration = {duration_s!r} s: must be positive and finite")
+    V = float(kmh_to_ms(speed_kmh))
+    u_eq = model.equilibrium(V, p)
+    u0 = initial_state(model, p, V, disturbance, initial)
+    window_start = (1.0 - settings.window_fraction) * duration_s
+    traj = integrate(model, u0, V, p, duration_s, dt_out=settings.dt_out, rtol=settings.rtol,
+                     atol=settings.atol, method=settings.method, dense_from=window_start)
+    in_window = traj.t >= window_start
+    deviation_scale = np.abs(traj.u - u_eq).max(axis=0)
+    steady = classify_window(model, V, p, traj.t[in_window], traj.u[in_window], traj.dense, u_eq,
+                             deviation_scale, settings)
+    return SimulationResult(
+        params=params, speed_kmh=speed_kmh, duration_s=float(duration_s), initial=u0,
+        equilibrium=u_eq, settings=settings, t=traj.t, u=traj.u,
+        aux=model.diagnostics(traj.u, V, p), steady=steady, stats=traj.stats, label=label,
+    )
+
+
+def simulate(
+    params: Params,
+    speed_kmh: float | None = None,
+    duration_s: float = 1.0,
+    *,
+    disturbance: float = 1e-4,
+    initial=None,
+    settings: SimulationSettings = SimulationSettings(),
+) -> SimulationResult:
+    """Simulate ``duration_s`` [s] at ``speed_kmh`` [km/h] (default: operating.speed_kmh).
+
+    Starts from the equilibrium with the tread displacement ``x`` moved by
+    ``disturbance`` [m], or from the full state ``initial`` if given; the last
+    ``settings.window_fraction`` of the run decides the steady state.
+    """
+    return _run(params, speed_kmh, duration_s, disturbance, initial, settings, "")
+
+
+def simulate_disturbances(
+    params: Params,
+    disturbances,
+    speed_kmh: float | None = None,
+    duration_s: float = 1.0,
+    *,
+    settings: SimulationSettings = SimulationSettings(),
+    on_run=None,
+) -> SimulationSet:
+    """One run per disturbance of ``x`` [m] (the paper's Fig. 5); ``on_run()`` after each."""
+    runs = []
+    for d in disturbances:
+        runs.append(_run(params, speed_kmh, duration_s, float(d), None, settings, f"x0 + {d * 1e3:g} mm"))
+        if on_run:
+            on_run()
+    return SimulationSet(tuple(runs), "disturbance_m", tuple(float(d) for d in disturbances))
+
+
+def simulate_values(
+    params: Params,
+    key: str,
+    values,
+    speed_kmh: float | None = None,
+    duration_s: float = 1.0,
+    *,
+    disturbance: float = 1e-4,
+    settings: SimulationSettings = SimulationSettings(),
+    on_run=None,
+) -> SimulationSet:
+    """One run per value of the configuration ``key`` (the paper's Figs. 7 and 8)."""
+    get_value(params, key)  # an unknown key fails here, before any run
+    runs = []
+    for v in values:
+        varied = with_updates(params, {key: v})
+        runs.append(_run(varied, speed_kmh, duration_s, disturbance, None, settings, f"{key} = {v:g}"))
+        if on_run:
+            on_run()
+    return SimulationSet(tuple(runs), key, tuple(float(v) for v in values))

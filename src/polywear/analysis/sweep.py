@@ -1,0 +1,263 @@
+"""Brute-force bifurcation diagram: run to steady state at each speed (the paper's way).
+
+Four kinds of start at every speed of a list:
+
+``"small"``  the equilibrium with ``x`` moved by a small disturbance;
+``"large"``  the equilibrium with ``x`` moved by a large disturbance;
+``"up"``     the final state of the next lower speed (speeds increasing);
+``"down"``   the final state of the next higher speed (speeds decreasing).
+
+The two chains start at their first speed from the small disturbance. Where stable
+steady rolling and a stable cycle coexist (hard excitation) the small and large starts
+end differently, and the up and down chains show the hysteresis.
+
+Each run (:func:`settle`) integrates in chunks, continuing from the end of the last, and
+stops when :func:`polywear.analysis.simulation.classify_window` finds the equilibrium or
+a cycle in the latest chunk, or when ``max_duration_s`` is used up (``steady`` False).
+:func:`settle` is a pure function of picklable inputs, so the independent runs can be
+handed to any ``map`` (a process pool's, a Dask client's).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from .. import __version__
+from ..models import get_model
+from ..models.base import kmh_to_ms
+from ..params import Params, to_toml
+from ..solvers.integrate import integrate
+from .simulation import SimulationSettings, classify_window, initial_state
+
+__all__ = ["START_TYPES", "SteadyRun", "SweepResult", "settle", "sweep"]
+
+START_TYPES = ("small", "large", "up", "down")
+_MARKERS = {"small": ("o", "C0"), "large": ("s", "C3"), "up": ("^", "C2"), "down": ("v", "C1")}
+
+
+@dataclass(frozen=True)
+class SteadyRun:
+    """Where one run from one start settled."""
+
+    speed_kmh: float
+    start: str
+    outcome: str
+    """``"equilibrium"``, ``"cycle"`` or ``"transient"`` (not settled in time)."""
+    amplitude: np.ndarray
+    mean: np.ndarray
+    maximum: np.ndarray
+    minimum: np.ndarray
+    frequency_hz: float
+    duration_s: float
+    """Time simulated until the steady state was recognized [s]."""
+    final_state: np.ndarray
+
+    @property
+    def steady(self) -> bool:
+        return self.outcome != "transient"
+
+
+def settle(
+    params: Params,
+    speed_kmh: float,
+    initial,
+    *,
+    start: str = "",
+    settings: SimulationSettings = SimulationSettings(),
+    chunk_s: float = 0.25,
+    max_duration_s: float = 4.0,
+) -> SteadyRun:
+    """Integrate from ``initial`` at ``speed_kmh`` [km/h] in chunks of ``chunk_s`` [s]
+    until the latest chunk is at the equilibrium or on a cycle, at most ``max_duration_s``."""
+    if not (chunk_s > 0.0 and max_duration_s >= chunk_s):
+        raise ValueError(f"chunk_s = {chunk_s!r}, max_duration_s = {max_duration_s!r}: need 0 < chunk <= max")
+    model = get_model(params.model)
+    p = model.pack(params)
+    V = float(kmh_to_ms(speed_kmh))
+    u_eq = model.equilibrium(V, p)
+    u = np.array(initial, dtype=float)
+    scale = np.abs(u - u_eq)
+    h0 = None
+    elapsed = 0.0
+    while True:
+        traj = integrate(model, u, V, p, chunk_s, dt_out=settings.dt_out, rtol=settings.rtol,
+                         atol=settings.atol, method=settings.method, dense_from=0.0, h0=h0)
+        scale = np.maximum(scale, np.abs(traj.u - u_eq).max(axis=0))
+        steady = classify_window(model, V, p, traj.t, traj.u, traj.dense, u_eq, scale, settings)
+        elapsed += chunk_s
+        u, h0 = traj.u_end, traj.h_last
+        if steady.steady or elapsed + chunk_s > max_duration_s * (1.0 + 1e-12):
+            break
+    return SteadyRun(
+        speed_kmh=float(speed_kmh), start=start, outcome=steady.outcome, amplitude=steady.amplitude,
+        mean=steady.mean, maximum=steady.maximum, minimum=steady.minimum,
+        frequency_hz=steady.frequency, duration_s=elapsed, final_state=u.copy(),
+    )
+
+
+def _settle_job(job) -> SteadyRun:
+    """``settle`` for one (params, speed, start, disturbance, settings, chunk, max) tuple."""
+    params, speed_kmh, start, disturbance, settings, chunk_s, max_duration_s = job
+    model = get_model(params.model)
+    p = model.pack(params)
+    u0 = initial_state(model, p, float(kmh_to_ms(speed_kmh)), disturbance)
+    return settle(params, speed_kmh, u0, start=start, settings=settings, chunk_s=chunk_s,
+                  max_duration_s=max_duration_s)
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """Steady states against speed for each kind of start."""
+
+    params: Params
+    speeds_kmh: np.ndarray
+    runs: dict
+    """start type -> list of :class:`SteadyRun`, one per speed (ascending)."""
+    small: float
+    large: float
+    settings: SimulationSettings
+    chunk_s: float
+    max_duration_s: float
+    version: str = __version__
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        return get_model(self.params.model).state_names
+
+    def _field(self, name):
+        return np.array([[getattr(r, name) for r in self.runs[s]] for s in START_TYPES])
+
+    def summary(self) -> dict:
+        """JSON-ready: per start type and speed the outcome, amplitudes and frequency."""
+        names = self.state_names
+        return {
+            "model": self.params.model,
+            "speeds_kmh": self.speeds_kmh.tolist(),
+            "disturbances_m": {"small": self.small, "large": self.large},
+            "runs": {
+                s: [
+                    {
+                        "speed_kmh": r.speed_kmh,
+                        "outcome": r.outcome,
+                        "amplitude": {q: float(a) if np.isfinite(a) else None for q, a in zip(names, r.amplitude)},
+                        "frequency_hz": r.frequency_hz if np.isfinite(r.frequency_hz) else None,
+                        "duration_s": r.duration_s,
+                    }
+                    for r in self.runs[s]
+                ]
+                for s in START_TYPES
+            },
+        }
+
+    def to_dataset(self):
+        """xarray Dataset over (start, speed_kmh, state)."""
+        import xarray as xr
+
+        model = get_model(self.params.model)
+        units = " ".join(model.state_units)
+        data = {
+            name: (("start", "speed_kmh", "state"), self._field(name), {"units": units})
+            for name in ("amplitude", "mean", "maximum", "minimum", "final_state")
+        }
+        data["frequency_hz"] = (("start", "speed_kmh"), self._field("frequency_hz"), {"units": "Hz"})
+        data["duration_s"] = (("start", "speed_kmh"), self._field("duration_s"), {"units": "s"})
+        data["outcome"] = (("start", "speed_kmh"), self._field("outcome").astype(str))
+        data["steady"] = (("start", "speed_kmh"), self._field("steady").astype(np.int8))
+        return xr.Dataset(
+            data,
+            coords={"start": list(START_TYPES), "speed_kmh": ("speed_kmh", self.speeds_kmh, {"units": "km/h"}),
+                    "state": list(model.state_names)},
+            attrs={
+                "model": self.params.model,
+                "small_disturbance_m": self.small,
+                "large_disturbance_m": self.large,
+                "chunk_s": self.chunk_s,
+                "max_duration_s": self.max_duration_s,
+                "settings": json.dumps(asdict(self.settings)),
+                "params_toml": to_toml(self.params),
+                "polywear_version": self.version,
+            },
+        )
+
+    def save(self, path) -> None:
+        """Write :meth:`to_dataset` as netCDF (h5netcdf)."""
+        self.to_dataset().to_netcdf(path, engine="h5netcdf")
+
+    def plot(self, ax=None, state: str = "x"):
+        """Amplitude of ``state`` against speed, one marker per start type (hollow: not
+        settled). Returns the artists."""
+        import matplotlib.pyplot as plt
+
+        model = get_model(self.params.model)
+        q = model.index(state)
+        unit = model.state_units[q]
+        factor, unit = (1e3, "mm") if unit == "m" else (1e3, "mrad") if unit == "rad" else (1.0, unit)
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 4))
+        artists = []
+        for s in START_TYPES:
+            marker, color = _MARKERS[s]
+            runs = self.runs[s]
+            amp = np.array([factor * r.amplitude[q] for r in runs])
+            speed = np.array([r.speed_kmh for r in runs])
+            steady = np.array([r.steady for r in runs])
+            artists += ax.plot(speed[steady], amp[steady], marker, color=color, ms=5, alpha=0.8,
+                               ls="none", label=f"{s} start")
+            if (~steady).any():
+                artists += ax.plot(speed[~steady], amp[~steady], marker, mfc="none", color=color, ms=5,
+                                   ls="none")
+        ax.set_xlabel("speed [km/h]")
+        ax.set_ylabel(f"{state} amplitude [{unit}]")
+        ax.set_title(f"{self.params.model}: steady amplitude by brute-force sweep "
+                     f"(small {self.small * 1e3:g} mm, large {self.large * 1e3:g} mm)", fontsize=9)
+        ax.legend(fontsize=8)
+        return artists
+
+
+def sweep(
+    params: Params,
+    speeds_kmh,
+    *,
+    small: float = 1e-5,
+    large: float = 1e-3,
+    settings: SimulationSettings = SimulationSettings(),
+    chunk_s: float = 0.25,
+    max_duration_s: float = 4.0,
+    map=map,  # noqa: A002 - the builtin is the default executor
+    on_run=None,
+) -> SweepResult:
+    """Steady states at each speed [km/h] from small and large disturbances of ``x`` [m]
+    and along increasing and decreasing speed. ``map`` runs the independent small/large
+    starts (e.g. a process pool's ``map``); ``on_run()`` is called after every run."""
+    speeds = np.unique(np.asarray(speeds_kmh, dtype=float))
+    if speeds.size == 0 or not np.all(np.isfinite(speeds)) or speeds[0] <= 0.0:
+        raise ValueError(f"speeds {speeds_kmh!r}: need at least one positive finite speed [km/h]")
+    for name, value in (("small", small), ("large", large)):
+        if not (math.isfinite(value) and value != 0.0):
+            raise ValueError(f"{name} disturbance = {value!r} m: must be finite and non-zero")
+    jobs = [(params, v, s, d, settings, chunk_s, max_duration_s)
+            for s, d in (("small", small), ("large", large)) for v in speeds]
+    independent = []
+    for run in map(_settle_job, jobs):
+        independent.append(run)
+        if on_run:
+            on_run()
+    runs = {"small": independent[: speeds.size], "large": independent[speeds.size:]}
+    for start, order in (("up", speeds), ("down", speeds[::-1])):
+        chain = []
+        for i, v in enumerate(order):
+            if i == 0:
+                run = _settle_job((params, v, start, small, settings, chunk_s, max_duration_s))
+            else:
+                run = settle(params, v, chain[-1].final_state, start=start, settings=settings,
+                             chunk_s=chunk_s, max_duration_s=max_duration_s)
+            chain.append(run)
+            if on_run:
+                on_run()
+        runs[start] = sorted(chain, key=lambda r: r.speed_kmh)
+    return SweepResult(params=params, speeds_kmh=speeds, runs=runs, small=float(small), large=float(large),
+                       settings=settings, chunk_s=float(chunk_s), max_duration_s=float(max_duration_s))
