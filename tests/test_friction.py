@@ -42,6 +42,8 @@ from polywear.physics.lugre import (
     stribeck_dv,
 )
 
+from .cli_runner import run_main
+
 ROOT = Path(__file__).resolve().parents[1]
 FAST = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 SLOWISH = settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -527,11 +529,11 @@ BAD_CSV = {
 
 
 @pytest.mark.parametrize("case", sorted(BAD_CSV))
-def test_bad_csv_is_one_line_error_exit_2(case, tmp_path, run_cli):
+def test_bad_csv_is_one_line_error_exit_2(case, tmp_path):
     text, fragment = BAD_CSV[case]
     path = tmp_path / f"{case}.csv"
     path.write_text(text)
-    code, out, err = run_cli(["friction", "fit", str(path)])
+    code, out, err = run_main(["friction", "fit", str(path)])
     assert code == 2
     assert out == ""
     assert err.startswith("error: ") and err.count("\n") == 1 and fragment in err, err
@@ -550,26 +552,8 @@ def test_csv_extra_columns_comments_and_column_order(tmp_path):
 # -- CLI --------------------------------------------------------------------------------------
 
 
-@pytest.fixture
-def run_cli(monkeypatch, capsys):
-    """Run the real entry point (polywear.cli.app.main) in-process: (exit code, stdout, stderr)."""
-    from polywear.cli.app import main
-
-    def run(args):
-        monkeypatch.setattr(sys, "argv", ["polywear", *args])
-        try:
-            main()
-            code = 0
-        except SystemExit as exc:
-            code = exc.code if isinstance(exc.code, int) else 1
-        captured = capsys.readouterr()
-        return code, captured.out, captured.err
-
-    return run
-
-
-def test_cli_curve_json(run_cli):
-    code, out, _ = run_cli(["friction", "curve", "--json", "-s", "operating.toe_deg=1.0"])
+def test_cli_curve_json():
+    code, out, _ = run_main(["friction", "curve", "--json", "-s", "operating.toe_deg=1.0"])
     assert code == 0
     summary = json.loads(out)
     v_op = 110 / 3.6 * math.sin(math.radians(1.0))
@@ -579,8 +563,8 @@ def test_cli_curve_json(run_cli):
     assert summary["falling_branch_m_per_s"] == pytest.approx(list(falling_branch(Friction())))
 
 
-def test_cli_loops_plot_out_json(run_cli, tmp_path):
-    code, out, err = run_cli(["friction", "loops", "--frequencies", "1,100", "--v-mean", "0.3",
+def test_cli_loops_plot_out_json(tmp_path):
+    code, out, err = run_main(["friction", "loops", "--frequencies", "1,100", "--v-mean", "0.3",
                               "--points", "40", "--plot", str(tmp_path / "l.png"), "--out", str(tmp_path / "l.nc"),
                               "--json"])
     assert code == 0, err
@@ -589,9 +573,9 @@ def test_cli_loops_plot_out_json(run_cli, tmp_path):
     assert (tmp_path / "l.png").stat().st_size > 0 and (tmp_path / "l.nc").stat().st_size > 0
 
 
-def test_cli_fit_sample_writes_a_loadable_parameter_file(run_cli, tmp_path):
+def test_cli_fit_sample_writes_a_loadable_parameter_file(tmp_path):
     out_file = tmp_path / "fitted.toml"
-    code, out, err = run_cli(["friction", "fit", "--sample", "-s", "tread.mass_kg=2", "--out", str(out_file),
+    code, out, err = run_main(["friction", "fit", "--sample", "-s", "tread.mass_kg=2", "--out", str(out_file),
                               "--json"])
     assert code == 0, err
     summary = json.loads(out)
@@ -602,8 +586,8 @@ def test_cli_fit_sample_writes_a_loadable_parameter_file(run_cli, tmp_path):
     assert summary["converged"] and summary["n_points"] == 60
 
 
-def test_cli_fit_fix_and_text_output(run_cli):
-    code, out, _ = run_cli(["friction", "fit", "--sample", "--fix", "stribeck_exponent", "-s",
+def test_cli_fit_fix_and_text_output():
+    code, out, _ = run_main(["friction", "fit", "--sample", "--fix", "stribeck_exponent", "-s",
                             "friction.stribeck_exponent=1.6"])
     assert code == 0
     assert re.search(r"stribeck_exponent\s+1\.6\s+\(fixed\)", out)
@@ -618,8 +602,8 @@ def test_cli_fit_fix_and_text_output(run_cli):
     (["friction", "loops", "--frequencies", "5,-1"], "frequencies"),
     (["friction", "curve", "-s", "friction.mu_coulomb=2"], "friction.mu_coulomb"),
 ])
-def test_cli_user_errors(run_cli, args, fragment):
-    code, out, err = run_cli(args)
+def test_cli_user_errors(args, fragment):
+    code, out, err = run_main(args)
     assert code == 2 and out == ""
     assert err.startswith("error: ") and err.count("\n") == 1 and fragment in err, err
 

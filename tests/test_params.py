@@ -1,0 +1,309 @@
+"""Parameter sets: the MODEL.md section 6 table, TOML round trips, validation messages."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+import typing
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from polywear.params import (
+    ParameterError,
+    Params,
+    default_toml,
+    flat_items,
+    get_value,
+    load_params,
+    parse_override,
+    to_toml,
+    with_updates,
+)
+
+# MODEL.md section 6, typed in by hand: the oracle for keys and defaults.
+SPEC_DEFAULTS = {
+    "model": "tread1dof",
+    "operating.speed_kmh": 110.0,
+    "operating.toe_deg": 0.5,
+    "operating.camber_deg": -1.0,
+    "operating.vertical_load_n": 4000.0,
+    "operating.rolling_radius_m": 0.30,
+    "tread.mass_kg": 1.0,
+    "tread.lateral_stiffness_n_per_m": 1.0e6,
+    "tread.lateral_damping_ns_per_m": 80.0,
+    "friction.sigma0_per_m": 400.0,
+    "friction.sigma1_s_per_m": 0.05,
+    "friction.sigma2_s_per_m": 0.002,
+    "friction.mu_static": 0.9,
+    "friction.mu_coulomb": 0.5,
+    "friction.stribeck_velocity_m_per_s": 0.25,
+    "friction.stribeck_exponent": 2.0,
+    "axle.inertia_x_kgm2": 2.0,
+    "axle.inertia_y_kgm2": 8.0,
+    "axle.inertia_z_kgm2": 8.0,
+    "axle.toe_stiffness_nm_per_rad": 2.58e5,
+    "axle.toe_damping_nms_per_rad": 1440.0,
+    "axle.camber_stiffness_nm_per_rad": 3.44e5,
+    "axle.camber_damping_nms_per_rad": 830.0,
+    "axle.pitch_stiffness_nm_per_rad": 5.06e3,
+    "axle.pitch_damping_nms_per_rad": 304.0,
+    "axle.arm_length_m": 0.45,
+    "axle.lateral_offset_m": 0.0,
+    "axle.pivot_height_m": 0.30,
+    "axle.camber_thrust_factor": 0.1,
+    "axle.wheel_spin_inertia_kgm2": 0.0,
+    "axle.reference": "running",
+    "tire.vertical_stiffness_n_per_m": 2.0e5,
+    "tire.vertical_damping_ns_per_m": 100.0,
+}
+CHOICES = {"model": ("tread1dof", "axle4dof"), "axle.reference": ("running", "unloaded")}
+NUMERIC_KEYS = [k for k, v in SPEC_DEFAULTS.items() if isinstance(v, float)]
+
+
+@pytest.mark.parametrize("key", sorted(SPEC_DEFAULTS))
+def test_every_spec_key_exists_with_its_default(key):
+    value = get_value(Params(), key)
+    assert value == SPEC_DEFAULTS[key] and type(value) is type(SPEC_DEFAULTS[key])
+
+
+def test_no_key_outside_the_spec_table():
+    """A key that MODEL.md section 6 does not list must be added there (and here) first."""
+    keys = [key for key, _, _ in flat_items(Params())]
+    assert len(keys) == len(set(keys))
+    assert set(keys) == set(SPEC_DEFAULTS), set(keys) ^ set(SPEC_DEFAULTS)
+
+
+def test_every_key_has_a_description_with_a_unit_or_choice():
+    for key, _, description in flat_items(Params()):
+        assert description, key
+        if key in NUMERIC_KEYS:
+            assert "[" in description and "]" in description, f"{key}: no [unit] in {description!r}"
+
+
+def test_choices_are_accepted():
+    for key, options in CHOICES.items():
+        for option in options:
+            assert get_value(with_updates(Params(), {key: option}), key) == option
+
+
+# -- random valid parameter sets -------------------------------------------------------------
+
+
+def _bounds(key: str) -> dict[str, float | bool]:
+    """Hypothesis float bounds from the field's own numeric rules (gt/ge/lt/le)."""
+    table, name = key.split(".")
+    field = type(getattr(Params(), table)).model_fields[name]
+    out: dict[str, float | bool] = {"allow_nan": False, "allow_infinity": False}
+    for rule in field.metadata:
+        for attr, bound, exclude in (("gt", "min_value", True), ("ge", "min_value", False),
+                                     ("lt", "max_value", True), ("le", "max_value", False)):
+            if getattr(rule, attr, None) is not None:
+                out[bound] = float(getattr(rule, attr))
+                out[f"exclude_{bound[:3]}"] = exclude
+    out.setdefault("min_value", -1e12)
+    out.setdefault("max_value", 1e12)
+    return out
+
+
+@st.composite
+def valid_updates(draw) -> dict[str, typing.Any]:
+    """A full, valid set of {key: value} (mu_coulomb drawn below mu_static)."""
+    updates: dict[str, typing.Any] = {key: draw(st.sampled_from(options)) for key, options in CHOICES.items()}
+    for key in NUMERIC_KEYS:
+        if key != "friction.mu_coulomb":
+            updates[key] = draw(st.floats(**_bounds(key)))
+    mu_s = updates["friction.mu_static"]
+    updates["friction.mu_coulomb"] = draw(st.floats(0.0, mu_s, exclude_min=True))
+    return updates
+
+
+@settings(max_examples=150, deadline=None)
+@given(updates=valid_updates(), comments=st.booleans())
+def test_toml_round_trip_is_the_identity(updates, comments, tmp_path_factory):
+    params = with_updates(Params(), updates)
+    for key, value in updates.items():
+        assert get_value(params, key) == value
+    path = tmp_path_factory.mktemp("rt") / "p.toml"
+    path.write_text(to_toml(params, comments=comments))
+    assert load_params(path) == params
+
+
+def test_default_file_loads_to_the_defaults(tmp_path):
+    path = tmp_path / "d.toml"
+    path.write_text(default_toml())
+    assert load_params(path) == Params()
+    assert tomllib.loads(default_toml())["friction"]["mu_static"] == 0.9
+
+
+def test_file_then_overrides_in_that_order(tmp_path):
+    path = tmp_path / "p.toml"
+    path.write_text("[tread]\nmass_kg = 2\n[friction]\nmu_static = 1.2\n")
+    params = load_params(path, ["tread.mass_kg=3.5", "model=axle4dof"])
+    assert params.tread.mass_kg == 3.5 and params.friction.mu_static == 1.2 and params.model == "axle4dof"
+    assert params.tread.lateral_stiffness_n_per_m == SPEC_DEFAULTS["tread.lateral_stiffness_n_per_m"]
+    assert isinstance(load_params(path).tread.mass_kg, float)  # TOML integers become floats
+
+
+def test_params_are_immutable():
+    params = Params()
+    with pytest.raises(Exception):
+        params.tread.mass_kg = 2.0  # type: ignore[misc]
+    with_updates(params, {"tread.mass_kg": 2.0})
+    assert params.tread.mass_kg == 1.0
+
+
+# -- validation errors: one line naming key, value and rule ------------------------------------
+
+
+def check_message(exc: pytest.ExceptionInfo, *fragments: str) -> None:
+    message = str(exc.value)
+    assert "\n" not in message, message
+    for fragment in fragments:
+        assert fragment in message, f"{fragment!r} not in {message!r}"
+
+
+BAD_VALUES = [
+    # key, value, fragments the message must contain (key, value, rule)
+    ("tread.mass_kg", -1.0, ["tread.mass_kg", "-1.0", "greater than 0"]),
+    ("tread.mass_kg", 0.0, ["tread.mass_kg", "0.0", "greater than 0"]),
+    ("friction.stribeck_velocity_m_per_s", 0.0, ["friction.stribeck_velocity_m_per_s", "0.0", "greater than 0"]),
+    ("friction.stribeck_velocity_m_per_s", -0.1, ["friction.stribeck_velocity_m_per_s", "-0.1", "greater than 0"]),
+    ("friction.mu_coulomb", 1.0, ["friction.mu_coulomb", "1.0", "must not exceed", "friction.mu_static", "0.9"]),
+    ("friction.stribeck_exponent", 0.5, ["friction.stribeck_exponent", "0.5", "greater than or equal to 1"]),
+    ("tread.lateral_damping_ns_per_m", -5.0, ["tread.lateral_damping_ns_per_m", "-5.0", "greater than or equal to 0"]),
+    ("operating.toe_deg", 25.0, ["operating.toe_deg", "25.0", "less than 20"]),
+    ("tread.mass_kg", "heavy", ["tread.mass_kg", "'heavy'", "must be a number"]),
+    ("tread.mass_kg", True, ["tread.mass_kg", "True", "must be a number"]),
+    ("axle.reference", True, ["axle.reference", "True", "'running' or 'unloaded'"]),
+    ("tread.mass_kg", [1.0], ["tread.mass_kg", "[1.0]", "must be a number"]),
+    ("model", "axle2dof", ["model", "'axle2dof'", "'tread1dof' or 'axle4dof'"]),
+    ("tread.mass_kg", math.nan, ["tread.mass_kg", "nan", "finite"]),
+    ("tread.mass_kg", math.inf, ["tread.mass_kg", "inf", "finite"]),
+    ("operating.speed_kmh", -math.inf, ["operating.speed_kmh", "-inf", "finite"]),
+]
+
+
+@pytest.mark.parametrize("key, value, fragments", BAD_VALUES, ids=[f"{k}={v!r}" for k, v, _ in BAD_VALUES])
+def test_bad_value_in_with_updates(key, value, fragments):
+    with pytest.raises(ParameterError) as exc:
+        with_updates(Params(), {key: value})
+    check_message(exc, *fragments)
+
+
+def toml_literal(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, float) and not math.isfinite(value):
+        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    return repr(value)
+
+
+@pytest.mark.parametrize("key, value, fragments", BAD_VALUES, ids=[f"{k}={v!r}" for k, v, _ in BAD_VALUES])
+def test_bad_value_in_a_toml_file(key, value, fragments, tmp_path):
+    table, _, name = key.rpartition(".")
+    line = f"{name} = {toml_literal(value)}\n"
+    path = tmp_path / "bad.toml"
+    path.write_text(f"[{table}]\n{line}" if table else line)
+    with pytest.raises(ParameterError) as exc:
+        load_params(path)
+    check_message(exc, *fragments)
+
+
+@settings(max_examples=60, deadline=None)
+@given(key=st.sampled_from(NUMERIC_KEYS), value=st.sampled_from([math.nan, math.inf, -math.inf, True, False, "1.0"]))
+def test_every_numeric_key_rejects_non_numbers_and_non_finite(key, value):
+    with pytest.raises(ParameterError) as exc:
+        with_updates(Params(), {key: value})
+    rule = "finite" if isinstance(value, float) else "must be a number"
+    check_message(exc, key, repr(value) if not isinstance(value, float) else str(value), rule)
+
+
+@settings(max_examples=60, deadline=None)
+@given(key=st.sampled_from(NUMERIC_KEYS), data=st.data())
+def test_every_numeric_key_rejects_values_beyond_its_bounds(key, data):
+    bounds = _bounds(key)
+    outside = []
+    if bounds["min_value"] > -1e12:
+        lo = bounds["min_value"]
+        outside.append(st.floats(lo - 1e6, lo, exclude_max=not bounds.get("exclude_min", False)))
+    if bounds["max_value"] < 1e12:
+        hi = bounds["max_value"]
+        outside.append(st.floats(hi, hi + 1e6, exclude_min=not bounds.get("exclude_max", False)))
+    if not outside:
+        return  # unbounded key (e.g. lateral offset): any finite number is valid
+    value = data.draw(st.one_of(outside))
+    with pytest.raises(ParameterError) as exc:
+        with_updates(Params(), {key: value})
+    check_message(exc, key, repr(value))
+
+
+@pytest.mark.parametrize("update, fragments", [
+    ({"tread.mass": 1.0}, ["tread.mass", "unknown key", "mass_kg"]),
+    ({"frcition.mu_static": 1.0}, ["frcition", "unknown key", "friction"]),
+    ({"speed_kmh": 80.0}, ["speed_kmh", "unknown key", "operating"]),
+    ({"tread.mass_kg.x": 1.0}, ["tread.mass_kg.x", "table.key"]),
+    ({"tread": 1.0}, ["tread", "1.0", "dictionary"]),
+])
+def test_unknown_or_misplaced_keys(update, fragments):
+    with pytest.raises(ParameterError) as exc:
+        with_updates(Params(), update)
+    check_message(exc, *fragments)
+
+
+def test_unknown_key_in_a_file_is_an_error_not_a_default(tmp_path):
+    path = tmp_path / "typo.toml"
+    path.write_text("[tread]\nmass_kg = 2.0\nlateral_stifness_n_per_m = 5e5\n")
+    with pytest.raises(ParameterError) as exc:
+        load_params(path)
+    check_message(exc, "tread.lateral_stifness_n_per_m", "unknown key")
+    path.write_text("[tyre]\nvertical_stiffness_n_per_m = 1e5\n")
+    with pytest.raises(ParameterError) as exc:
+        load_params(path)
+    check_message(exc, "tyre", "unknown key")
+
+
+def test_file_problems(tmp_path):
+    with pytest.raises(ParameterError) as exc:
+        load_params(tmp_path / "missing.toml")
+    check_message(exc, "missing.toml", "cannot read")
+    path = tmp_path / "broken.toml"
+    path.write_text("[tread\nmass_kg = 1\n")
+    with pytest.raises(ParameterError) as exc:
+        load_params(path)
+    check_message(exc, "broken.toml", "not valid TOML")
+
+
+@pytest.mark.parametrize("text, fragment", [
+    ("tread.mass_kg", "expected table.key=value"),
+    ("=3", "expected table.key=value"),
+    ("tread.mass_kg=", "expected table.key=value"),
+    ("tread.mass_kg=nan", "finite"),
+    ("tread.mass_kg=-inf", "finite"),
+])
+def test_parse_override_errors(text, fragment):
+    with pytest.raises(ParameterError) as exc:
+        parse_override(text)
+    check_message(exc, fragment)
+
+
+def test_parse_override_values():
+    assert parse_override("tread.mass_kg=2") == ("tread.mass_kg", 2)
+    assert parse_override(" friction.mu_static = 1.5e0 ") == ("friction.mu_static", 1.5)
+    assert parse_override("model=axle4dof") == ("model", "axle4dof")
+    assert parse_override('axle.reference="unloaded"') == ("axle.reference", "unloaded")
+
+
+@settings(max_examples=50, deadline=None)
+@given(updates=valid_updates(), key=st.sampled_from(NUMERIC_KEYS))
+def test_with_updates_validates_again(updates, key):
+    """Starting from any valid set, an update that breaks a rule raises; the set is unchanged."""
+    params = with_updates(Params(), updates)
+    with pytest.raises(ParameterError):
+        with_updates(params, {key: math.nan})
+    with pytest.raises(ParameterError):
+        with_updates(params, {"friction.mu_coulomb": params.friction.mu_static * 1.5 + 1e-9})
+    assert with_updates(params, {}) == params
