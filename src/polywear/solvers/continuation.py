@@ -161,7 +161,7 @@ def continue_from_hopf(
     amplitude passed through zero), exceeds the amplitude limit, or fails to converge.
     """
     q = hopf.q / hopf.q[model.index("x")]  # x component 1
-    scales = np.maximum(np.abs(q), 1e-6 * np.abs(q).max()) * amplitude_ref
+    scales = np.maximum(np.abs(q), 1e-6 * np.abs(q).max()) * amplitude_ref + 0.1 * np.abs(hopf.u)
     period_scale = 2.0 * np.pi / hopf.omega
     speed_scale = 0.1 * hopf.speed
     N = settings.n_intervals
@@ -223,6 +223,9 @@ def continue_from_hopf(
             steps_since_adapt = 0
             new_mesh = c.adapted_mesh(orbit)
             tangent_orbit = c.unpack(t)
+            # scales never shrink and follow each state's excursion from the Hopf equilibrium
+            scales = np.maximum(scales, np.abs(orbit.nodes - hopf.u).max(axis=0))
+            branch.scales = scales
             stepper = _Stepper(model, p, new_mesh, settings, scales, speed_scale, period_scale)
             c = stepper.coll
             phase_ref = orbit.with_mesh(new_mesh)
