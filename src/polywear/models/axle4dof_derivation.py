@@ -328,8 +328,8 @@ def running_equilibrium(V, p, u0):
 
 
 @njit(cache=True)
-def _preload(V, p, P, dP):
-    """Constant generalized preloads P [N m, N m, N m, N] and dP/dV.
+def _preload(V, p, P):
+    """Constant generalized preloads P [N m, N m, N m, N].
 
     running: the negative generalized forces of friction and load at the running
     equilibrium (so alpha = beta = gamma = 0 there at every speed); unloaded: the
@@ -341,32 +341,44 @@ def _preload(V, p, P, dP):
         for i in range(u0.shape[0]):
             u0[i] = 0.0 * V
         _contact(u0, p, GF, GN)
-        for i in range(_NQ - 1):
-            P[i] = -p[_N0] * GN[i]
-            dP[i] = 0.0 * V
+        F0 = 0.0 * V
     else:
-        F0, dF0 = running_equilibrium(V, p, u0)
+        F0 = running_equilibrium(V, p, u0)[0]
         _contact(u0, p, GF, GN)
-        dGF = np.empty((_NQ, _NQ), dtype=P.dtype)
-        dGN = np.empty((_NQ, _NQ), dtype=P.dtype)
-        _contact_partials(u0, p, dGF, dGN)
-        dx0 = dF0 * GF[3] / p[_K]
-        for i in range(_NQ - 1):
-            P[i] = -(F0 * GF[i] + p[_N0] * GN[i])
-            dP[i] = -(dF0 * GF[i] + (F0 * dGF[i, 3] + p[_N0] * dGN[i, 3]) * dx0)
+    for i in range(_NQ - 1):
+        P[i] = -(F0 * GF[i] + p[_N0] * GN[i])
     P[3] = 0.0 * V
-    dP[3] = 0.0 * V
 
 
 @njit(cache=True)
-def _evaluate(u, V, p, M, Q, GF, GN, dP):
-    """Fill M, the total generalized force Q (4, 1), G_F, G_N and dP/dV at u;
+def _preload_dv(V, p, dP):
+    """dP/dV of :func:`_preload` (non-zero for the running reference only)."""
+    for i in range(_NQ):
+        dP[i] = 0.0 * V
+    if p[_REFERENCE].real > 0.5:
+        return
+    u0 = np.empty(_ZB + 1, dtype=dP.dtype)
+    F0, dF0 = running_equilibrium(V, p, u0)
+    GF = np.empty(_NQ, dtype=dP.dtype)
+    GN = np.empty(_NQ, dtype=dP.dtype)
+    dGF = np.empty((_NQ, _NQ), dtype=dP.dtype)
+    dGN = np.empty((_NQ, _NQ), dtype=dP.dtype)
+    _contact(u0, p, GF, GN)
+    _contact_partials(u0, p, dGF, dGN)
+    dx0 = dF0 * GF[3] / p[_K]
+    for i in range(_NQ - 1):
+        dP[i] = -(dF0 * GF[i] + (F0 * dGF[i, 3] + p[_N0] * dGN[i, 3]) * dx0)
+
+
+@njit(cache=True)
+def _evaluate(u, V, p, M, Q, GF, GN):
+    """Fill M, the total generalized force Q (4, 1), G_F and G_N at u;
     return (v_r, G(v_r), z', F, N, clamped)."""
     h = np.empty(_NQ, dtype=Q.dtype)
     P = np.empty(_NQ, dtype=Q.dtype)
     _inertia(u, V, p, M, h)
     rise = _contact(u, p, GF, GN)
-    _preload(V, p, P, dP)
+    _preload(V, p, P)
     vr = _sliding(u, V, p)
     load = p[_N0] - p[_K_Z] * rise
     for i in range(_NQ):
@@ -392,8 +404,7 @@ def rhs(u, V, p, out):
     Q = np.empty((_NQ, 1), dtype=M.dtype)
     GF = np.empty(_NQ, dtype=M.dtype)
     GN = np.empty(_NQ, dtype=M.dtype)
-    dP = np.empty(_NQ, dtype=M.dtype)
-    zd = _evaluate(u, V, p, M, Q, GF, GN, dP)[2]
+    zd = _evaluate(u, V, p, M, Q, GF, GN)[2]
     _solve(M, Q)
     for i in range(_NQ):
         out[i] = u[_NQ + i]
@@ -410,8 +421,7 @@ def jac(u, V, p, out):
     Q = np.empty((_NQ, 1), dtype=M.dtype)
     GF = np.empty(_NQ, dtype=M.dtype)
     GN = np.empty(_NQ, dtype=M.dtype)
-    dP = np.empty(_NQ, dtype=M.dtype)
-    vr, g, zd, force, load, clamped = _evaluate(u, V, p, M, Q, GF, GN, dP)
+    vr, g, zd, force, load, clamped = _evaluate(u, V, p, M, Q, GF, GN)
     _solve(M, Q)
     a = Q[:, 0].copy()
     dMa = np.empty((_NQ, _NQ), dtype=M.dtype)
@@ -474,8 +484,7 @@ def dfdv(u, V, p, out):
     Q = np.empty((_NQ, 1), dtype=M.dtype)
     GF = np.empty(_NQ, dtype=M.dtype)
     GN = np.empty(_NQ, dtype=M.dtype)
-    dP = np.empty(_NQ, dtype=M.dtype)
-    vr, g, zd, force, load, clamped = _evaluate(u, V, p, M, Q, GF, GN, dP)
+    vr, g, zd, force, load, clamped = _evaluate(u, V, p, M, Q, GF, GN)
     dvr = np.empty(2 * _NQ, dtype=M.dtype)
     dvr_dv = _sliding_partials(u, V, p, dvr)
     _solve(M, Q)
@@ -486,6 +495,8 @@ def dfdv(u, V, p, out):
     dg = stribeck_dv(vr, p[_MU_S], p[_MU_C], p[_V_S], p[_DELTA])
     dzd_dvr = bristle_rate_partials(vr, u[_ZB], p[_SIGMA0], g, dg)[0]
     dF_dv = load * (p[_SIGMA1] * dzd_dvr + p[_SIGMA2]) * dvr_dv
+    dP = np.empty(_NQ, dtype=M.dtype)
+    _preload_dv(V, p, dP)
     B = np.empty((_NQ, 1), dtype=M.dtype)
     for i in range(_NQ):
         B[i, 0] = dh_dv[i] + GF[i] * dF_dv + dP[i]
@@ -504,8 +515,7 @@ def aux(u, V, p, out):
     Q = np.empty((_NQ, 1), dtype=M.dtype)
     GF = np.empty(_NQ, dtype=M.dtype)
     GN = np.empty(_NQ, dtype=M.dtype)
-    dP = np.empty(_NQ, dtype=M.dtype)
-    vr, g, zd, force, load, clamped = _evaluate(u, V, p, M, Q, GF, GN, dP)
+    vr, g, zd, force, load, clamped = _evaluate(u, V, p, M, Q, GF, GN)
     out[0] = vr
     out[1] = force
     out[2] = load
@@ -522,7 +532,7 @@ def rhs_python(t, u, V, p):
     _inertia.py_func(u, V, p, M, h)
     rise = _contact.py_func(u, p, GF, GN)
     P = np.empty(_NQ)
-    _preload.py_func(V, p, P, np.empty(_NQ))
+    _preload.py_func(V, p, P)
     vr = _sliding.py_func(u, V, p)
     load = max(p[_N0] - p[_K_Z] * rise - p[_C_Z] * (GN @ u[_NQ:2 * _NQ]), 0.0)
     g = stribeck.py_func(vr, p[_MU_S], p[_MU_C], p[_V_S], p[_DELTA])
