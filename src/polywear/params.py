@@ -13,9 +13,9 @@ from __future__ import annotations
 import math
 import tomllib
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, field_validator, model_validator
 
 __all__ = [
     "ParameterError",
@@ -25,6 +25,9 @@ __all__ = [
     "Friction",
     "Axle",
     "Tire",
+    "Study",
+    "StudyParameter",
+    "study_keys",
     "load_params",
     "parse_override",
     "with_updates",
@@ -122,6 +125,150 @@ class Tire(_Table):
     vertical_damping_ns_per_m: float = _f(100.0, "tire vertical damping c_z [N s/m]", ge=0.0)
 
 
+ADHESION_SCALE = "adhesion_scale"
+"""Study key scaling mu_s and mu_c together (nominal 1); the same name as
+``polywear.analysis.sensitivity.ADHESION_SCALE`` (a test keeps them equal)."""
+
+DISTRIBUTIONS = ("uniform", "loguniform", "triangular", "normal")
+
+
+def _float_fields() -> dict[str, Any]:
+    """"table.key" -> pydantic FieldInfo of every float key of the model tables."""
+    out = {}
+    for table, cls in _TABLES.items():
+        if table == "study":
+            continue
+        for name, info in cls.model_fields.items():
+            if info.annotation is float:
+                out[f"{table}.{name}"] = info
+    return out
+
+
+def study_keys() -> tuple[str, ...]:
+    """Keys a study (or a sensitivity) may vary: every float key, and ``adhesion_scale``."""
+    return (*_float_fields(), ADHESION_SCALE)
+
+
+def _number(value: Any) -> Any:
+    """TOML/override numbers in nested tables and arrays: int -> float (bools stay invalid)."""
+    if isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    return value
+
+
+def _integral(value: Any) -> Any:
+    """Integer fields pass through :func:`_coerce_numbers`, which makes 1024 -> 1024.0."""
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
+
+
+class StudyParameter(_Table):
+    """One uncertain parameter of a global sensitivity study and its distribution."""
+
+    key: str = Field(description='configuration key ("table.key") or "adhesion_scale"')
+    low: float = Field(description="lower bound [key units]")
+    high: float = Field(description="upper bound [key units]")
+    distribution: Literal["uniform", "loguniform", "triangular", "normal"] = Field(
+        "uniform", description="uniform, loguniform, triangular (peak at mode) or normal "
+        "(mean, std; truncated to [low, high])"
+    )
+    mode: float | None = Field(None, description="peak of the triangular distribution [key units]")
+    mean: float | None = Field(None, description="mean of the normal distribution [key units]")
+    std: float | None = Field(None, description="standard deviation of the normal distribution [key units]")
+
+    _to_float = field_validator("low", "high", "mode", "mean", "std", mode="before")(_number)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> StudyParameter:
+        where = f"study.parameters: {self.key}"
+        fields = _float_fields()
+        if self.key != ADHESION_SCALE and self.key not in fields:
+            raise ParameterError(f"{where}: unknown or non-numeric key (use a table.key of a float, or {ADHESION_SCALE})")
+        if not self.low < self.high:
+            raise ParameterError(f"{where}: low = {self.low!r} must be below high = {self.high!r}")
+        rule = Annotated[(float, *fields[self.key].metadata)] if self.key in fields else Annotated[float, Field(gt=0.0)]
+        for name in ("low", "high"):
+            try:
+                TypeAdapter(rule).validate_python(getattr(self, name))
+            except ValidationError as exc:
+                msg = exc.errors(include_url=False)[0]["msg"].lower().replace("input ", "")
+                raise ParameterError(f"{where}: {name} = {getattr(self, name)!r}: {msg}") from None
+        extras = {"triangular": ("mode",), "normal": ("mean", "std")}.get(self.distribution, ())
+        for name in ("mode", "mean", "std"):
+            if getattr(self, name) is not None and name not in extras:
+                raise ParameterError(f"{where}: {name} is not used by distribution {self.distribution!r}")
+        for name in ("mode", "mean"):
+            value = getattr(self, name)
+            if value is not None and not self.low <= value <= self.high:
+                raise ParameterError(f"{where}: {name} = {value!r} must lie in [low, high]")
+        if self.std is not None and not self.std > 0.0:
+            raise ParameterError(f"{where}: std = {self.std!r} must be positive")
+        if self.distribution == "loguniform" and not self.low > 0.0:
+            raise ParameterError(f"{where}: loguniform needs low > 0 (low = {self.low!r})")
+        return self
+
+
+class Study(_Table):
+    """Global sensitivity study (polywear study): method, sample size, outputs, parameters."""
+
+    method: Literal["sobol", "morris"] = Field("sobol", description="sobol (Saltelli sampling) or morris")
+    outputs: Literal["hopf", "bifurcation"] = Field(
+        "hopf", description="hopf: Hopf speeds, linear band width (ms per sample); bifurcation: first/second "
+        "bifurcation speeds, SEV band width, largest amplitude in the operating range (continuation)"
+    )
+    n_base: int = Field(
+        1024, description="base samples N (sobol: power of 2, N (2D + 2) runs) or trajectories (morris)"
+    )
+    second_order: bool = Field(True, description="sobol: also second-order indices (N (2D + 2) runs, else N (D + 2))")
+    morris_levels: int = Field(4, description="morris: grid levels p")
+    seed: int = Field(12345, description="seed of the sampling and the bootstrap (numpy SeedSequence)")
+    bootstrap: int = Field(1000, description="bootstrap resamples for the confidence intervals")
+    confidence: float = Field(0.95, description="confidence level of the intervals", gt=0.0, lt=1.0)
+    speed_range_kmh: tuple[float, float] = Field((20.0, 300.0), description="speeds searched [km/h]")
+    operating_range_kmh: tuple[float, float] = Field(
+        (80.0, 130.0), description="operating speeds for the largest amplitude [km/h]"
+    )
+    parameters: tuple[StudyParameter, ...] = Field(
+        (), description="uncertain parameters ([[study.parameters]]); none: the paper's seven, +-10 % uniform"
+    )
+
+    _to_int = field_validator("n_base", "morris_levels", "seed", "bootstrap", mode="before")(_integral)
+
+    @field_validator("speed_range_kmh", "operating_range_kmh", mode="before")
+    @classmethod
+    def _pair(cls, value: Any) -> Any:
+        return tuple(_number(v) for v in value) if isinstance(value, list) else value
+
+    @field_validator("parameters", mode="before")
+    @classmethod
+    def _array_of_tables(cls, value: Any) -> Any:
+        return tuple(value) if isinstance(value, list) else value
+
+    @model_validator(mode="after")
+    def _consistent(self) -> Study:
+        n = self.n_base
+        if self.method == "sobol" and (n < 8 or n & (n - 1)):
+            raise ParameterError(f"study.n_base = {n!r}: sobol needs a power of 2, at least 8")
+        if self.method == "morris" and n < 4:
+            raise ParameterError(f"study.n_base = {n!r}: morris needs at least 4 trajectories")
+        if self.morris_levels < 2:
+            raise ParameterError(f"study.morris_levels = {self.morris_levels!r}: must be at least 2")
+        if self.seed < 0:
+            raise ParameterError(f"study.seed = {self.seed!r}: must be >= 0")
+        if self.bootstrap < 10:
+            raise ParameterError(f"study.bootstrap = {self.bootstrap!r}: must be at least 10")
+        for name in ("speed_range_kmh", "operating_range_kmh"):
+            lo, hi = getattr(self, name)
+            if not 0.0 < lo < hi:
+                raise ParameterError(f"study.{name} = [{lo!r}, {hi!r}]: need 0 < low < high")
+        keys = [q.key for q in self.parameters]
+        duplicates = sorted({k for k in keys if keys.count(k) > 1})
+        if duplicates:
+            raise ParameterError(f"study.parameters: {', '.join(duplicates)} given more than once")
+        return self
+
+
 class Params(_Table):
     """A complete, validated parameter set (MODEL.md section 6)."""
 
@@ -133,6 +280,7 @@ class Params(_Table):
     friction: Friction = Friction()
     axle: Axle = Axle()
     tire: Tire = Tire()
+    study: Study = Study()
 
 
 _TABLES: dict[str, type[_Table]] = {
@@ -142,6 +290,16 @@ _TABLES: dict[str, type[_Table]] = {
 }
 
 
+def _table_at(loc: tuple) -> type[BaseModel]:
+    """The model class at a validation-error location (array indices skipped)."""
+    cls: type[BaseModel] = Params
+    for part in loc:
+        if isinstance(part, str):
+            annotation = cls.model_fields[part].annotation
+            cls = getattr(annotation, "__args__", (annotation,))[0]  # tuple[StudyParameter, ...]
+    return cls
+
+
 def _describe_error(exc: ValidationError, data: dict[str, Any]) -> str:
     """One line for the first problem pydantic found: key, value, rule."""
     err = exc.errors(include_url=False)[0]
@@ -149,8 +307,7 @@ def _describe_error(exc: ValidationError, data: dict[str, Any]) -> str:
     value = err.get("input")
     kind = err["type"]
     if kind == "extra_forbidden":
-        table = loc.rsplit(".", 1)[0] if "." in loc else ""
-        known = sorted(_TABLES[table].model_fields) if table in _TABLES else sorted(Params.model_fields)
+        known = sorted(_table_at(err["loc"][:-1]).model_fields)
         return f"{loc}: unknown key (known keys: {', '.join(known)})"
     ctx = err.get("ctx") or {}
     if isinstance(ctx.get("error"), ParameterError):
@@ -281,16 +438,46 @@ def _toml_value(value: Any) -> str:
         return f'"{value}"'
     if isinstance(value, bool):
         return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, tuple):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
     return repr(float(value))
+
+
+_STUDY_EXAMPLE = """\
+# [[study.parameters]]                    # one table per uncertain parameter
+# key = "operating.toe_deg"               # any float key, or "adhesion_scale"
+# low = 0.2                               # bounds [key units]
+# high = 0.8
+# distribution = "uniform"                # uniform, loguniform, triangular (mode = ...),
+#                                         # normal (mean = ..., std = ...; truncated to [low, high])"""
+
+
+def _array_of_tables(name: str, entries: tuple[BaseModel, ...], comments: bool) -> list[str]:
+    """``[[name]]`` blocks, one per entry (None fields left out)."""
+    if not entries:
+        return ["", _STUDY_EXAMPLE] if comments else []
+    lines: list[str] = []
+    for entry in entries:
+        lines += ["", f"[[{name}]]"]
+        lines += [f"{k} = {_toml_value(v)}" for k, v in entry if v is not None]
+    return lines
 
 
 def to_toml(params: Params, comments: bool = False) -> str:
     """The parameter set as TOML text, optionally with a comment per key."""
     lines: list[str] = []
+    arrays: list[str] = []
     current = None
     for key, value, description in flat_items(params):
         table, _, name = key.rpartition(".")
+        if isinstance(value, tuple) and all(isinstance(v, BaseModel) for v in value):
+            arrays += _array_of_tables(key, value, comments)
+            continue
         if table != current:
+            lines += arrays
+            arrays = []
             if table:
                 lines.append("")
                 if comments:
@@ -302,7 +489,7 @@ def to_toml(params: Params, comments: bool = False) -> str:
         if comments:
             entry = f"{entry:<42} # {description}"
         lines.append(entry)
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + arrays) + "\n"
 
 
 def default_toml() -> str:
