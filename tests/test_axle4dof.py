@@ -528,3 +528,21 @@ def test_bushing_damping_alone_lets_the_toe_mode_self_excite():
     assert vals[i].real > 0 and 20.0 < vals[i].imag / (2 * np.pi) < 30.0
     assert mode_label(MODEL, p, vecs[:, i]) == "alpha"
     assert _max_growth(p, 110.0, fmin=80.0) > 0.0  # the tread mode is unstable too
+
+
+def test_schematic_draws_into_given_axes(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from polywear.models.axle4dof_schematic import plot_schematic
+
+    fig, ax = plt.subplots()
+    artists = plot_schematic(ax)
+    texts = " ".join(a.get_text() for a in artists if hasattr(a, "get_text"))
+    for label in ("O (bushing)", "C", r"\alpha", r"\beta", r"\gamma", "toe_0", "camber_0", "k_z", "X (forward)"):
+        assert label in texts, label
+    assert all(a.axes is ax for a in artists if hasattr(a, "axes") and a.axes is not None)
+    fig.savefig(tmp_path / "schematic.png")
+    plt.close(fig)
