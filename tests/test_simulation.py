@@ -208,6 +208,7 @@ def test_axle4dof_phase_portraits_of_all_four_coordinates():
     plt.close("all")
     ds = run.to_dataset()
     assert set(model.state_names) <= set(ds.data_vars)
+    assert run.summary()["contact_lost"] is False
 
 
 # -- the command line --------------------------------------------------------------------

@@ -55,7 +55,7 @@ __all__ = [
     "polygon_order",
 ]
 
-AUX_UNITS = {"sliding_velocity": "m/s", "friction_force": "N", "normal_load": "N"}
+AUX_UNITS = {"sliding_velocity": "m/s", "friction_force": "N", "normal_load": "N", "contact_lost": "1"}
 _PLOT_UNITS = {"m": (1e3, "mm"), "rad": (1e3, "mrad")}
 
 
@@ -293,6 +293,12 @@ class SimulationResult:
         """n = f_SEV / f_rot [-] (NaN without a frequency)."""
         return polygon_order(self.steady.frequency, self.speed_kmh, self.params.operating.rolling_radius_m)
 
+    @property
+    def contact_lost(self) -> bool:
+        """True if the tire left the road at any output time (models with a normal-load state)."""
+        aux = self.model.aux_names
+        return bool("contact_lost" in aux and (self.aux[:, aux.index("contact_lost")] > 0.5).any())
+
     def summary(self) -> dict:
         """JSON-ready summary: model, speed, per-state amplitude, frequency, steady flag, n."""
         names = self.model.state_names
@@ -310,6 +316,7 @@ class SimulationResult:
             "polygon_order": _finite(self.polygon_order),
             "cycles_analysed": st.n_cycles,
             "steps": {"accepted": self.stats.accepted, "rejected": self.stats.rejected},
+            **({"contact_lost": self.contact_lost} if "contact_lost" in self.model.aux_names else {}),
         }
 
     def to_dataset(self):
@@ -359,13 +366,14 @@ class SimulationResult:
         """Write :meth:`to_dataset` as netCDF (h5netcdf)."""
         self.to_dataset().to_netcdf(path, engine="h5netcdf")
 
-    def plot(self, ax=None, pairs=None, **line_kw):
+    def plot(self, ax=None, pairs=None, tail_s=None, **line_kw):
         """Phase portraits, one axes per (displacement, velocity) pair. Returns the artists.
 
         ``ax``: one Axes (with one pair) or a sequence of Axes, one per pair; by default a
-        new figure. The start is marked with a dot.
+        new figure. ``tail_s``: draw only the last ``tail_s`` seconds (default: all, with
+        the start marked by a dot).
         """
-        return _phase_portraits([self], ax, pairs, **line_kw)
+        return _phase_portraits([self], ax, pairs, tail_s, **line_kw)
 
 
 @dataclass(frozen=True)
@@ -409,16 +417,17 @@ class SimulationSet:
         """Write :meth:`to_dataset` as netCDF (h5netcdf)."""
         self.to_dataset().to_netcdf(path, engine="h5netcdf")
 
-    def plot(self, ax=None, pairs=None, **line_kw):
-        """Overlaid phase portraits of all runs, one axes per pair. Returns the artists."""
-        return _phase_portraits(list(self.runs), ax, pairs, **line_kw)
+    def plot(self, ax=None, pairs=None, tail_s=None, **line_kw):
+        """Overlaid phase portraits of all runs, one axes per pair (see
+        :meth:`SimulationResult.plot`). Returns the artists."""
+        return _phase_portraits(list(self.runs), ax, pairs, tail_s, **line_kw)
 
 
 def _finite(value):
     return float(value) if np.isfinite(value) else None
 
 
-def _phase_portraits(runs, ax, pairs, **line_kw):
+def _phase_portraits(runs, ax, pairs, tail_s, **line_kw):
     import matplotlib.pyplot as plt
 
     model = runs[0].model
@@ -426,7 +435,8 @@ def _phase_portraits(runs, ax, pairs, **line_kw):
     if ax is None:
         cols = min(len(pairs), 2)
         rows = math.ceil(len(pairs) / cols)
-        _, axes = plt.subplots(rows, cols, figsize=(5.0 * cols, 4.2 * rows), squeeze=False)
+        _, axes = plt.subplots(rows, cols, figsize=(5.0 * cols, 4.2 * rows), squeeze=False,
+                               layout="constrained")
         axes = list(axes.ravel())
         for extra in axes[len(pairs):]:
             extra.set_visible(False)
@@ -440,15 +450,17 @@ def _phase_portraits(runs, ax, pairs, **line_kw):
         fx, ux = _PLOT_UNITS.get(model.state_units[i], (1.0, model.state_units[i]))
         fy, uy = _PLOT_UNITS.get(model.state_units[j], (1.0, model.state_units[j]))
         for k, run in enumerate(runs):
-            color = f"C{k % 10}"
-            kw = {"lw": 0.6, "color": color, **line_kw}
-            artists += axis.plot(fx * run.u[:, i], fy * run.u[:, j], label=run.label or None, **kw)
-            artists += axis.plot(fx * run.u[0, i], fy * run.u[0, j], "o", ms=3, color=kw["color"])
+            kw = {"lw": 0.6, "color": f"C{k % 10}", **line_kw}
+            shown = slice(None) if tail_s is None else run.t >= run.t[-1] - tail_s
+            artists += axis.plot(fx * run.u[shown, i], fy * run.u[shown, j], label=run.label or None, **kw)
+            if tail_s is None:
+                artists += axis.plot(fx * run.u[0, i], fy * run.u[0, j], "o", ms=3, color=kw["color"])
         axis.set_xlabel(f"{q} [{ux}]")
         axis.set_ylabel(f"{qd} [{uy}]")
-        axis.set_title(f"{q}: phase portrait")
-        if any(run.label for run in runs):
-            axis.legend(fontsize=7, loc="best")
+        axis.set_title(f"{q}: phase portrait", fontsize=10)
+        axis.ticklabel_format(style="sci", scilimits=(-3, 4), useMathText=True)
+    if any(run.label for run in runs):
+        axes[0].legend(fontsize=7, loc="best")
     first = runs[0]
     axes[0].figure.suptitle(f"{first.params.model} at {first.speed_kmh:g} km/h", fontsize=10)
     return artists
@@ -508,7 +520,7 @@ def simulate_disturbances(
     """One run per disturbance of ``x`` [m] (the paper's Fig. 5); ``on_run()`` after each."""
     runs = []
     for d in disturbances:
-        runs.append(_run(params, speed_kmh, duration_s, float(d), None, settings, f"x0 + {d * 1e3:g} mm"))
+        runs.append(_run(params, speed_kmh, duration_s, float(d), None, settings, f"x0 {d * 1e3:+g} mm"))
         if on_run:
             on_run()
     return SimulationSet(tuple(runs), "disturbance_m", tuple(float(d) for d in disturbances))

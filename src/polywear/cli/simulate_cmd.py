@@ -48,6 +48,8 @@ def _status(run) -> str:
     st = run.steady
     x = run.model.index("x")
     head = f"{run.label + ': ' if run.label else ''}{run.speed_kmh:g} km/h, {run.duration_s:g} s: {st.outcome}"
+    if run.contact_lost:
+        head += " (the tire lost contact with the road)"
     if st.outcome == "equilibrium":
         return head
     freq = f", {st.frequency:.2f} Hz, polygon order {run.polygon_order:.2f}" if math.isfinite(st.frequency) else ""
@@ -71,7 +73,7 @@ def simulate(
     ] = None,
     sweep: Annotated[
         Optional[str],
-        typer.Option("--sweep", help="One run per value of a key: table.key=v1,v2,... (e.g. operating.toe_deg=0.3,0.5,0.7)."),
+        typer.Option("--sweep", help="One run per value of a key: table.key=v1,v2,... (e.g. operating.toe_deg=0.3,0.5,0.7); the plot then shows the analysed final part of each run."),
     ] = None,
     method: Annotated[str, typer.Option("--method", help="rodas (compiled), radau, bdf, lsoda, dop853.")] = "rodas",
     rtol: Annotated[float, typer.Option("--rtol", help="Relative tolerance of the integrator.")] = 1e-8,
@@ -124,7 +126,9 @@ def simulate(
         import matplotlib
 
         matplotlib.use("Agg")
-        artists = (single or result).plot()
+        # parameter sweeps compare the final cycles; disturbances show the way there
+        tail = settings.window_fraction * duration if key else None
+        artists = (single or result).plot(tail_s=tail)
         save_figure(artists[0].figure, plot)
         info(f"wrote {plot}", quiet=json_)
     if json_:
