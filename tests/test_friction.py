@@ -19,9 +19,12 @@ from polywear.analysis.friction import (
     STEADY_PARAMETERS,
     FrictionDataError,
     bristle_response,
+    LOOP_COLUMNS,
     falling_branch,
+    fit_loops,
     fit_steady_curve,
     hysteresis_loops,
+    read_loops_csv,
     read_steady_csv,
     sample_path,
     steady_curve,
@@ -491,30 +494,121 @@ def test_fit_rejects_bad_arrays():
         fit_steady_curve(V_DATA, np.ones(V_DATA.size), fit=("sigma0_per_m",))
 
 
+# -- fitting loops ----------------------------------------------------------------------------
+
+
+def independent_loops(f: Friction, v_mean, v_amp, freqs, points, n_periods=40):
+    """Measured-like loops from the independent NumPy rhs (DOP853, transient waited out)."""
+    rows = []
+    for freq in freqs:
+        velocity = lambda t, w=2 * np.pi * freq: v_mean + v_amp * np.sin(w * t)  # noqa: E731
+        t_last = (n_periods - 1 + np.arange(points) / points) / freq
+        rhs = plain_lugre_rhs(f, velocity)
+        sol = solve_ivp(rhs, (0.0, n_periods / freq), [0.0], method="DOP853", t_eval=t_last, rtol=1e-12, atol=1e-15)
+        v, z = velocity(t_last), sol.y[0]
+        zdot = np.array([rhs(t, zz) for t, zz in zip(t_last, z)])
+        mu = f.sigma0_per_m * z + f.sigma1_s_per_m * zdot + f.sigma2_s_per_m * v
+        rows.append((np.full(points, freq), t_last, v, mu))
+    return [np.concatenate(col) for col in zip(*rows)]
+
+
+@pytest.mark.slow
+def test_loop_fit_recovers_sigma0_and_sigma1_from_independent_loops():
+    """Noise-free loops from the independent integration: the fit must land on the truth."""
+    true = Friction(sigma0_per_m=150.0, sigma1_s_per_m=0.06)
+    freq, t, v, mu = independent_loops(true, 0.3, 0.2, [3.0, 40.0], points=40)
+    fit = fit_loops(freq, t, v, mu, Friction())  # static keys are the defaults, as in `true`
+    assert fit.converged
+    assert fit.value("sigma0_per_m") == pytest.approx(150.0, rel=1e-5)
+    assert fit.value("sigma1_s_per_m") == pytest.approx(0.06, rel=1e-4)
+    assert fit.rms < 1e-6
+
+
+def test_fourier_velocity_reproduces_a_trigonometric_polynomial():
+    from polywear.analysis.friction import _fourier_velocity
+
+    t = np.linspace(0.0, 0.5, 37, endpoint=False)
+    v = lambda t: 0.3 + 0.2 * np.sin(4 * np.pi * t) - 0.05 * np.cos(12 * np.pi * t + 0.4)  # noqa: E731
+    fitted = _fourier_velocity(t, v(t), 2.0, harmonics=3)
+    probe = np.linspace(0.0, 1.0, 101)
+    assert np.allclose(fitted(probe), v(probe), atol=1e-13)
+    assert np.isscalar(float(fitted(0.1)))
+
+
+@pytest.mark.parametrize("case, fragment", [
+    ("too_few", "need at least"),
+    ("half_period", "uncovered"),
+    ("nan", "NaN"),
+])
+def test_loop_fit_rejects_unusable_loops(case, fragment):
+    freq, t, v, mu = independent_loops(Friction(), 0.3, 0.2, [5.0], points=40, n_periods=5)
+    if case == "too_few":
+        freq, t, v, mu = freq[::4], t[::4], v[::4], mu[::4]
+    elif case == "half_period":
+        freq, t, v, mu = freq[:20], t[:20], v[:20], mu[:20]
+    else:
+        mu[3] = np.nan
+    with pytest.raises(FrictionDataError, match=fragment):
+        fit_loops(freq, t, v, mu)
+
+
+def test_loops_csv_errors_through_the_cli(tmp_path):
+    path = tmp_path / "loops.csv"
+    path.write_text("frequency_hz,time_s,friction_coefficient\n1,0,0.5\n")
+    code, out, err = run_main(["friction", "fit-loops", str(path)])
+    assert code == 2 and out == "" and err.count("\n") == 1 and "sliding_velocity_m_per_s" in err
+    path.write_text(",".join(LOOP_COLUMNS) + "\n0,0,0.3,0.5\n")
+    with pytest.raises(FrictionDataError, match="must be > 0"):
+        read_loops_csv(path)
+
+
 # -- data files -------------------------------------------------------------------------------
 
 
-def test_sample_file_is_what_the_docs_recipe_makes(tmp_path, monkeypatch):
-    """docs/friction.md holds the recipe of the shipped sample; run it and compare."""
+@pytest.mark.parametrize("kind, name, reader", [("steady", "friction_sample.csv", read_steady_csv),
+                                                ("loops", "friction_loops_sample.csv", read_loops_csv)])
+def test_sample_files_are_what_the_docs_recipes_make(kind, name, reader, tmp_path, monkeypatch):
+    """docs/friction.md holds the recipe of each shipped sample; run it and compare."""
     doc = (ROOT / "docs" / "friction.md").read_text()
-    blocks = [b for b in re.findall(r"```python\n(.*?)```", doc, re.S) if "friction_sample.csv" in b]
+    blocks = [b for b in re.findall(r"```python\n(.*?)```", doc, re.S) if f'open("{name}"' in b]
     assert len(blocks) == 1
     monkeypatch.chdir(tmp_path)
     exec(compile(blocks[0], "docs/friction.md", "exec"), {})
-    v_new, mu_new = read_steady_csv(tmp_path / "friction_sample.csv")
-    v_old, mu_old = read_steady_csv(sample_path())
-    assert np.array_equal(v_new, v_old) and np.array_equal(mu_new, mu_old)
+    for new, old in zip(reader(tmp_path / name), reader(sample_path(kind))):
+        assert np.array_equal(new, old)
+
+
+def recipe_truth(name: str) -> Friction:
+    """The ``true = Friction(...)`` of the docs recipe that writes ``name``."""
+    doc = (ROOT / "docs" / "friction.md").read_text()
+    block = next(b for b in re.findall(r"```python\n(.*?)```", doc, re.S) if f'open("{name}"' in b)
+    made = re.search(r"true = Friction\((.*?)\)\n", block, re.S).group(1)
+    return eval(f"Friction({made})", {"Friction": Friction})
 
 
 def test_fit_of_the_sample_brackets_the_parameters_it_was_made_from():
-    doc = (ROOT / "docs" / "friction.md").read_text()
-    made = re.search(r"true = Friction\((.*?)\)\n", doc, re.S).group(1)
-    true = eval(f"Friction({made})", {"Friction": Friction})
+    true = recipe_truth("friction_sample.csv")
     v, mu = read_steady_csv(sample_path())
     fit = fit_steady_curve(v, mu, confidence=0.999)
     for name in STEADY_PARAMETERS:
         lo, hi = fit.interval(name)
         assert lo <= getattr(true, name) <= hi, name
+
+
+@pytest.mark.slow
+def test_loop_fit_of_the_loops_sample_brackets_sigma0_and_sigma1(tmp_path):
+    true = recipe_truth("friction_loops_sample.csv")
+    out = tmp_path / "fitted.toml"
+    code, stdout, err = run_main(["friction", "fit-loops", "--sample", "--confidence", "0.999", "--json",
+                                  "--out", str(out)])
+    assert code == 0, err
+    summary = json.loads(stdout)
+    assert summary["converged"]
+    for name in ("sigma0_per_m", "sigma1_s_per_m"):
+        row = summary["parameters"][name]
+        lo, hi = row["interval"]
+        assert lo <= getattr(true, name) <= hi, name
+        assert getattr(load_params(out).friction, name) == row["value"]
 
 
 BAD_CSV = {

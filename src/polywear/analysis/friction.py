@@ -16,7 +16,7 @@ import csv
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, ClassVar
 
 import numpy as np
 
@@ -37,17 +37,24 @@ __all__ = [
     "BristleResponse",
     "HysteresisLoops",
     "FrictionFit",
+    "LoopFit",
     "FrictionDataError",
     "STEADY_PARAMETERS",
+    "LOOP_PARAMETERS",
     "VELOCITY_COLUMN",
     "FRICTION_COLUMN",
+    "FREQUENCY_COLUMN",
+    "TIME_COLUMN",
+    "LOOP_COLUMNS",
     "steady_curve",
     "falling_branch",
     "bristle_response",
     "hysteresis_loops",
     "steady_friction_jacobian",
     "fit_steady_curve",
+    "fit_loops",
     "read_steady_csv",
+    "read_loops_csv",
     "synthetic_steady_data",
     "sample_path",
 ]
@@ -384,25 +391,26 @@ class HysteresisLoops(_Saveable):
         return artists
 
 
-def _periodic_loop(friction, v_mean, v_amplitude, frequency, points, rtol, atol):
-    """One periodic loop: shoot over one period, solve for the periodic start, resample."""
-    omega = 2.0 * math.pi * frequency
-    period = 1.0 / frequency
+def _periodic_orbit(friction, velocity, period, t_eval, rtol, atol):
+    """Bristle response on the periodic orbit of a T-periodic v(t), at ``t_eval`` (0 ... T).
 
-    def velocity(t):
-        return v_mean + v_amplitude * np.sin(omega * t)
-
-    # dz/dt is linear in z for a prescribed v(t): z(T) = q z(0) + c with q = memory(T),
-    # so the periodic start is c / (1 - q). One period from any start gives q and c.
+    dz/dt is linear in z for a prescribed v(t): z(T) = q z(0) + c with q = memory(T),
+    so the periodic start is c / (1 - q); one period from any start gives q and c.
+    Returns the response and |z(T) - z(0)| sigma0 / mu_s on the orbit.
+    """
     max_step = period / 64.0
-    z_start = float(steady_deflection(v_mean, friction.sigma0_per_m, *_steady_args(friction)[1:]))
+    z_start = float(steady_deflection(velocity(0.0), friction.sigma0_per_m, *_steady_args(friction)[1:]))
     shot = bristle_response(friction, velocity, [0.0, period], z_start, rtol=rtol, atol=atol, max_step=max_step)
     q = shot.memory[-1]
     z_periodic = (shot.deflection[-1] - q * z_start) / (1.0 - q)
-    t = np.linspace(0.0, period, points + 1)
-    loop = bristle_response(friction, velocity, t, z_periodic, rtol=rtol, atol=atol, max_step=max_step)
+    loop = bristle_response(friction, velocity, t_eval, z_periodic, rtol=rtol, atol=atol, max_step=max_step)
     error = abs(loop.deflection[-1] - loop.deflection[0]) * friction.sigma0_per_m / friction.mu_static
     return loop, error
+
+
+def _sinusoid(v_mean: float, v_amplitude: float, frequency: float) -> Callable[[Any], Any]:
+    omega = 2.0 * math.pi * frequency
+    return lambda t: v_mean + v_amplitude * np.sin(omega * t)
 
 
 def hysteresis_loops(
@@ -447,7 +455,8 @@ def hysteresis_loops(
         raise ValueError(f"points_per_period = {points_per_period}: must be at least 8")
     rows = []
     for f in freqs:
-        rows.append(_periodic_loop(friction, v_mean, v_amplitude, f, points_per_period, rtol, atol))
+        t = np.linspace(0.0, 1.0 / f, points_per_period + 1)
+        rows.append(_periodic_orbit(friction, _sinusoid(v_mean, v_amplitude, f), 1.0 / f, t, rtol, atol))
         if progress is not None:
             progress()
     stack = lambda name: np.array([getattr(loop, name)[:-1] for loop, _ in rows])  # noqa: E731
@@ -490,17 +499,18 @@ def steady_friction_jacobian(velocity, friction: Friction) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class FrictionFit(_Saveable):
-    """Least-squares fit of the static friction curve to measured steady points."""
+class _ParameterFit(_Saveable):
+    """What a least-squares fit of friction parameters reports (one row per data point)."""
+
+    KEYS: ClassVar[tuple[str, ...]] = ()
+    """The ``[friction]`` keys this kind of fit can determine."""
 
     velocity: np.ndarray
     """measured sliding velocity, as given [m/s]"""
     mu: np.ndarray
     """measured friction coefficient, as given [-]"""
-    magnitudes: bool
-    """True if the data gave |mu| at negative velocities (see :func:`fit_steady_curve`)"""
     friction: Friction
-    """fitted parameters (unfitted keys from the base set)"""
+    """fitted parameters (the other keys from the base set)"""
     fitted: tuple[str, ...]
     standard_errors: dict[str, float]
     """per fitted key, from the Jacobian at the optimum (inf if not identifiable)"""
@@ -512,21 +522,11 @@ class FrictionFit(_Saveable):
     message: str
     nfev: int
     at_bound: tuple[str, ...]
-    source: str = ""
+    source: str
 
     @property
     def n_points(self) -> int:
         return int(self.velocity.size)
-
-    @property
-    def signed_mu(self) -> np.ndarray:
-        """Measured mu with the sign of the velocity (the model is odd in v) [-]."""
-        return np.where(self.velocity < 0.0, -np.abs(self.mu), self.mu) if self.magnitudes else self.mu
-
-    @property
-    def residuals(self) -> np.ndarray:
-        """signed measured mu minus the fitted static curve [-]."""
-        return self.signed_mu - steady_friction(self.velocity, *_steady_args(self.friction))
 
     def value(self, name: str) -> float:
         return float(getattr(self.friction, name))
@@ -546,15 +546,14 @@ class FrictionFit(_Saveable):
         return _friction_toml(self.friction, notes)
 
     def updated_params(self, params):
-        """``params`` with the fitted friction values."""
-        return with_updates(params, {f"friction.{n}": self.value(n) for n in STEADY_PARAMETERS})
+        """``params`` with this fit's ``[friction]`` values."""
+        return with_updates(params, {f"friction.{n}": self.value(n) for n in type(self.friction).model_fields})
 
     def summary(self) -> dict[str, Any]:
         finite = lambda x: float(x) if math.isfinite(x) else None  # noqa: E731
         return {
             "source": self.source,
             "n_points": self.n_points,
-            "negative_velocity_data": "magnitudes" if self.magnitudes else "signed",
             "converged": self.converged,
             "message": self.message,
             "nfev": self.nfev,
@@ -569,10 +568,45 @@ class FrictionFit(_Saveable):
                         "interval": [finite(x) for x in self.interval(name)],
                         "at_bound": name in self.at_bound} if name in self.fitted else {}),
                 }
-                for name in STEADY_PARAMETERS
+                for name in self.KEYS
             },
             "toml": self.to_toml(),
         }
+
+    def _attrs(self, title: str) -> dict[str, Any]:
+        return {
+            "title": title,
+            "source": self.source,
+            "friction_toml": self.to_toml(),
+            "rms_residual": self.rms,
+            "r_squared": self.r_squared,
+            "converged": int(self.converged),
+            "message": self.message,
+            "polywear_version": __version__,
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class FrictionFit(_ParameterFit):
+    """Least-squares fit of the static friction curve to measured steady points."""
+
+    KEYS: ClassVar[tuple[str, ...]] = STEADY_PARAMETERS
+
+    magnitudes: bool
+    """True if the data gave |mu| at negative velocities (see :func:`fit_steady_curve`)"""
+
+    @property
+    def signed_mu(self) -> np.ndarray:
+        """Measured mu with the sign of the velocity (the model is odd in v) [-]."""
+        return np.where(self.velocity < 0.0, -np.abs(self.mu), self.mu) if self.magnitudes else self.mu
+
+    @property
+    def residuals(self) -> np.ndarray:
+        """signed measured mu minus the fitted static curve [-]."""
+        return self.signed_mu - steady_friction(self.velocity, *_steady_args(self.friction))
+
+    def summary(self) -> dict[str, Any]:
+        return {**super().summary(), "negative_velocity_data": "magnitudes" if self.magnitudes else "signed"}
 
     def to_dataset(self):
         import xarray as xr
@@ -585,16 +619,7 @@ class FrictionFit(_Saveable):
                 "covariance": (("fitted", "fitted_"), self.covariance),
             },
             coords={"fitted": list(self.fitted), "fitted_": list(self.fitted)},
-            attrs={
-                "title": "LuGre static curve fit",
-                "source": self.source,
-                "friction_toml": self.to_toml(),
-                "rms_residual": self.rms,
-                "r_squared": self.r_squared,
-                "converged": int(self.converged),
-                "message": self.message,
-                "polywear_version": __version__,
-            },
+            attrs=self._attrs("LuGre static curve fit"),
         )
 
     def plot(self, ax=None):
@@ -746,16 +771,8 @@ def fit_steady_curve(
         raise FrictionDataError(f"the fit left the valid parameter range ({exc}); fix that parameter") from None
 
     # covariance in the natural parameters, from the analytic Jacobian at the optimum
-    jac_nat = steady_friction_jacobian(fold_v, fitted)[:, free]
-    dof = v.size - len(fit)
-    s2 = 2.0 * best.cost / dof
-    _, sv, vt = np.linalg.svd(jac_nat, full_matrices=False)
-    if sv[-1] <= sv[0] * 1e-10:
-        cov = np.full((len(fit), len(fit)), np.inf)
-    else:
-        cov = (vt.T / sv**2) @ vt * s2
     res = residuals(best.x)
-    ss_tot = float(np.sum((fold_mu - fold_mu.mean()) ** 2))
+    cov = _covariance(steady_friction_jacobian(fold_v, fitted)[:, free], res)
     return FrictionFit(
         velocity=v,
         mu=y,
@@ -766,7 +783,7 @@ def fit_steady_curve(
         covariance=cov,
         confidence=confidence,
         rms=float(np.sqrt(np.mean(res**2))),
-        r_squared=1.0 - float(np.sum(res**2)) / ss_tot if ss_tot > 0.0 else float("nan"),
+        r_squared=_r_squared(res, fold_mu),
         converged=bool(best.status > 0),
         message=str(best.message).rstrip("."),
         nfev=int(best.nfev),
@@ -780,17 +797,243 @@ def _validated_friction(base: Friction, values: dict[str, float]) -> Friction:
     return Friction.model_validate({**base.model_dump(), **{k: float(x) for k, x in values.items()}})
 
 
+def _covariance(jac: np.ndarray, residuals: np.ndarray) -> np.ndarray:
+    """s^2 (J^T J)^-1 with s^2 = SSR / (n - p); inf where J is rank deficient."""
+    n, p = jac.shape
+    _, sv, vt = np.linalg.svd(jac, full_matrices=False)
+    if sv[-1] <= sv[0] * 1e-10:
+        return np.full((p, p), np.inf)
+    return (vt.T / sv**2) @ vt * float(np.sum(residuals**2)) / (n - p)
+
+
+def _r_squared(residuals: np.ndarray, data: np.ndarray) -> float:
+    ss_tot = float(np.sum((data - data.mean()) ** 2))
+    return 1.0 - float(np.sum(residuals**2)) / ss_tot if ss_tot > 0.0 else float("nan")
+
+
+# -- fitting sigma0 and sigma1 to measured loops ---------------------------------------------
+
+LOOP_PARAMETERS = ("sigma0_per_m", "sigma1_s_per_m")
+"""Keys of ``[friction]`` that only the dynamics (loops) determine."""
+
+
+@dataclass(frozen=True, eq=False)
+class LoopFit(_ParameterFit):
+    """Fit of sigma0 and sigma1 to measured periodic friction loops."""
+
+    KEYS: ClassVar[tuple[str, ...]] = LOOP_PARAMETERS
+
+    frequency_hz: np.ndarray
+    """excitation frequency of each point [Hz]"""
+    time_s: np.ndarray
+    """time of each point [s]"""
+    model_velocity: np.ndarray
+    """the periodic velocity that drives the model (Fourier fit of the measured one) [m/s]"""
+    model_mu: np.ndarray
+    """fitted model's friction coefficient at each point [-]"""
+    harmonics: int
+
+    @property
+    def residuals(self) -> np.ndarray:
+        """measured minus fitted friction coefficient [-]."""
+        return self.mu - self.model_mu
+
+    def to_dataset(self):
+        import xarray as xr
+
+        point = lambda values, attrs: ("point", values, attrs)  # noqa: E731
+        return xr.Dataset(
+            {
+                "frequency": point(self.frequency_hz, {"units": "Hz"}),
+                "time": point(self.time_s, {"units": "s"}),
+                "velocity": point(self.velocity, {"long_name": "measured sliding velocity", "units": "m/s"}),
+                "mu": point(self.mu, {"long_name": "measured friction coefficient", "units": "1"}),
+                "model_velocity": point(self.model_velocity, {"long_name": "Fourier fit of the velocity",
+                                                              "units": "m/s"}),
+                "model_mu": point(self.model_mu, {"long_name": "fitted friction coefficient", "units": "1"}),
+                "covariance": (("fitted", "fitted_"), self.covariance),
+            },
+            coords={"fitted": list(self.fitted), "fitted_": list(self.fitted)},
+            attrs={**self._attrs("LuGre loop fit (sigma0, sigma1)"), "harmonics": self.harmonics},
+        )
+
+    def plot(self, ax=None):
+        """Measured loops (points) and the fitted model loops (lines); returns artists."""
+        import matplotlib as mpl
+
+        ax = _axes(ax)
+        freqs = np.unique(self.frequency_hz)
+        colors = mpl.colormaps["viridis"](np.linspace(0.0, 0.85, freqs.size))
+        artists = []
+        for f, color in zip(freqs, colors):
+            at = self.frequency_hz == f
+            order = np.argsort(np.mod(self.time_s[at], 1.0 / f))
+            artists += ax.plot(self.velocity[at], self.mu[at], "o", ms=3, mfc="none", color=color)
+            v, mu = self.model_velocity[at][order], self.model_mu[at][order]
+            artists += ax.plot(np.append(v, v[0]), np.append(mu, mu[0]), color=color, lw=1.4, label=f"{f:g} Hz")
+        ax.set_xlabel("sliding velocity $v_r$ [m/s]")
+        ax.set_ylabel(r"friction coefficient $F/N$ [-]")
+        ax.grid(True, alpha=0.3)
+        ax.legend(title=f"measured (points), fit (lines), rms {self.rms:.2g}", fontsize="small")
+        return artists
+
+
+def _fourier_velocity(t: np.ndarray, v: np.ndarray, frequency: float, harmonics: int) -> Callable[[Any], Any]:
+    """Least-squares Fourier series of v(t) with the given fundamental [Hz]; a callable v(t)."""
+    omega = 2.0 * math.pi * frequency
+    k = np.arange(1, harmonics + 1)
+
+    def basis(time):
+        wt = omega * np.multiply.outer(np.asarray(time, dtype=float), k)
+        return np.concatenate([np.ones(np.shape(time) + (1,)), np.cos(wt), np.sin(wt)], axis=-1)
+
+    coef = np.linalg.lstsq(basis(t), v, rcond=None)[0]
+    return lambda time: basis(time) @ coef
+
+
+def fit_loops(
+    frequency_hz,
+    time_s,
+    velocity,
+    mu,
+    base: Friction | None = None,
+    *,
+    harmonics: int = 3,
+    sigma0_range: tuple[float, float] = (1.0, 1e6),
+    confidence: float = 0.95,
+    rtol: float = 1e-8,
+    progress: Callable[[], None] | None = None,
+    source: str = "",
+) -> LoopFit:
+    """Fit sigma0 and sigma1 to measured periodic friction loops.
+
+    Each frequency's points must come from one steady periodic loop (after the
+    transient) and cover its period; ``time_s`` may span several periods. The measured
+    velocity of each loop is replaced by its least-squares Fourier series (``harmonics``
+    harmonics of the frequency), which drives the bristle ODE; its periodic orbit comes
+    from the same fixed-point construction as :func:`hysteresis_loops`. The static-curve
+    keys (mu_s, mu_c, v_s, delta, sigma2) are taken from ``base``: fit them first with
+    :func:`fit_steady_curve`.
+
+    The model is linear in sigma1, so for each sigma0 the best sigma1 >= 0 is a linear
+    least-squares solution (variable projection); sigma0 is found by a scan of
+    ``sigma0_range`` [1/m] in half-decade steps followed by a bounded Brent search in
+    log sigma0. Standard errors come from the Jacobian at the optimum (central
+    difference in sigma0, analytic in sigma1).
+    """
+    from scipy.optimize import minimize_scalar
+
+    base = base or Friction()
+    f_all = np.asarray(frequency_hz, dtype=float).ravel()
+    t_all = np.asarray(time_s, dtype=float).ravel()
+    v_all = np.asarray(velocity, dtype=float).ravel()
+    y = np.asarray(mu, dtype=float).ravel()
+    if not f_all.size == t_all.size == v_all.size == y.size:
+        raise FrictionDataError("frequency, time, velocity and mu differ in length")
+    if not all(np.all(np.isfinite(a)) for a in (f_all, t_all, v_all, y)):
+        raise FrictionDataError("data contain NaN or infinite values")
+    if np.any(f_all <= 0.0):
+        raise FrictionDataError("frequencies must be > 0")
+    lo, hi = sigma0_range
+    if not 0.0 < lo < hi < math.inf:
+        raise ValueError(f"sigma0_range = {sigma0_range!r}: need 0 < low < high")
+    if not 0.0 < confidence < 1.0:
+        raise ValueError(f"confidence = {confidence!r}: must lie in (0, 1)")
+    min_points = 4 * harmonics + 4
+    groups = []
+    for f in np.unique(f_all):
+        idx = np.nonzero(f_all == f)[0]
+        period = 1.0 / f
+        phase = np.mod(t_all[idx], period)
+        if idx.size < min_points:
+            raise FrictionDataError(f"{f:g} Hz: {idx.size} points, need at least {min_points} per loop")
+        gaps = np.diff(np.concatenate([np.sort(phase), [np.min(phase) + period]]))
+        if gaps.max() > period / 8.0:
+            raise FrictionDataError(f"{f:g} Hz: the points leave {gaps.max() / period:.0%} of the period "
+                                    "uncovered (need a whole loop)")
+        grid, where = np.unique(np.concatenate([[0.0], phase, [period]]), return_inverse=True)
+        groups.append((idx, period, _fourier_velocity(t_all[idx], v_all[idx], f, harmonics), grid,
+                       where[1:-1]))
+
+    def model(sigma0: float):
+        """z, dz/dt and v of the model at every point, for this sigma0."""
+        friction = base.model_copy(update={"sigma0_per_m": sigma0})
+        z, zdot, v = (np.empty_like(y) for _ in range(3))
+        for idx, period, v_of_t, grid, where in groups:
+            loop, _ = _periodic_orbit(friction, v_of_t, period, grid, rtol, None)
+            z[idx], zdot[idx], v[idx] = loop.deflection[where], loop.rate[where], loop.velocity[where]
+        if progress is not None:
+            progress()
+        return z, zdot, v
+
+    evaluations: dict[float, tuple] = {}
+
+    def profile(log_sigma0: float):
+        """SSR at the best sigma1 >= 0 for this sigma0; (ssr, sigma1, residuals, z, zdot, v)."""
+        if log_sigma0 not in evaluations:
+            sigma0 = 10.0**log_sigma0
+            z, zdot, v = model(sigma0)
+            b = sigma0 * z + base.sigma2_s_per_m * v - y
+            sigma1 = max(0.0, -float(zdot @ b) / float(zdot @ zdot))
+            r = b + sigma1 * zdot
+            evaluations[log_sigma0] = (float(r @ r), sigma1, r, z, zdot, v)
+        return evaluations[log_sigma0]
+
+    scan = np.arange(math.log10(lo), math.log10(hi) + 0.25, 0.5).clip(max=math.log10(hi))
+    costs = [profile(x)[0] for x in scan]
+    i = int(np.argmin(costs))
+    bracket = (scan[max(i - 1, 0)], scan[min(i + 1, scan.size - 1)])
+    search = minimize_scalar(lambda x: profile(x)[0], bounds=bracket, method="bounded",
+                             options={"xatol": 1e-6})
+    log_sigma0 = float(search.x)
+    _, sigma1, res, z, zdot, v_model = profile(log_sigma0)
+    sigma0 = 10.0**log_sigma0
+    edge = i in (0, scan.size - 1) and abs(log_sigma0 - scan[i]) < 0.05
+    converged = bool(search.success) and not edge
+    message = (f"sigma0 at the edge of the search range {sigma0_range}" if edge else str(search.message))
+
+    # Jacobian at the optimum: d r / d sigma0 by central differences (sigma1 held), d r / d sigma1 = dz/dt
+    def residual_at(s0: float) -> np.ndarray:
+        z_s, zdot_s, v_s = model(s0)
+        return s0 * z_s + sigma1 * zdot_s + base.sigma2_s_per_m * v_s - y
+
+    step = 1e-3 * sigma0
+    jac = np.column_stack([(residual_at(sigma0 + step) - residual_at(sigma0 - step)) / (2.0 * step), zdot])
+    cov = _covariance(jac, res)
+    friction = _validated_friction(base, {"sigma0_per_m": sigma0, "sigma1_s_per_m": sigma1})
+    return LoopFit(
+        velocity=v_all,
+        mu=y,
+        friction=friction,
+        fitted=LOOP_PARAMETERS,
+        standard_errors={name: float(math.sqrt(cov[i, i])) for i, name in enumerate(LOOP_PARAMETERS)},
+        covariance=cov,
+        confidence=confidence,
+        rms=float(np.sqrt(np.mean(res**2))),
+        r_squared=_r_squared(res, y),
+        converged=converged,
+        message=message,
+        nfev=len(evaluations) + 2,
+        at_bound=("sigma1_s_per_m",) if sigma1 == 0.0 else (),
+        source=source,
+        frequency_hz=f_all,
+        time_s=t_all,
+        model_velocity=v_model,
+        model_mu=y + res,
+        harmonics=harmonics,
+    )
+
+
 # -- data files ----------------------------------------------------------------------------
 
+FREQUENCY_COLUMN = "frequency_hz"
+TIME_COLUMN = "time_s"
+LOOP_COLUMNS = (FREQUENCY_COLUMN, TIME_COLUMN, VELOCITY_COLUMN, FRICTION_COLUMN)
+_SAMPLES = {"steady": "friction_sample.csv", "loops": "friction_loops_sample.csv"}
 
-def read_steady_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
-    """Read measured steady friction points from a CSV file.
 
-    The first row is a header that names the columns ``sliding_velocity_m_per_s``
-    [m/s] and ``friction_coefficient`` [-] (other columns are ignored; lines starting
-    with ``#`` are comments). Raises :class:`FrictionDataError` naming the file, line
-    and problem.
-    """
+def _read_csv_columns(path: str | Path, columns: tuple[str, ...]) -> tuple[list[np.ndarray], list[int]]:
+    """Numeric ``columns`` of a CSV file with a header row; also each row's line number."""
     path = Path(path)
     try:
         text = path.read_text()
@@ -802,19 +1045,19 @@ def read_steady_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     if not rows:
         raise FrictionDataError(f"{path}: empty")
     header_line, header = rows[0][0], [c.strip() for c in next(csv.reader([rows[0][1]]))]
-    missing = [c for c in (VELOCITY_COLUMN, FRICTION_COLUMN) if c not in header]
+    missing = [c for c in columns if c not in header]
     if missing:
         raise FrictionDataError(
             f"{path} line {header_line}: missing column(s) {', '.join(missing)} "
-            f"(header must name {VELOCITY_COLUMN} and {FRICTION_COLUMN}; found {', '.join(header)})"
+            f"(header must name {', '.join(columns)}; found {', '.join(header)})"
         )
-    iv, imu = header.index(VELOCITY_COLUMN), header.index(FRICTION_COLUMN)
-    v, mu = [], []
+    index = [header.index(c) for c in columns]
+    values: list[list[float]] = [[] for _ in columns]
     for n, line in rows[1:]:
         cells = next(csv.reader([line]))
         if len(cells) != len(header):
             raise FrictionDataError(f"{path} line {n}: {len(cells)} fields, header has {len(header)}")
-        for name, i, out in ((VELOCITY_COLUMN, iv, v), (FRICTION_COLUMN, imu, mu)):
+        for name, i, out in zip(columns, index, values):
             try:
                 value = float(cells[i])
             except ValueError:
@@ -822,9 +1065,35 @@ def read_steady_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
             if not math.isfinite(value):
                 raise FrictionDataError(f"{path} line {n}: {name} = {cells[i].strip()!r} is not finite")
             out.append(value)
-        if v[-1] == 0.0:
-            raise FrictionDataError(f"{path} line {n}: {VELOCITY_COLUMN} = 0, where steady friction is not defined")
-    return np.array(v), np.array(mu)
+    return [np.array(col) for col in values], [n for n, _ in rows[1:]]
+
+
+def read_steady_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Measured steady points (velocity [m/s], mu [-]) from a CSV file.
+
+    The first row is a header that names the columns ``sliding_velocity_m_per_s``
+    [m/s] and ``friction_coefficient`` [-] (in any order; other columns are ignored;
+    lines starting with ``#`` are comments). Raises :class:`FrictionDataError` naming
+    the file, line and problem.
+    """
+    (v, mu), lines = _read_csv_columns(path, (VELOCITY_COLUMN, FRICTION_COLUMN))
+    if np.any(v == 0.0):
+        n = lines[int(np.argmax(v == 0.0))]
+        raise FrictionDataError(f"{path} line {n}: {VELOCITY_COLUMN} = 0, where steady friction is not defined")
+    return v, mu
+
+
+def read_loops_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Measured loops (frequency [Hz], time [s], velocity [m/s], mu [-]) from a CSV file.
+
+    Like :func:`read_steady_csv`, with the columns ``frequency_hz``, ``time_s``,
+    ``sliding_velocity_m_per_s`` and ``friction_coefficient``.
+    """
+    (f, t, v, mu), lines = _read_csv_columns(path, LOOP_COLUMNS)
+    if np.any(f <= 0.0):
+        n = lines[int(np.argmax(f <= 0.0))]
+        raise FrictionDataError(f"{path} line {n}: {FREQUENCY_COLUMN} must be > 0")
+    return f, t, v, mu
 
 
 def synthetic_steady_data(friction: Friction, velocity, noise_sd: float, seed: int) -> np.ndarray:
@@ -837,8 +1106,10 @@ def synthetic_steady_data(friction: Friction, velocity, noise_sd: float, seed: i
     return steady_friction(v, *_steady_args(friction)) + rng.normal(0.0, noise_sd, v.shape)
 
 
-def sample_path() -> Path:
-    """Path of the shipped sample data ``friction_sample.csv`` (see docs/friction.md)."""
+def sample_path(kind: str = "steady") -> Path:
+    """Path of the shipped sample data, ``"steady"`` points or ``"loops"`` (docs/friction.md)."""
     from importlib.resources import files
 
-    return Path(str(files("polywear").joinpath("data", "friction_sample.csv")))
+    if kind not in _SAMPLES:
+        raise ValueError(f"kind = {kind!r}: one of {', '.join(_SAMPLES)}")
+    return Path(str(files("polywear").joinpath("data", _SAMPLES[kind])))

@@ -168,6 +168,61 @@ def loops(
                    f"{row['area_m_per_s']:11.4g} {row['mu_min']:8.4f} {row['mu_max']:8.4f}")
 
 
+SampleOpt = Annotated[bool, typer.Option("--sample", help="Fit the shipped sample data instead of FILE.")]
+ConfidenceOpt = Annotated[
+    float, typer.Option("--confidence", min=0.5, max=0.9999, help="Level of the confidence intervals.")
+]
+FitOutOpt = Annotated[
+    Optional[Path],
+    typer.Option("--out", "-o", help="Write the parameter set with the fitted values (.toml) or the fit (.nc)."),
+]
+
+
+def _data_path(file: Path | None, sample: bool, kind: str) -> Path:
+    from ..analysis.friction import sample_path
+
+    if sample == (file is not None):
+        raise UserError("give either a CSV FILE or --sample")
+    return sample_path(kind) if sample else file
+
+
+def _check_out(out: Path | None) -> None:
+    if out is not None and out.suffix not in (".toml", ".nc"):
+        raise UserError(f"--out {out}: expected a .toml (parameter file) or .nc (fit result) file name")
+
+
+def _report_fit(result, params, path: Path, out: Path | None, plot: Path | None, json_: bool) -> None:
+    """Write --out/--plot, then the summary: JSON, or a table and the [friction] snippet."""
+    if out is not None and out.suffix == ".toml":
+        from ..params import to_toml
+
+        out.write_text(to_toml(result.updated_params(params), comments=True))
+        info(f"wrote {out}")
+    else:
+        _save(result, out)
+    if plot:
+        _write_plot(result, plot)
+    summary = result.summary()
+    if json_:
+        emit_json(summary)
+        return
+    note = " (negative-velocity values read as magnitudes)" if getattr(result, "magnitudes", False) else ""
+    typer.echo(f"{path}: {result.n_points} points{note}")
+    typer.echo(f"{'key':<28} {'value':>12} {'std. error':>11}  {100 * result.confidence:g}% interval")
+    for name, row in summary["parameters"].items():
+        if not row["fitted"]:
+            typer.echo(f"{name:<28} {row['value']:12.6g} {'(fixed)':>11}")
+            continue
+        se, (lo, hi) = row["standard_error"], row["interval"]
+        se_text = f"{se:11.3g}" if se is not None else f"{'n/a':>11}"
+        ci_text = f"[{lo:.6g}, {hi:.6g}]" if se is not None else "not identifiable"
+        typer.echo(f"{name:<28} {row['value']:12.6g} {se_text}  {ci_text}" + ("  at bound" if row["at_bound"] else ""))
+    typer.echo(f"rms residual {result.rms:.4g}, R^2 {result.r_squared:.6f}, "
+               f"{'converged' if result.converged else 'NOT converged'} ({result.message}, {result.nfev} evaluations)")
+    typer.echo("")
+    typer.echo(result.to_toml(), nl=False)
+
+
 @app.command("fit")
 def fit(
     file: Annotated[
@@ -175,7 +230,7 @@ def fit(
         typer.Argument(help="CSV with columns sliding_velocity_m_per_s [m/s] and friction_coefficient [-].",
                        show_default=False),
     ] = None,
-    sample: Annotated[bool, typer.Option("--sample", help="Fit the shipped sample data instead of FILE.")] = False,
+    sample: SampleOpt = False,
     config: ConfigOpt = None,
     set_: SetOpt = None,
     fix: Annotated[
@@ -184,24 +239,16 @@ def fit(
                      "(repeatable): mu_static, mu_coulomb, stribeck_velocity_m_per_s, stribeck_exponent, "
                      "sigma2_s_per_m."),
     ] = None,
-    confidence: Annotated[
-        float, typer.Option("--confidence", min=0.5, max=0.9999, help="Level of the confidence intervals.")
-    ] = 0.95,
+    confidence: ConfidenceOpt = 0.95,
     json_: JsonOpt = False,
     plot: PlotOpt = None,
-    out: Annotated[
-        Optional[Path],
-        typer.Option("--out", "-o", help="Write the parameter set with the fitted values (.toml) or the fit (.nc)."),
-    ] = None,
+    out: FitOutOpt = None,
 ) -> None:
     """Fit mu_s, mu_c, v_s, delta, sigma2 of the static curve to measured steady mu(v) points."""
-    from ..analysis.friction import STEADY_PARAMETERS, FrictionDataError, fit_steady_curve, read_steady_csv, sample_path
+    from ..analysis.friction import STEADY_PARAMETERS, FrictionDataError, fit_steady_curve, read_steady_csv
 
-    if sample == (file is not None):
-        raise UserError("give either a CSV FILE or --sample")
-    if out is not None and out.suffix not in (".toml", ".nc"):
-        raise UserError(f"--out {out}: expected a .toml (parameter file) or .nc (fit result) file name")
-    path = sample_path() if sample else file
+    path = _data_path(file, sample, "steady")
+    _check_out(out)
     params = load(config, set_)
     unknown = sorted(set(fix or ()) - set(STEADY_PARAMETERS))
     if unknown:
@@ -214,33 +261,39 @@ def fit(
         result = fit_steady_curve(velocity, mu, params.friction, fit=free, confidence=confidence, source=str(path))
     except FrictionDataError as exc:
         raise UserError(str(exc)) from None
-    if out is not None:
-        if out.suffix == ".toml":
-            from ..params import to_toml
+    _report_fit(result, params, path, out, plot, json_)
 
-            out.write_text(to_toml(result.updated_params(params), comments=True))
-            info(f"wrote {out}")
-        else:
-            _save(result, out)
-    if plot:
-        _write_plot(result, plot)
-    summary = result.summary()
-    if json_:
-        emit_json(summary)
-        return
-    typer.echo(f"{path}: {result.n_points} points"
-               + (" (negative-velocity values read as magnitudes)" if result.magnitudes else ""))
-    level = f"{100 * confidence:g}%"
-    typer.echo(f"{'key':<28} {'value':>12} {'std. error':>11}  {level} interval")
-    for name, row in summary["parameters"].items():
-        if not row["fitted"]:
-            typer.echo(f"{name:<28} {row['value']:12.6g} {'(fixed)':>11}")
-            continue
-        se, lo_hi = row["standard_error"], row["interval"]
-        se_text = f"{se:11.3g}" if se is not None else f"{'n/a':>11}"
-        ci_text = f"[{lo_hi[0]:.6g}, {lo_hi[1]:.6g}]" if se is not None else "not identifiable"
-        typer.echo(f"{name:<28} {row['value']:12.6g} {se_text}  {ci_text}" + ("  at bound" if row["at_bound"] else ""))
-    typer.echo(f"rms residual {result.rms:.4g}, R^2 {result.r_squared:.6f}, "
-               f"{'converged' if result.converged else 'NOT converged'} ({result.message}, {result.nfev} evaluations)")
-    typer.echo("")
-    typer.echo(result.to_toml(), nl=False)
+
+@app.command("fit-loops")
+def fit_loops(
+    file: Annotated[
+        Optional[Path],
+        typer.Argument(help="CSV with columns frequency_hz, time_s, sliding_velocity_m_per_s, "
+                       "friction_coefficient.", show_default=False),
+    ] = None,
+    sample: SampleOpt = False,
+    config: ConfigOpt = None,
+    set_: SetOpt = None,
+    harmonics: Annotated[
+        int, typer.Option("--harmonics", min=1, max=20, help="Fourier harmonics kept of the measured velocity.")
+    ] = 3,
+    confidence: ConfidenceOpt = 0.95,
+    json_: JsonOpt = False,
+    plot: PlotOpt = None,
+    out: FitOutOpt = None,
+) -> None:
+    """Fit sigma0 and sigma1 to measured periodic loops (static-curve keys from -c/--set)."""
+    from ..analysis.friction import FrictionDataError, read_loops_csv
+    from ..analysis.friction import fit_loops as fit_measured_loops
+
+    path = _data_path(file, sample, "loops")
+    _check_out(out)
+    params = load(config, set_)
+    try:
+        data = read_loops_csv(path)
+        with progress("fitting loops", total=None, enabled=not json_) as advance:
+            result = fit_measured_loops(*data, params.friction, harmonics=harmonics, confidence=confidence,
+                                        progress=advance, source=str(path))
+    except FrictionDataError as exc:
+        raise UserError(str(exc)) from None
+    _report_fit(result, params, path, out, plot, json_)
