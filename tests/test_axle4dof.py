@@ -358,14 +358,11 @@ def _central_jacobian(u, V, p):
     return np.array(cols).T
 
 
-@settings(max_examples=15, deadline=None)
-@given(
-    seed=st.integers(0, 2**32 - 1),
-    reference=st.sampled_from(["running", "unloaded"]),
-    spin=st.sampled_from([0.0, 1.2]),
-    kmh=st.floats(30.0, 250.0),
-)
-def test_jacobian_and_speed_derivative_match_complex_step_and_central_differences(seed, reference, spin, kmh):
+@pytest.mark.parametrize("reference", ["running", "unloaded"])
+@pytest.mark.parametrize("spin", [0.0, 1.2])
+@settings(max_examples=8, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), kmh=st.floats(30.0, 250.0))
+def test_jacobian_and_speed_derivative_match_complex_step_and_central_differences(reference, spin, seed, kmh):
     p = pack(**{"axle.reference": reference, "axle.wheel_spin_inertia_kgm2": spin, "axle.lateral_offset_m": 0.03})
     V = kmh_to_ms(kmh)
     u = random_state(np.random.default_rng(seed), p, V)
