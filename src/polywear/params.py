@@ -198,10 +198,10 @@ class StudyParameter(_Table):
         for name in ("mode", "mean", "std"):
             if getattr(self, name) is not None and name not in extras:
                 raise ParameterError(f"{where}: {name} is not used by distribution {self.distribution!r}")
-        for name in ("mode", "mean"):
-            value = getattr(self, name)
-            if value is not None and not self.low <= value <= self.high:
-                raise ParameterError(f"{where}: {name} = {value!r} must lie in [low, high]")
+        if self.mode is not None and not self.low <= self.mode < self.high:
+            raise ParameterError(f"{where}: mode = {self.mode!r} must lie in [low, high)")
+        if self.mean is not None and not self.low <= self.mean <= self.high:
+            raise ParameterError(f"{where}: mean = {self.mean!r} must lie in [low, high]")
         if self.std is not None and not self.std > 0.0:
             raise ParameterError(f"{where}: std = {self.std!r} must be positive")
         if self.distribution == "loguniform" and not self.low > 0.0:

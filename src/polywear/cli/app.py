@@ -33,13 +33,15 @@ def _root(
 
 
 def _register() -> None:
-    from . import bifurcation_cmd, friction_cmd, params_cmd, simulate_cmd, stability_cmd
+    from . import bifurcation_cmd, friction_cmd, params_cmd, sensitivity_cmd, simulate_cmd, stability_cmd, study_cmd
 
     app.add_typer(params_cmd.app, name="params")
     app.add_typer(friction_cmd.app, name="friction")
     app.command("stability")(stability_cmd.stability)
     app.command("bifurcation")(bifurcation_cmd.bifurcation)
     app.command("simulate")(simulate_cmd.simulate)
+    app.command("sensitivity")(sensitivity_cmd.sensitivity)
+    app.command("study")(study_cmd.study)
 
 
 _register()

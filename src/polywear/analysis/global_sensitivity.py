@@ -1,0 +1,539 @@
+"""Global sensitivity of the SEV band over user-given parameter ranges (SALib).
+
+The ``[study]`` table of the parameter file (:class:`polywear.params.Study`) names the
+uncertain parameters with their ranges and distributions, the method (Sobol indices
+from Saltelli sampling, or Morris elementary effects), the sample size and the seed.
+Samples are drawn here, in the calling process, from ``numpy.random.SeedSequence(seed)``;
+the evaluations run on any backend of :mod:`polywear.parallel` and are deterministic, so
+a seed gives the same numbers on every backend.
+
+Outputs per sample (``study.outputs``):
+
+``"hopf"`` (fast path, ~1 ms per sample)
+    ``hopf_1_kmh``, ``hopf_2_kmh``: the lowest and highest bound of the linear band
+    (where steady rolling is unstable), from :func:`fast_linear_band`;
+    ``linear_band_width_kmh``: its total width.
+``"bifurcation"`` (continuation, ~0.3 s per sample for tread1dof, a few s for axle4dof)
+    ``first_bifurcation_kmh``, ``second_bifurcation_kmh``: bounds of the SEV band;
+    ``sev_band_width_kmh``; ``max_amplitude_mm``: the largest tread amplitude of a
+    stable cycle in ``study.operating_range_kmh`` (0 where there is none).
+
+Failed evaluations are recorded per sample with a reason and counted, never dropped
+silently: invalid parameter combinations, equilibrium or continuation failures (all
+outputs NaN); no band in the speed range (speeds NaN, width 0); a band reaching the
+edge of the speed range (that bound and the width NaN). SALib's estimators have no
+NaN handling (one NaN makes every index NaN), so for each output the analysis drops
+the whole Saltelli block (Sobol: the ``2D + 2`` or ``D + 2`` runs of one base sample)
+or Morris trajectory (``D + 1`` runs) that holds a NaN, and reports how many it
+dropped. Indices of a speed are therefore conditional on the band existing.
+
+Confidence intervals are SALib's bootstrap intervals (``study.bootstrap`` resamples,
+level ``study.confidence``). Convergence: the indices are recomputed from the first
+N/4 and N/2 base samples (prefixes of a scrambled Sobol sequence are balanced too) or
+trajectories; an output counts as converged when no index moved by more than its
+confidence half-width from N/2 to N.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import __version__
+from ..models import get_model
+from ..models.base import kmh_to_ms, ms_to_kmh
+from ..params import ADHESION_SCALE, Params, ParameterError, StudyParameter, get_value, to_toml, with_updates
+
+__all__ = [
+    "HOPF_OUTPUTS",
+    "BIFURCATION_OUTPUTS",
+    "fast_linear_band",
+    "default_study_parameters",
+    "study_parameters",
+    "sample_params",
+    "StudyEvaluator",
+    "GlobalSensitivityResult",
+    "global_sensitivity",
+]
+
+HOPF_OUTPUTS = ("hopf_1_kmh", "hopf_2_kmh", "linear_band_width_kmh")
+BIFURCATION_OUTPUTS = ("first_bifurcation_kmh", "second_bifurcation_kmh", "sev_band_width_kmh", "max_amplitude_mm")
+
+NO_BAND = "no band in the speed range"
+AT_EDGE = "band reaches the edge of the speed range"
+OK = "ok"
+
+DEFAULT_SPREAD = 0.10
+"""Relative half-width of the default ranges (the paper's seven parameters, uniform)."""
+
+DEFAULT_KEYS = (
+    "tread.lateral_stiffness_n_per_m",
+    "tread.lateral_damping_ns_per_m",
+    "operating.toe_deg",
+    "operating.camber_deg",
+    "friction.mu_static",
+    "tread.mass_kg",
+    "operating.vertical_load_n",
+)
+"""The paper's seven parameters; adhesion read as the peak friction mu_s (the usual
+meaning of "adhesion coefficient"); give ``adhesion_scale`` explicitly for the other reading."""
+
+
+# -- the fast path: linear band from a coarse grid and Brent ---------------------------------
+def _growth_rates(model, p, speeds) -> np.ndarray:
+    """Largest real part of the equilibrium's eigenvalues at each speed [1/s] (one LAPACK call)."""
+    J = np.empty((len(speeds), model.n, model.n))
+    for k, V in enumerate(speeds):
+        model.kernels.jac(model.equilibrium(V, p), float(V), p, J[k])
+    return np.linalg.eigvals(J).real.max(axis=1)
+
+
+def fast_linear_band(
+    params: Params, speed_range_kmh=(20.0, 300.0), n_grid: int = 48, xtol_ms: float = 1e-9
+) -> list[tuple[float, float]]:
+    """Speed intervals [km/h] where steady rolling is unstable (the linear band), fast.
+
+    The largest real part ``r(V)`` of the equilibrium eigenvalues is sampled on
+    ``n_grid`` speeds; every sign change is refined by Brent's method to ``xtol_ms``
+    [m/s]. Where ``r`` has a negative local maximum (or positive local minimum) on the
+    grid, a bounded scalar search decides whether it crosses zero between the grid
+    points, so a band narrower than the grid step is not missed. The ends of an
+    interval are Hopf speeds, or the range ends where the band reaches them.
+    """
+    from scipy.optimize import brentq, minimize_scalar
+
+    model = get_model(params.model)
+    p = model.pack(params)
+    lo, hi = (kmh_to_ms(v) for v in speed_range_kmh)
+    speeds = np.linspace(lo, hi, n_grid)
+    r = _growth_rates(model, p, speeds)
+
+    def rate(V):
+        return _growth_rates(model, p, (V,))[0]
+
+    def root(a, b):
+        return brentq(rate, a, b, xtol=xtol_ms, rtol=4 * np.finfo(float).eps)
+
+    crossings = [root(speeds[i], speeds[i + 1]) for i in np.flatnonzero((r[:-1] > 0) != (r[1:] > 0))]
+    for i in range(1, n_grid - 1):
+        window = r[i - 1 : i + 2]
+        peak = r[i] >= window.max() and r[i] <= 0.0
+        trough = r[i] <= window.min() and r[i] > 0.0
+        if not (peak or trough):
+            continue
+        sign = -1.0 if peak else 1.0
+        best = minimize_scalar(lambda V: sign * rate(V), bounds=(speeds[i - 1], speeds[i + 1]), method="bounded",
+                               options={"xatol": xtol_ms * 1e3})
+        if (rate(best.x) > 0.0) == peak:
+            crossings += [root(speeds[i - 1], best.x), root(best.x, speeds[i + 1])]
+    edges = [lo, *sorted(crossings), hi]
+    unstable = r[0] > 0.0
+    intervals = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        if unstable and b > a:
+            intervals.append((ms_to_kmh(a), ms_to_kmh(b)))
+        unstable = not unstable
+    return intervals
+
+
+# -- study set-up ---------------------------------------------------------------------------
+def default_study_parameters(params: Params) -> tuple[StudyParameter, ...]:
+    """The paper's seven parameters, uniform within +-10 % of their nominal values."""
+    out = []
+    for key in DEFAULT_KEYS:
+        nominal = float(get_value(params, key))
+        if nominal == 0.0:
+            raise ParameterError(f"{key} = 0: no default range; give [[study.parameters]] explicitly")
+        a, b = sorted((nominal * (1 - DEFAULT_SPREAD), nominal * (1 + DEFAULT_SPREAD)))
+        out.append(StudyParameter(key=key, low=a, high=b))
+    return tuple(out)
+
+
+def study_parameters(params: Params) -> tuple[StudyParameter, ...]:
+    """``[[study.parameters]]``, or the default seven when none are given."""
+    return params.study.parameters or default_study_parameters(params)
+
+
+def _salib_problem(parameters) -> dict:
+    """SALib problem dict: names, bounds and distributions in SALib's conventions."""
+    bounds, dists = [], []
+    for q in parameters:
+        if q.distribution == "uniform":
+            bounds.append([q.low, q.high])
+            dists.append("unif")
+        elif q.distribution == "loguniform":
+            bounds.append([q.low, q.high])
+            dists.append("logunif")
+        elif q.distribution == "triangular":
+            mode = 0.5 * (q.low + q.high) if q.mode is None else q.mode
+            bounds.append([q.low, q.high, (mode - q.low) / (q.high - q.low)])
+            dists.append("triang")
+        else:  # normal, truncated to [low, high]
+            mean = 0.5 * (q.low + q.high) if q.mean is None else q.mean
+            std = 0.25 * (q.high - q.low) if q.std is None else q.std
+            bounds.append([q.low, q.high, mean, std])
+            dists.append("truncnorm")
+    return {"num_vars": len(parameters), "names": [q.key for q in parameters], "bounds": bounds, "dists": dists}
+
+
+def sample_params(base: Params, keys, values) -> Params:
+    """``base`` with ``keys`` set to ``values`` (validated once, all together).
+
+    ``adhesion_scale`` multiplies mu_s and mu_c (after any direct setting of them).
+    """
+    updates = {k: float(v) for k, v in zip(keys, values) if k != ADHESION_SCALE}
+    if ADHESION_SCALE in keys:
+        scale = float(values[list(keys).index(ADHESION_SCALE)])
+        for key in ("friction.mu_static", "friction.mu_coulomb"):
+            updates[key] = updates.get(key, get_value(base, key)) * scale
+    return with_updates(base, updates)
+
+
+def _seeds(seed: int):
+    """Independent seed sequences for the sampling and the bootstrap."""
+    return np.random.SeedSequence(seed).spawn(2)
+
+
+# -- one evaluation ----------------------------------------------------------------------------
+def _band_outputs(intervals, speed_range_kmh) -> tuple[tuple[float, float, float], str]:
+    """(lowest bound, highest bound, total width) of a union of speed intervals, and a status."""
+    if not intervals:
+        return (np.nan, np.nan, 0.0), NO_BAND
+    lo, hi = speed_range_kmh
+    first, last = intervals[0][0], intervals[-1][1]
+    width = float(sum(b - a for a, b in intervals))
+    status = OK
+    tol = 1e-9 * hi  # range ends pass through m/s and back
+    if first <= lo + tol:
+        first, width, status = np.nan, np.nan, AT_EDGE
+    if last >= hi - tol:
+        last, width, status = np.nan, np.nan, AT_EDGE
+    return (first, last, width), status
+
+
+def max_stable_amplitude(diagram, speed_range_kmh, state: str = "x") -> float:
+    """Largest amplitude of ``state`` on a stable cycle within a speed range (0 if none).
+
+    Between consecutive stable cycle points of a branch the amplitude is interpolated
+    linearly, so the range ends are included exactly.
+    """
+    i = diagram.state_names.index(state)
+    lo, hi = speed_range_kmh
+    best = 0.0
+    for b in range(len(diagram.branches)):
+        pts = [c for c in diagram.cycles if c.branch == b]
+        for a, c in zip(pts, pts[1:] + [None]):
+            va = ms_to_kmh(a.speed)
+            if a.stable and lo <= va <= hi:
+                best = max(best, float(a.amplitude[i]))
+            if c is None or not (a.stable and c.stable):
+                continue
+            vc = ms_to_kmh(c.speed)
+            for edge in (lo, hi):
+                if min(va, vc) < edge < max(va, vc):
+                    s = (edge - va) / (vc - va)
+                    best = max(best, float((1 - s) * a.amplitude[i] + s * c.amplitude[i]))
+    return best
+
+
+@dataclass(frozen=True)
+class StudyEvaluator:
+    """The study's outputs for one sample: picklable, deterministic (a task of any backend)."""
+
+    params: Params
+    keys: tuple[str, ...]
+    outputs: str = "hopf"
+    speed_range_kmh: tuple[float, float] = (20.0, 300.0)
+    operating_range_kmh: tuple[float, float] = (80.0, 130.0)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return HOPF_OUTPUTS if self.outputs == "hopf" else BIFURCATION_OUTPUTS
+
+    def __call__(self, values) -> tuple[tuple[float, ...], str]:
+        """(output values, status) for the parameter values of one sample."""
+        nan = (np.nan,) * len(self.names)
+        try:
+            params = sample_params(self.params, self.keys, values)
+        except ParameterError as exc:
+            return nan, f"invalid parameters: {exc}"
+        try:
+            if self.outputs == "hopf":
+                return _band_outputs(fast_linear_band(params, self.speed_range_kmh), self.speed_range_kmh)
+            return self._bifurcation(params)
+        except Exception as exc:  # any numerical failure is recorded with its reason
+            return nan, f"failed: {type(exc).__name__}: {exc}"
+
+    def _bifurcation(self, params):
+        from .bifurcation import bifurcation_diagram
+
+        diagram = bifurcation_diagram(params, self.speed_range_kmh)
+        for info in diagram.branch_info:
+            if info["end_reason"].startswith(("step size underflow", "maximum number")):
+                return (np.nan,) * 4, f"failed: continuation from {info['from_hopf_kmh']:.2f} km/h: {info['end_reason']}"
+        band, status = _band_outputs(diagram.sev_band_kmh, self.speed_range_kmh)
+        amplitude = max_stable_amplitude(diagram, self.operating_range_kmh) * 1e3
+        return (*band, amplitude), status
+
+
+# -- analysis -------------------------------------------------------------------------------
+def _analyze(method, problem, X, Y, n_base, settings, boot_seed) -> dict:
+    """Indices of one output from the first ``n_base`` blocks, NaN blocks dropped."""
+    from SALib.analyze import morris, sobol
+
+    D = problem["num_vars"]
+    if method == "sobol":
+        step = 2 * D + 2 if settings["second_order"] else D + 2
+    else:
+        step = D + 1
+    blocks = Y[: n_base * step].reshape(n_base, step)
+    keep = np.all(np.isfinite(blocks), axis=1)
+    y = blocks[keep].ravel()
+    out = {"n_used": int(keep.sum()), "n_dropped": int((~keep).sum())}
+    if keep.sum() < 4 or np.ptp(y) == 0.0:
+        out["note"] = "output constant over the samples" if keep.sum() >= 4 else "fewer than 4 valid blocks"
+        return out
+    rng = np.random.default_rng(boot_seed)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # SALib's notes on sample sizes; the counts above say it
+        if method == "sobol":
+            S = sobol.analyze(problem, y, calc_second_order=settings["second_order"],
+                              num_resamples=settings["bootstrap"], conf_level=settings["confidence"], seed=rng)
+            keys = ("S1", "S1_conf", "ST", "ST_conf") + (("S2", "S2_conf") if settings["second_order"] else ())
+        else:
+            x = X[: n_base * step].reshape(n_base, step, D)[keep].reshape(-1, D)
+            S = morris.analyze(problem, x, y, num_resamples=settings["bootstrap"],
+                               conf_level=settings["confidence"], num_levels=settings["morris_levels"], seed=rng)
+            keys = ("mu", "mu_star", "sigma", "mu_star_conf")
+    out.update({k: np.asarray(S[k], dtype=float) for k in keys})
+    return out
+
+
+def _primary(method) -> tuple[str, str]:
+    return ("ST", "ST_conf") if method == "sobol" else ("mu_star", "mu_star_conf")
+
+
+@dataclass
+class GlobalSensitivityResult:
+    """Samples, outputs, statuses and sensitivity indices of a global study."""
+
+    params: Params
+    parameters: tuple[StudyParameter, ...]
+    outputs: tuple[str, ...]
+    samples: np.ndarray  # (n_runs, D) parameter values [key units]
+    values: np.ndarray  # (n_runs, n_outputs)
+    status: list[str]
+    indices: dict  # output -> indices at N (arrays over parameters)
+    convergence: dict  # output -> {"n_base": [...], index: [[...] per n], "max_change", "converged"}
+    settings: dict = field(default_factory=dict)
+
+    @property
+    def method(self) -> str:
+        return self.params.study.method
+
+    @property
+    def names(self) -> list[str]:
+        return [q.key for q in self.parameters]
+
+    def failures(self) -> dict:
+        """Number of samples per status other than ok (reasons grouped by their first words)."""
+        counts: dict[str, int] = {}
+        for s in self.status:
+            if s != OK:
+                reason = s.split(":")[0]
+                counts[reason] = counts.get(reason, 0) + 1
+        return counts
+
+    def summary(self) -> dict:
+        """JSON summary: indices per output, convergence, failures."""
+        def clean(v):
+            if isinstance(v, np.ndarray):
+                return [clean(x) for x in v.tolist()]
+            if isinstance(v, list):
+                return [clean(x) for x in v]
+            return None if isinstance(v, float) and not np.isfinite(v) else v
+
+        examples = {}
+        for s in self.status:
+            examples.setdefault(s.split(":")[0], s)
+        return {
+            "model": self.params.model,
+            "method": self.method,
+            "outputs": list(self.outputs),
+            "parameters": [q.model_dump(exclude_none=True) for q in self.parameters],
+            "n_base": self.params.study.n_base,
+            "n_runs": len(self.status),
+            "failures": self.failures(),
+            "failure_examples": {k: v for k, v in examples.items() if k != OK},
+            "indices": {
+                out: {k: clean(v) for k, v in ind.items()} for out, ind in self.indices.items()
+            },
+            "convergence": {out: {k: clean(v) for k, v in c.items()} for out, c in self.convergence.items()},
+            "settings": self.settings,
+        }
+
+    def table(self):
+        """pandas DataFrame: one row per output and parameter with the indices at N."""
+        import pandas as pd
+
+        rows = []
+        for out, ind in self.indices.items():
+            for j, name in enumerate(self.names):
+                row = {"output": out, "param": name}
+                row.update({k: float(v[j]) for k, v in ind.items() if isinstance(v, np.ndarray) and v.ndim == 1})
+                rows.append(row)
+        return pd.DataFrame(rows)
+
+    def to_dataset(self):
+        """xarray Dataset: samples, outputs and statuses per run; indices per output and parameter."""
+        import xarray as xr
+
+        data = {
+            "sample": (("run", "param"), self.samples),
+            "value": (("run", "output"), self.values),
+            "status": ("run", np.array(self.status, dtype=str)),
+        }
+        for key in ("S1", "S1_conf", "ST", "ST_conf", "mu", "mu_star", "sigma", "mu_star_conf"):
+            if any(key in ind for ind in self.indices.values()):
+                data[key] = (("output", "param"), np.array(
+                    [ind.get(key, np.full(len(self.names), np.nan)) for ind in self.indices.values()]))
+        return xr.Dataset(
+            data,
+            coords={"param": self.names, "output": list(self.outputs)},
+            attrs={
+                "model": self.params.model,
+                "method": self.method,
+                "params_toml": to_toml(self.params),
+                "polywear_version": __version__,
+                "summary_json": json.dumps(self.summary()),
+            },
+        )
+
+    def save(self, path) -> None:
+        """netCDF (.nc, everything), CSV (.csv, the index table) or JSON (other suffix, the summary)."""
+        path = str(path)
+        if path.endswith(".nc"):
+            self.to_dataset().to_netcdf(path, engine="h5netcdf")
+        elif path.endswith(".csv"):
+            self.table().to_csv(path, index=False)
+        else:
+            with open(path, "w") as fh:
+                json.dump({**self.summary(), "polywear_version": __version__}, fh, indent=2)
+
+    def plot(self, ax=None, output: str | None = None):
+        """Bar chart of one output's indices with confidence intervals, parameters ranked."""
+        import matplotlib.pyplot as plt
+
+        from .sensitivity import PARAMETER_LABELS
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 3.5))
+        output = output or self.outputs[0]
+        ind = self.indices[output]
+        main, conf = _primary(self.method)
+        if main not in ind:
+            ax.set_title(f"{output}: {ind.get('note', 'no indices')}", fontsize=10)
+            return []
+        order = np.argsort(-np.nan_to_num(ind[main]))
+        y = np.arange(len(order))
+        labels = [PARAMETER_LABELS.get(self.names[j], self.names[j]) for j in order]
+        artists = []
+        if self.method == "sobol":
+            artists.append(ax.barh(y - 0.2, ind["ST"][order], 0.4, xerr=ind["ST_conf"][order], label="total (ST)"))
+            artists.append(ax.barh(y + 0.2, ind["S1"][order], 0.4, xerr=ind["S1_conf"][order], label="first order (S1)"))
+            ax.set_xlabel("Sobol index [-]")
+        else:
+            artists.append(ax.barh(y - 0.2, ind["mu_star"][order], 0.4, xerr=ind["mu_star_conf"][order], label="mu*"))
+            artists.append(ax.barh(y + 0.2, ind["sigma"][order], 0.4, label="sigma"))
+            ax.set_xlabel(f"elementary effect [{output.rsplit('_', 1)[-1]} per unit range]")
+        ax.set_yticks(y, labels, fontsize=8)
+        ax.invert_yaxis()
+        ax.axvline(0.0, color="k", lw=0.8)
+        c = self.convergence.get(output, {})
+        flag = "converged" if c.get("converged") else "NOT converged"
+        ax.set_title(f"{output} ({ind['n_used']} of {ind['n_used'] + ind['n_dropped']} blocks used, {flag})",
+                     fontsize=10)
+        ax.legend(fontsize=8, loc="lower right")
+        return artists
+
+    def figure(self):
+        """One panel per output."""
+        import matplotlib.pyplot as plt
+
+        fig, axes = plt.subplots(len(self.outputs), 1, figsize=(7, 2.8 * len(self.outputs)), squeeze=False)
+        for ax, out in zip(axes[:, 0], self.outputs):
+            self.plot(ax, out)
+        fig.tight_layout()
+        return fig
+
+
+def global_sensitivity(
+    params: Params,
+    *,
+    backend: str = "processes",
+    workers: int | None = None,
+    scheduler: str | None = None,
+    batch_size: int | None = None,
+    on_progress=None,
+) -> GlobalSensitivityResult:
+    """Run the study of ``params.study`` on the given backend (see :func:`polywear.parallel.map_batched`)."""
+    from SALib.sample import morris as morris_sample
+    from SALib.sample import sobol as sobol_sample
+
+    from ..parallel import map_batched
+
+    study = params.study
+    parameters = study_parameters(params)
+    for q in parameters:  # the ends of every range must be valid on their own
+        for value in (q.low, q.high):
+            sample_params(params, (q.key,), (value,))
+    problem = _salib_problem(parameters)
+    sample_seed, boot_seed = _seeds(study.seed)
+    rng = np.random.default_rng(sample_seed)
+    if study.method == "sobol":
+        X = sobol_sample.sample(problem, study.n_base, calc_second_order=study.second_order, seed=rng)
+    else:
+        X = morris_sample.sample(problem, study.n_base, num_levels=study.morris_levels, seed=rng)
+    evaluator = StudyEvaluator(
+        params, tuple(problem["names"]), study.outputs, study.speed_range_kmh, study.operating_range_kmh
+    )
+    results = map_batched(evaluator, list(X), backend=backend, workers=workers, scheduler=scheduler,
+                          batch_size=batch_size, on_progress=on_progress)
+    Y = np.array([r[0] for r in results], dtype=float)
+    status = [r[1] for r in results]
+    settings = {
+        "second_order": study.second_order,
+        "bootstrap": study.bootstrap,
+        "confidence": study.confidence,
+        "morris_levels": study.morris_levels,
+    }
+    indices, convergence = {}, {}
+    main, conf = _primary(study.method)
+    sizes = [study.n_base // 4, study.n_base // 2, study.n_base]
+    for k, name in enumerate(evaluator.names):
+        runs = [_analyze(study.method, problem, X, Y[:, k], n, settings, boot_seed) for n in sizes]
+        indices[name] = runs[-1]
+        history = [r.get(main, np.full(problem["num_vars"], np.nan)) for r in runs]
+        change = np.abs(history[2] - history[1])
+        convergence[name] = {
+            "n_base": sizes,
+            main: history,
+            "max_change": float(np.max(change)) if np.all(np.isfinite(change)) else np.nan,
+            "converged": bool(main in runs[-1] and np.all(change <= runs[-1][conf])),
+        }
+    return GlobalSensitivityResult(
+        params=params,
+        parameters=parameters,
+        outputs=evaluator.names,
+        samples=X,
+        values=Y,
+        status=status,
+        indices=indices,
+        convergence=convergence,
+        settings={**settings, "backend": backend, "seed": study.seed, "n_base": study.n_base,
+                  "speed_range_kmh": list(study.speed_range_kmh),
+                  "operating_range_kmh": list(study.operating_range_kmh)},
+    )

@@ -1,0 +1,96 @@
+"""``polywear sensitivity``: local sensitivity of the bifurcation speeds (the paper's Fig. 9)."""
+
+from __future__ import annotations
+
+from enum import Enum
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, progress, save_figure
+
+
+class Method(str, Enum):
+    exact = "exact"
+    central = "central"
+    forward = "forward"
+
+
+def sensitivity(
+    config: ConfigOpt = None,
+    set_: SetOpt = None,
+    method: Annotated[
+        Method, typer.Option("--method", help="exact (implicit-function theorem), central, or forward (paper eq. 3).")
+    ] = Method.exact,
+    step: Annotated[
+        float, typer.Option("--step", help="Finite-difference step, relative to the nominal value (absolute if 0).")
+    ] = 1e-4,
+    param: Annotated[
+        Optional[list[str]],
+        typer.Option("--param", "-p", help="Parameter key (repeatable; default: the paper's seven, adhesion read "
+                     "both ways). 'adhesion_scale' scales mu_s and mu_c together."),
+    ] = None,
+    speed_range: Annotated[
+        tuple[float, float], typer.Option("--speed-range", help="Lowest and highest speed [km/h].")
+    ] = (20.0, 300.0),
+    json_: JsonOpt = False,
+    plot: PlotOpt = None,
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write the rows (.csv, or JSON otherwise).")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
+) -> None:
+    """Sensitivity of every Hopf speed, fold speed and first/second bifurcation speed to parameters."""
+    params = load(config, set_)
+    lo, hi = speed_range
+    if not 0.0 < lo < hi:
+        raise UserError(f"--speed-range {lo} {hi}: need 0 < low < high [km/h]")
+    if not step > 0.0:
+        raise UserError(f"--step {step}: must be positive")
+    from ..analysis.sensitivity import PAPER_PARAMETERS, local_sensitivity, parameter_direction
+    from ..models import get_model
+    from ..params import study_keys
+
+    keys = tuple(dict.fromkeys(param)) if param else PAPER_PARAMETERS
+    known = study_keys()
+    model = get_model(params.model)
+    for key in keys:
+        if key not in known:
+            raise UserError(f"--param {key}: not a numeric parameter key (e.g. tread.mass_kg, adhesion_scale)")
+        if not parameter_direction(model, params, key).any():
+            info(f"note: {key} does not enter model {params.model}; its sensitivity is 0", quiet)
+    with progress(f"{method.value} sensitivity: continuation steps", total=None, enabled=not quiet) as advance:
+        try:
+            result = local_sensitivity(params, keys, method.value, step, (lo, hi), on_step=lambda b, v: advance(1))
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
+    if not result.rows:
+        info("no bifurcation speed in the speed range: nothing to differentiate", quiet)
+    if out:
+        result.save(out)
+        info(f"wrote {out}", quiet)
+    if plot and result.rows:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        save_figure(result.figure(), plot)
+        info(f"wrote {plot}", quiet)
+    if json_:
+        emit_json(result.summary())
+    else:
+        _print_rows(result)
+
+
+def _print_rows(result) -> None:
+    from ..analysis.sensitivity import PARAMETER_LABELS
+
+    typer.echo(f"model {result.params.model}, method {result.method}; S = (p/V) dV/dp, dV/dp in km/h per unit of p")
+    quantities = list(dict.fromkeys(r["quantity"] for r in result.rows))
+    for q in quantities:
+        rows = [r for r in result.rows if r["quantity"] == q]
+        typer.echo(f"\n{q} at {rows[0]['speed_kmh']:.3f} km/h")
+        rows.sort(key=lambda r: -abs(r["normalized"] or 0.0))
+        for r in rows:
+            label = PARAMETER_LABELS.get(r["param"], r["param"])
+            d = "n/a" if r["derivative"] is None else f"{r['derivative']:+.6g}"
+            s = "n/a" if r["normalized"] is None else f"{r['normalized']:+.5f}"
+            typer.echo(f"  {label:30s} S = {s:>9s}   dV/dp = {d:>13s}   ({r['param']} = {r['nominal']:g})")

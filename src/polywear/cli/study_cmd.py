@@ -1,0 +1,105 @@
+"""``polywear study``: global sensitivity (Sobol / Morris via SALib) on a chosen backend."""
+
+from __future__ import annotations
+
+from enum import Enum
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, progress, save_figure
+
+
+class Backend(str, Enum):
+    processes = "processes"
+    serial = "serial"
+    dask = "dask"
+
+
+def study(
+    config: ConfigOpt = None,
+    set_: SetOpt = None,
+    backend: Annotated[
+        Optional[Backend],
+        typer.Option("--backend", help="processes (default), serial, or dask (implied by --scheduler)."),
+    ] = None,
+    scheduler: Annotated[
+        Optional[str], typer.Option("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786.")
+    ] = None,
+    workers: Annotated[
+        Optional[int], typer.Option("--workers", "-w", min=1, help="Local worker processes (default: all CPUs).")
+    ] = None,
+    batch_size: Annotated[
+        Optional[int], typer.Option("--batch-size", min=1, help="Samples per task (default: ~8 tasks per worker).")
+    ] = None,
+    json_: JsonOpt = False,
+    plot: PlotOpt = None,
+    out: Annotated[
+        Optional[Path],
+        typer.Option("--out", "-o", help="Write the result: .nc (samples, outputs, indices), .csv (indices) or .json."),
+    ] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
+) -> None:
+    """Global sensitivity of the SEV band over the ranges given in the study table (docs/sensitivity.md)."""
+    params = load(config, set_)
+    chosen = backend.value if backend else ("dask" if scheduler else "processes")
+    if chosen == "dask" and not scheduler:
+        raise UserError("--backend dask: give --scheduler tcp://host:port")
+    if scheduler and chosen != "dask":
+        raise UserError(f"--scheduler needs the dask backend, not {chosen}")
+    from ..analysis.global_sensitivity import global_sensitivity, study_parameters
+
+    study_ = params.study
+    D = len(study_parameters(params))
+    if study_.method == "sobol":
+        n_runs = study_.n_base * (2 * D + 2 if study_.second_order else D + 2)
+    else:
+        n_runs = study_.n_base * (D + 1)
+    where = scheduler if chosen == "dask" else f"{workers or 'all'} local workers" if chosen == "processes" else "serial"
+    info(f"{study_.method} study of {params.model}: {D} parameters, {n_runs} runs ({study_.outputs}) on {where}", quiet)
+    with progress(f"{study_.method} study", total=n_runs, enabled=not quiet) as advance:
+        try:
+            result = global_sensitivity(params, backend=chosen, workers=workers, scheduler=scheduler,
+                                        batch_size=batch_size, on_progress=advance)
+        except OSError as exc:  # includes connection failures and timeouts of the Dask client
+            raise UserError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
+    if out:
+        result.save(out)
+        info(f"wrote {out}", quiet)
+    if plot:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        save_figure(result.figure(), plot)
+        info(f"wrote {plot}", quiet)
+    summary = result.summary()
+    if json_:
+        emit_json(summary)
+    else:
+        _print_summary(result)
+
+
+def _print_summary(result) -> None:
+    import numpy as np
+
+    s = result.summary()
+    typer.echo(f"model {s['model']}, {s['method']}, N = {s['n_base']}, {s['n_runs']} runs")
+    failures = s["failures"]
+    typer.echo("failed or incomplete runs: " + (", ".join(f"{k}: {v}" for k, v in failures.items()) or "none"))
+    main = ("ST", "S1") if s["method"] == "sobol" else ("mu_star", "sigma")
+    for out in result.outputs:
+        ind = result.indices[out]
+        conv = result.convergence[out]
+        change = f" (largest change N/2 -> N: {conv['max_change']:.3g})" if np.isfinite(conv["max_change"]) else ""
+        typer.echo(f"\n{out}: {ind['n_used']} blocks used, {ind['n_dropped']} dropped (NaN), "
+                   f"{'converged' if conv['converged'] else 'NOT converged'}{change}")
+        if main[0] not in ind:
+            typer.echo(f"  {ind.get('note', 'no indices')}")
+            continue
+        for j in np.argsort(-np.nan_to_num(ind[main[0]], nan=-np.inf)):
+            cols = "  ".join(
+                f"{k} = {ind[k][j]:+.3f} +- {ind[k + '_conf'][j]:.3f}" if k + "_conf" in ind else f"{k} = {ind[k][j]:+.3f}"
+                for k in main
+            )
+            typer.echo(f"  {result.names[j]:36s} {cols}")

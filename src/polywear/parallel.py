@@ -1,0 +1,127 @@
+"""One interface for many small independent evaluations: serial, local processes, Dask.
+
+:func:`map_batched` computes ``[func(item) for item in items]`` with the work cut into
+batches (one task per batch, so that task overhead stays small against the work):
+
+``"serial"``     in this process, batch after batch (debugging, tiny jobs);
+``"processes"``  a local pool of ``workers`` processes (the default). Processes are
+                 started with ``spawn``, so ``func`` must be a picklable top-level
+                 function (or a ``functools.partial`` / instance of a top-level class);
+``"dask"``       a Dask distributed cluster given by its scheduler address
+                 (``tcp://host:port``). Tasks lost with a worker are recomputed by the
+                 scheduler on the remaining workers; results come back in item order.
+
+Results never depend on the backend: the work is deterministic in its inputs, and
+random inputs are drawn beforehand in the calling process (from
+``numpy.random.SeedSequence``), never inside a task. Dask is imported only when used.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from typing import Any, Callable, Sequence
+
+__all__ = ["BACKENDS", "map_batched", "default_batch_size"]
+
+BACKENDS = ("serial", "processes", "dask")
+
+TASKS_PER_SLOT = 8
+"""Batches per worker slot: enough to balance load and show progress, few enough that
+the per-task overhead (pickling, scheduling; ~1 ms local, ~10 ms on Dask) stays small."""
+
+
+def run_batch(func: Callable[[Any], Any], batch: Sequence[Any]) -> list:
+    """``[func(item) for item in batch]``: the task every backend runs."""
+    return [func(item) for item in batch]
+
+
+def default_batch_size(n_items: int, slots: int) -> int:
+    """Items per task: ``n_items / (slots * TASKS_PER_SLOT)``, at least 1."""
+    return max(1, math.ceil(n_items / (max(slots, 1) * TASKS_PER_SLOT)))
+
+
+def map_batched(
+    func: Callable[[Any], Any],
+    items: Sequence[Any],
+    *,
+    backend: str = "processes",
+    workers: int | None = None,
+    scheduler: str | None = None,
+    batch_size: int | None = None,
+    on_progress: Callable[[int], None] | None = None,
+) -> list:
+    """``[func(item) for item in items]`` computed in batches on a backend.
+
+    Parameters
+    ----------
+    func : picklable callable of one item (top-level function or class instance).
+    items : the inputs; the result list has the same order.
+    backend : ``"serial"``, ``"processes"`` (default) or ``"dask"``.
+    workers : size of the process pool [-] (default: the number of CPUs).
+    scheduler : Dask scheduler address, e.g. ``tcp://10.0.0.5:8786`` (backend ``"dask"``).
+    batch_size : items per task (default :func:`default_batch_size`).
+    on_progress : called with the number of items finished, after every batch.
+    """
+    if backend not in BACKENDS:
+        raise ValueError(f"backend = {backend!r}: must be one of {', '.join(BACKENDS)}")
+    if backend == "dask" and not scheduler:
+        raise ValueError("backend dask: give the scheduler address (tcp://host:port)")
+    if backend != "dask" and scheduler:
+        raise ValueError(f"a scheduler address needs backend dask, not {backend!r}")
+    if workers is not None and workers < 1:
+        raise ValueError(f"workers = {workers!r}: must be at least 1")
+    if batch_size is not None and batch_size < 1:
+        raise ValueError(f"batch_size = {batch_size!r}: must be at least 1")
+    items = list(items)
+    if not items:
+        return []
+    report = on_progress or (lambda n: None)
+    if backend == "serial":
+        size = batch_size or default_batch_size(len(items), 1)
+        out: list = []
+        for start in range(0, len(items), size):
+            out += run_batch(func, items[start : start + size])
+            report(len(items[start : start + size]))
+        return out
+    if backend == "processes":
+        return _processes(func, items, workers or os.cpu_count() or 1, batch_size, report)
+    return _dask(func, items, scheduler, batch_size, report)
+
+
+def _batches(items: list, size: int) -> list[list]:
+    return [items[start : start + size] for start in range(0, len(items), size)]
+
+
+def _gather(completed, futures: dict, batches: list[list], report) -> list:
+    """Results of the futures as they complete, reassembled in item order."""
+    results: list[list | None] = [None] * len(batches)
+    for future in completed:
+        index = futures[future]
+        results[index] = future.result()
+        report(len(batches[index]))
+    return [value for batch in results for value in batch]
+
+
+def _processes(func, items, workers, batch_size, report) -> list:
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    batches = _batches(items, batch_size or default_batch_size(len(items), workers))
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=min(workers, len(batches)), mp_context=context) as pool:
+        futures = {pool.submit(run_batch, func, batch): i for i, batch in enumerate(batches)}
+        return _gather(as_completed(futures), futures, batches, report)
+
+
+def _dask(func, items, scheduler, batch_size, report) -> list:
+    try:
+        from distributed import Client, as_completed
+    except ImportError as exc:  # pragma: no cover - dask[distributed] is a dependency
+        raise RuntimeError("the dask backend needs dask[distributed]") from exc
+
+    with Client(scheduler, timeout="30s") as client:
+        slots = sum(client.nthreads().values())
+        batches = _batches(items, batch_size or default_batch_size(len(items), slots))
+        futures = {client.submit(run_batch, func, batch, pure=False): i for i, batch in enumerate(batches)}
+        return _gather(as_completed(futures), futures, batches, report)
