@@ -47,21 +47,26 @@ def _register() -> None:
 _register()
 
 
+def _is_user_error(exc: Exception) -> bool:
+    """UserError or ParameterError; the latter checked without importing pydantic
+    (0.1-0.4 s) on the way to ``--help``: it can only be raised once params is loaded."""
+    params = sys.modules.get("polywear.params")
+    return isinstance(exc, UserError) or (params is not None and isinstance(exc, params.ParameterError))
+
+
 def main() -> None:
     """Console entry point: user errors become one line and exit code 2."""
-    from ..params import ParameterError
-
     try:
         app(standalone_mode=False)
-    except (ParameterError, UserError) as exc:
-        typer.echo(f"error: {exc}", err=True)
-        sys.exit(2)
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
     except typer.Abort:
         typer.echo("aborted", err=True)
         sys.exit(1)
     except Exception as exc:
+        if _is_user_error(exc):
+            typer.echo(f"error: {exc}", err=True)
+            sys.exit(2)
         # click (vendored by typer) usage errors carry .show() and .exit_code (2)
         if hasattr(exc, "show") and hasattr(exc, "exit_code"):
             exc.show()
