@@ -3,8 +3,9 @@
 The paper's Fig. 1 shows the friction coefficient of the LuGre model against a
 sinusoidal sliding velocity: at low frequency the loop lies on the static (Stribeck)
 curve, at high frequency it opens. :func:`hysteresis_loops` computes those loops,
-:func:`steady_curve` the static curve, :func:`fit_steady_curve` fits the static-curve
-parameters to measured steady ``mu(v)`` points (MODEL.md section 2).
+:func:`steady_curve` the static curve; :func:`fit_steady_curve` fits the static-curve
+parameters to measured steady ``mu(v)`` points and :func:`fit_loops` the bristle
+parameters sigma0, sigma1 to measured loops (MODEL.md section 2, docs/friction.md).
 
 All forces are per unit normal load (friction coefficients); velocities are the sliding
 velocity of the road relative to the tread [m/s].
@@ -93,13 +94,10 @@ def _friction_toml(friction: Friction, notes: dict[str, str] | None = None) -> s
 
 
 class _Saveable:
-    """``save(path)``: the result's :meth:`to_dataset` written to netCDF (h5netcdf)."""
-
-    def to_dataset(self):  # pragma: no cover - every result defines it
-        raise NotImplementedError
+    """``save(path)``: the result's ``to_dataset()`` written to netCDF (h5netcdf)."""
 
     def save(self, path: str | Path) -> Path:
-        """Write :meth:`to_dataset` to a netCDF file [path]; returns the path."""
+        """Write ``to_dataset()`` to a netCDF file; returns the path."""
         path = Path(path)
         self.to_dataset().to_netcdf(path, engine="h5netcdf")
         return path

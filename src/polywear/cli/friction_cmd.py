@@ -22,7 +22,7 @@ from .common import (
     save_figure,
 )
 
-app = typer.Typer(help="LuGre friction: static curve, hysteresis loops, fit to measured mu(v).",
+app = typer.Typer(help="LuGre friction: static curve, hysteresis loops, fits to measured mu(v) and loops.",
                   no_args_is_help=True)
 
 
