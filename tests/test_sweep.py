@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pickle
-from concurrent.futures import ProcessPoolExecutor
+from functools import partial
 
 import matplotlib
 import numpy as np
@@ -12,6 +12,7 @@ import pytest
 from polywear.analysis.simulation import SimulationSettings, simulate
 from polywear.analysis.sweep import START_TYPES, settle, sweep
 from polywear.models import get_model
+from polywear.parallel import map_batched
 from polywear.params import Params
 
 matplotlib.use("Agg")
@@ -85,9 +86,10 @@ def test_settle_continues_in_chunks_until_steady():
     assert resumed.amplitude[X] == pytest.approx(run.amplitude[X], rel=2e-3)
 
 
-def test_runs_can_go_through_a_process_pool():
-    with ProcessPoolExecutor(max_workers=2) as pool:
-        pooled = sweep(DEFAULTS, [110.0], map=pool.map, max_duration_s=1.0)
+@pytest.mark.slow
+def test_runs_can_go_through_the_executor_interface():
+    pooled = sweep(DEFAULTS, [110.0], map=partial(map_batched, backend="processes", workers=2),
+                   max_duration_s=1.0)
     serial = sweep(DEFAULTS, [110.0], max_duration_s=1.0)
     for start in START_TYPES:
         np.testing.assert_array_equal(pooled.runs[start][0].amplitude, serial.runs[start][0].amplitude)

@@ -15,7 +15,8 @@ Each run (:func:`settle`) integrates in chunks, continuing from the end of the l
 stops when :func:`polywear.analysis.simulation.classify_window` finds the equilibrium or
 a cycle in the latest chunk, or when ``max_duration_s`` is used up (``steady`` False).
 :func:`settle` is a pure function of picklable inputs, so the independent runs can be
-handed to any ``map`` (a process pool's, a Dask client's).
+handed to any ``map``, e.g. the project's executor interface:
+``sweep(..., map=functools.partial(polywear.parallel.map_batched, backend="processes"))``.
 """
 
 from __future__ import annotations
