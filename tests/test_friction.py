@@ -35,6 +35,7 @@ from polywear.params import Friction, load_params
 from polywear.physics.lugre import (
     bristle_decay_rate,
     bristle_rate,
+    bristle_rate_partials,
     friction_coefficient,
     real_abs,
     real_sign,
@@ -146,6 +147,20 @@ def test_steady_friction_slope(f, v):
     scale = (f.mu_static - f.mu_coulomb) / f.stribeck_velocity_m_per_s + f.sigma2_s_per_m
     roundoff = 1e-15 * abs(mu(v)) / h
     assert abs((mu(v + h) - mu(v - h)) / (2 * h) - slope) <= 1e-6 * scale + roundoff
+
+
+@FAST
+@given(f=frictions(), v=speeds, start=st.floats(-3.0, 3.0))
+def test_bristle_rate_partials_against_complex_step(f, v, start):
+    """d(dz/dt)/dv (through G(v) too) and d(dz/dt)/dz, as the models' Jacobians use them."""
+    args = (f.mu_static, f.mu_coulomb, f.stribeck_velocity_m_per_s, f.stribeck_exponent)
+    z = start * f.mu_static / f.sigma0_per_m
+    h = 1e-30
+    rate = lambda v_, z_: bristle_rate(v_, z_, f.sigma0_per_m, stribeck(v_, *args))  # noqa: E731
+    d_dv, d_dz = bristle_rate_partials(v, z, f.sigma0_per_m, stribeck(v, *args), stribeck_dv(v, *args))
+    assert d_dv == pytest.approx(rate(complex(v, h), complex(z)).imag / h, rel=1e-12, abs=1e-12)
+    assert d_dz == pytest.approx(rate(complex(v), complex(z, h)).imag / h, rel=1e-12)
+    assert d_dz == -bristle_decay_rate(v, f.sigma0_per_m, stribeck(v, *args))
 
 
 # -- bristle dynamics ---------------------------------------------------------------------------
