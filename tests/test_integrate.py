@@ -359,3 +359,29 @@ def test_step_budget_exhaustion_raises():
     u0[0] += 1e-4
     with pytest.raises(IntegrationError, match="max_steps"):
         integrate(TREAD, u0, V, p, 0.1, max_steps=50)
+
+
+def test_one_compilation_of_the_step_loop_serves_every_model():
+    from polywear.solvers.integrate import _rodas4
+
+    p, V = _tread_case({}, 110.0)
+    integrate(TREAD, TREAD.equilibrium(V, p), V, p, 1e-3)
+    integrate(OSCILLATOR, [1.0, 0.0], 0.0, np.array([1.0, 0.1]), 1e-3, dt_out=1e-4, dense_from=0.0, h0=1e-5)
+    assert len(_rodas4.signatures) == 1
+
+
+@pytest.mark.slow
+def test_rodas_agrees_with_radau_on_axle4dof():
+    try:
+        model = get_model("axle4dof")
+    except ImportError as exc:
+        pytest.skip(f"axle4dof not available: {exc}")
+    params = with_updates(Params(), {"model": "axle4dof"})
+    p, V = model.pack(params), 110.0 / 3.6
+    u0 = model.equilibrium(V, p)
+    u0[model.index("x")] += 1e-4
+    kw = dict(dt_out=1e-4, rtol=1e-10, atol=1e-13)
+    fast = integrate(model, u0, V, p, 0.05, **kw)
+    ref = integrate(model, u0, V, p, 0.05, method="radau", **kw)
+    scale = np.abs(ref.u - model.equilibrium(V, p)).max(axis=0)
+    assert np.abs(fast.u - ref.u).max(axis=0) / scale == pytest.approx(0.0, abs=1e-6)

@@ -53,10 +53,16 @@ __all__ = [
     "initial_state",
     "phase_pairs",
     "polygon_order",
+    "plot_scale",
 ]
 
 AUX_UNITS = {"sliding_velocity": "m/s", "friction_force": "N", "normal_load": "N", "contact_lost": "1"}
 _PLOT_UNITS = {"m": (1e3, "mm"), "rad": (1e3, "mrad")}
+
+
+def plot_scale(unit: str) -> tuple[float, str]:
+    """(factor, unit) for plotting a state of SI ``unit``: m -> mm, rad -> mrad."""
+    return _PLOT_UNITS.get(unit, (1.0, unit))
 
 
 @dataclass(frozen=True)
@@ -447,8 +453,8 @@ def _phase_portraits(runs, ax, pairs, tail_s, **line_kw):
     artists = []
     for axis, (q, qd) in zip(axes, pairs):
         i, j = model.index(q), model.index(qd)
-        fx, ux = _PLOT_UNITS.get(model.state_units[i], (1.0, model.state_units[i]))
-        fy, uy = _PLOT_UNITS.get(model.state_units[j], (1.0, model.state_units[j]))
+        fx, ux = plot_scale(model.state_units[i])
+        fy, uy = plot_scale(model.state_units[j])
         for k, run in enumerate(runs):
             kw = {"lw": 0.6, "color": f"C{k % 10}", **line_kw}
             shown = slice(None) if tail_s is None else run.t >= run.t[-1] - tail_s

@@ -32,7 +32,7 @@ from ..models import get_model
 from ..models.base import kmh_to_ms
 from ..params import Params, to_toml
 from ..solvers.integrate import integrate
-from .simulation import SimulationSettings, classify_window, initial_state
+from .simulation import SimulationSettings, classify_window, initial_state, plot_scale
 
 __all__ = ["START_TYPES", "SteadyRun", "SweepResult", "settle", "sweep"]
 
@@ -195,8 +195,7 @@ class SweepResult:
 
         model = get_model(self.params.model)
         q = model.index(state)
-        unit = model.state_units[q]
-        factor, unit = (1e3, "mm") if unit == "m" else (1e3, "mrad") if unit == "rad" else (1.0, unit)
+        factor, unit = plot_scale(model.state_units[q])
         if ax is None:
             _, ax = plt.subplots(figsize=(7, 4))
         artists = []
