@@ -16,7 +16,7 @@ section 5:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -150,6 +150,30 @@ class BifurcationDiagram:
                 s = (speed_kmh - v0) / (v1 - v0)
                 values.append((1 - s) * a.amplitude[i] + s * c.amplitude[i])
         return min(values) if values else None
+
+    def cycles_at(self, speed_kmh: float) -> list[CyclePoint]:
+        """Every cycle of the diagram at exactly this speed (Newton at fixed speed from the
+        two branch points that bracket it), sorted by amplitude of x."""
+        from ..solvers.continuation import solve_at_speed
+
+        model = get_model(self.params.model)
+        p = model.pack(self.params)
+        V = kmh_to_ms(speed_kmh)
+        found = []
+        for b, branch in enumerate(self.branches):
+            pts = branch.points
+            for a, c in zip(pts[:-1], pts[1:]):
+                va, vc = a.orbit.speed, c.orbit.speed
+                if not (min(va, vc) <= V <= max(va, vc)) or va == vc:
+                    continue
+                s = (V - va) / (vc - va)
+                guess_c = c.orbit.with_mesh(a.orbit.mesh)
+                guess = replace(a.orbit, nodes=(1 - s) * a.orbit.nodes + s * guess_c.nodes,
+                                period=(1 - s) * a.orbit.period + s * c.orbit.period, speed=V)
+                point = solve_at_speed(model, p, guess, V, self.settings)
+                if point is not None:
+                    found.append(_cycle_point(b, point))
+        return sorted(found, key=lambda cp: cp.amplitude[self.state_names.index("x")])
 
     # -- outputs -------------------------------------------------------------------------
     def summary(self) -> dict:

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from .collocation import Collocation, PeriodicOrbit, monodromy
 
-__all__ = ["ContinuationSettings", "BranchPoint", "Branch", "continue_from_hopf"]
+__all__ = ["ContinuationSettings", "BranchPoint", "Branch", "continue_from_hopf", "solve_at_speed", "switching_times"]
 
 
 @dataclass(frozen=True)
@@ -41,6 +41,9 @@ class ContinuationSettings:
     """The branch ends (at a Hopf point) once the scaled amplitude falls below this."""
     max_amplitude: float = 1e3
     """The branch stops once the scaled amplitude exceeds this."""
+    align_kinks: bool = True
+    """Put mesh points where the orbit crosses a kink of the vector field (v_r = 0, contact
+    loss) and re-solve, so that no collocation interval straddles a jump of the Jacobian."""
 
 
 @dataclass
@@ -182,6 +185,11 @@ def continue_from_hopf(
     steps_since_adapt = 0
     for _ in range(settings.max_steps):
         out = stepper.correct(X0, t0, ds, phase_ref)
+        if out is not None and settings.align_kinks:
+            stepper, X0, t0, phase_ref, out = _align_to_kinks(
+                model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale
+            )
+            c = stepper.coll
         if out is None:
             ds *= 0.5
             if ds < settings.ds_min:
@@ -221,19 +229,123 @@ def continue_from_hopf(
         steps_since_adapt += 1
         if settings.adapt_every and steps_since_adapt >= settings.adapt_every:
             steps_since_adapt = 0
-            new_mesh = c.adapted_mesh(orbit)
-            tangent_orbit = c.unpack(t)
             # scales never shrink and follow each state's excursion from the Hopf equilibrium
             scales = np.maximum(scales, np.abs(orbit.nodes - hopf.u).max(axis=0))
             branch.scales = scales
-            stepper = _Stepper(model, p, new_mesh, settings, scales, speed_scale, period_scale)
+            new_mesh = c.adapted_mesh(orbit)
+            if settings.align_kinks:
+                new_mesh = _with_kinks(new_mesh, switching_times(model, p, orbit))
+            stepper, X0, t0, phase_ref = _remesh(
+                model, p, stepper, new_mesh, X0, t0, settings, scales, speed_scale, period_scale
+            )
             c = stepper.coll
-            phase_ref = orbit.with_mesh(new_mesh)
-            X0 = c.pack(phase_ref)
-            t0 = stepper.unit(c.pack(tangent_orbit.with_mesh(new_mesh)))
     else:
         branch.end_reason = "maximum number of steps"
     return branch
+
+
+def solve_at_speed(model, p, guess: PeriodicOrbit, speed: float, settings: ContinuationSettings = ContinuationSettings()):
+    """The periodic orbit at a fixed speed [m/s] by Newton from ``guess``; a BranchPoint or None.
+
+    The border rows are the phase condition (relative to the guess) and ``V = speed``.
+    The tangent of the returned point is not meaningful (zero).
+    """
+    coll = Collocation(model, p, guess.mesh, guess.m)
+    X = coll.pack(guess)
+    X[-1] = speed
+    border = np.zeros((2, coll.size))
+    border[0] = coll.phase_row(guess)
+    border[1, -1] = 1.0
+    scale = np.concatenate([np.tile(np.abs(guess.nodes).max(axis=0) + np.ptp(guess.nodes, axis=0) + 1e-300,
+                                    coll.N * coll.m), [guess.period, abs(speed) + 1.0]])
+    for it in range(1, settings.max_newton + 1):
+        out = coll.solve(X, border, np.array([border[0] @ X, X[-1] - speed]))
+        if out is None:
+            return None
+        dX, _, CL, CR = out
+        X = X + dX
+        if np.max(np.abs(dX / scale)) < settings.newton_tol:
+            mu = np.linalg.eigvals(monodromy(CL, CR))
+            return BranchPoint(coll.unpack(X), mu, np.zeros(coll.size), it)
+    return None
+
+
+# -- kinks of the vector field (sliding velocity through zero, contact loss) -----------
+KINK_SIGNALS = (("sliding_velocity", 0.0), ("contact_lost", 0.5))
+"""Auxiliary outputs whose crossing of the given level is a kink of the vector field."""
+
+
+def switching_times(model, p, orbit: PeriodicOrbit, per_interval: int = 8, tol: float = 1e-13) -> np.ndarray:
+    """Normalized times where the orbit crosses a kink of the vector field (bisection-refined).
+
+    The vector field is continuous there (|v_r| and the clamp max(N, 0) are Lipschitz),
+    so no jump (saltation) of the monodromy matrix occurs, but the Jacobian jumps: the
+    collocation mesh is aligned with these times so that no interval straddles one.
+    """
+    signals = [(model.aux_names.index(name), level) for name, level in KINK_SIGNALS if name in model.aux_names]
+    if not signals:
+        return np.empty(0)
+    tau, u = orbit.dense(per_interval)
+    aux = model.diagnostics(u, orbit.speed, p)
+    times = []
+    for col, level in signals:
+        g = aux[:, col] - level
+        for i in np.flatnonzero(np.sign(g[:-1]) * np.sign(g[1:]) < 0):
+            a, b, ga = tau[i], tau[i + 1], g[i]
+            while b - a > tol:
+                mid = 0.5 * (a + b)
+                gm = model.diagnostics(orbit.evaluate(mid)[0], orbit.speed, p)[col] - level
+                if np.sign(gm) == np.sign(ga):
+                    a, ga = mid, gm
+                else:
+                    b = mid
+            times.append(0.5 * (a + b))
+    return np.sort(np.mod(times, 1.0))
+
+
+def _with_kinks(mesh: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """The mesh with its nearest interior point moved onto each switching time."""
+    if times.size == 0:
+        return mesh
+    mesh = mesh.copy()
+    free = np.ones(len(mesh), dtype=bool)
+    free[[0, -1]] = False
+    for tc in times:
+        candidates = np.flatnonzero(free)
+        j = candidates[np.argmin(np.abs(mesh[candidates] - tc))]
+        mesh[j] = tc
+        free[j] = False
+    mesh = np.sort(mesh)
+    if np.min(np.diff(mesh)) <= 1e-9:
+        return np.sort(np.unique(mesh))  # two kinks in one interval: keep what is distinct
+    return mesh
+
+
+def _remesh(model, p, stepper, mesh, X0, t0, settings, scales, speed_scale, period_scale):
+    """A stepper on a new mesh with the previous point, tangent and phase reference mapped to it."""
+    c = stepper.coll
+    previous = c.unpack(X0)
+    tangent = c.unpack(t0)
+    new = _Stepper(model, p, mesh, settings, scales, speed_scale, period_scale)
+    phase_ref = previous.with_mesh(mesh)
+    return new, new.coll.pack(phase_ref), new.unit(new.coll.pack(tangent.with_mesh(mesh))), phase_ref
+
+
+def _align_to_kinks(model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale):
+    """Re-solve the step on a mesh with points at the orbit's kinks until they stay there."""
+    for _ in range(4):
+        orbit = stepper.coll.unpack(out[0])
+        times = switching_times(model, p, orbit)
+        mesh = stepper.coll.mesh
+        if times.size == 0 or np.max(np.min(np.abs(times[:, None] - mesh[None, :]), axis=1)) < 1e-9:
+            break
+        stepper, X0, t0, phase_ref = _remesh(
+            model, p, stepper, _with_kinks(mesh, times), X0, t0, settings, scales, speed_scale, period_scale
+        )
+        out = stepper.correct(X0, t0, ds, phase_ref)
+        if out is None:
+            break
+    return stepper, X0, t0, phase_ref, out
 
 
 def _multiplier_events(a: BranchPoint, b: BranchPoint) -> list[str]:
