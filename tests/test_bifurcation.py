@@ -70,6 +70,7 @@ def test_hard_region_attractors_agree_with_integration(default_diagram):
     assert outside == pytest.approx(large.amplitude[0], rel=2e-5)
 
 
+@pytest.mark.slow
 def test_floquet_multipliers_agree_with_variational_equation(default_diagram):
     p = MODEL.pack(Params())
     branch = default_diagram.branches[0]
