@@ -492,7 +492,7 @@ def integrate(
     dense_from : float, optional
         Keep the continuous solution over ``[dense_from, t_end]`` [s].
     h0 : float, optional
-        First step size [s] (Rodas only; default: estimated).
+        First step size [s] (default: estimated).
     max_steps : int
         Give up after this many accepted steps (Rodas only).
 
@@ -511,7 +511,7 @@ def integrate(
         return _integrate_rodas(model, u0, float(V), p, float(t_end), float(rtol), atol, t_out,
                                 dt_out is None, dense_from, h0, max_steps)
     return _integrate_scipy(model, u0, float(V), p, float(t_end), float(rtol), atol, t_out,
-                            dt_out is None, dense_from, method)
+                            dt_out is None, dense_from, method, h0)
 
 
 def _integrate_rodas(model, u0, V, p, t_end, rtol, atol, t_out, record_steps, dense_from, h0,
@@ -555,10 +555,10 @@ def _integrate_rodas(model, u0, V, p, t_end, rtol, atol, t_out, record_steps, de
     )
 
 
-def _integrate_scipy(model, u0, V, p, t_end, rtol, atol, t_out, record_steps, dense_from, method):
+def _integrate_scipy(model, u0, V, p, t_end, rtol, atol, t_out, record_steps, dense_from, method, h0):
     from scipy.integrate import solve_ivp
 
-    options: dict[str, Any] = {}
+    options: dict[str, Any] = {} if h0 is None else {"first_step": float(h0)}
     if method in ("radau", "bdf", "lsoda"):
         options["jac"] = lambda t, u: model.jacobian(u, V, p)
     sol = solve_ivp(
