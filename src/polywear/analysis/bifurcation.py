@@ -27,7 +27,7 @@ from ..params import Params, to_toml
 from ..solvers.continuation import Branch, ContinuationSettings, continue_from_hopf
 from .stability import HopfPoint, StabilityResult, stability_analysis
 
-__all__ = ["BifurcationDiagram", "CyclePoint", "bifurcation_diagram"]
+__all__ = ["BifurcationDiagram", "CyclePoint", "bifurcation_diagram", "sweep_bands"]
 
 
 @dataclass(frozen=True)
@@ -44,6 +44,8 @@ class CyclePoint:
     max_multiplier: float
     trivial_multiplier_error: float
     label: str = ""
+    orbit: object = field(default=None, repr=False, compare=False)
+    """The PeriodicOrbit (None for the zero-amplitude ends at Hopf points)."""
 
 
 @dataclass
@@ -352,6 +354,51 @@ class BifurcationDiagram:
 _UNITS = {"x": (1e3, "mm"), "alpha": (1e3, "mrad"), "beta": (1e3, "mrad"), "gamma": (1e3, "mrad")}
 
 
+def sweep_bands(result) -> dict:
+    """First/second bifurcation speeds and bands as a brute-force sweep sees them.
+
+    ``result`` is a :class:`polywear.analysis.sweep.SweepResult`. The SEV band is where a
+    large disturbance (or the chain from the neighbouring speed) ends on a cycle; the
+    linear band where even a small one does. Bounds are grid speeds (resolution = spacing).
+    """
+    speeds = np.asarray(result.speeds_kmh)
+
+    def band(starts):
+        on = np.zeros(len(speeds), dtype=bool)
+        for start in starts:
+            on |= np.array([r.outcome == "cycle" for r in result.runs[start]])
+        return _runs_of(speeds, on)
+
+    sev = band(("large", "up", "down"))
+    return {
+        "model": result.params.model,
+        "method": "sweep",
+        "speeds_kmh": speeds.tolist(),
+        "linear_band_kmh": [list(b) for b in band(("small",))],
+        "sev_band_kmh": [list(b) for b in sev],
+        "first_bifurcation_speed_kmh": sev[0][0] if sev else None,
+        "second_bifurcation_speed_kmh": sev[-1][1] if sev else None,
+        "grid_spacing_kmh": float(np.max(np.diff(speeds))) if len(speeds) > 1 else None,
+        "unsettled_runs": sum(not r.steady for runs in result.runs.values() for r in runs),
+    }
+
+
+def _runs_of(speeds, flags):
+    """Intervals [first, last] of consecutive grid speeds where ``flags`` holds."""
+    out, start = [], None
+    for v, f in zip(speeds, flags):
+        if f and start is None:
+            start = v
+        if f:
+            last = v
+        if not f and start is not None:
+            out.append((float(start), float(last)))
+            start = None
+    if start is not None:
+        out.append((float(start), float(last)))
+    return out
+
+
 def _json(payload) -> str:
     import json
 
@@ -412,6 +459,7 @@ def _cycle_point(branch_index, point, label="") -> CyclePoint:
         max_multiplier=float(np.abs(others).max()) if others.size else 0.0,
         trivial_multiplier_error=point.trivial_multiplier_error,
         label=label or point.label,
+        orbit=orbit,
     )
 
 

@@ -33,7 +33,17 @@ def _root(
 
 
 def _register() -> None:
-    from . import bifurcation_cmd, friction_cmd, params_cmd, sensitivity_cmd, simulate_cmd, stability_cmd, study_cmd
+    from . import (
+        bifurcation_cmd,
+        design_cmd,
+        friction_cmd,
+        params_cmd,
+        report_cmd,
+        sensitivity_cmd,
+        simulate_cmd,
+        stability_cmd,
+        study_cmd,
+    )
 
     app.add_typer(params_cmd.app, name="params")
     app.add_typer(friction_cmd.app, name="friction")
@@ -42,6 +52,8 @@ def _register() -> None:
     app.command("simulate")(simulate_cmd.simulate)
     app.command("sensitivity")(sensitivity_cmd.sensitivity)
     app.command("study")(study_cmd.study)
+    app.command("design")(design_cmd.design)
+    app.command("report")(report_cmd.report)
 
 
 _register()

@@ -41,7 +41,10 @@ def bifurcation(
     if not 0.0 < lo < hi:
         raise UserError(f"--speed-range {lo} {hi}: need 0 < low < high [km/h]")
     if method is Method.sweep:
+        from ..analysis.bifurcation import sweep_bands
+
         result = _sweep(params, (lo, hi), n_speeds or 30, quiet)
+        summary = {**sweep_bands(result), **result.summary()}
     else:
         from ..analysis.bifurcation import bifurcation_diagram
         from ..solvers.continuation import ContinuationSettings
@@ -54,20 +57,28 @@ def bifurcation(
                 n_speeds=n_speeds or 400,
                 on_step=lambda b, v: advance(1),
             )
+        summary = result.summary()
     if out:
         result.save(out)
         info(f"wrote {out}", quiet)
     if csv:
+        if method is Method.sweep:
+            raise UserError("--csv: the sweep writes netCDF only (use --out FILE.nc)")
         result.save(csv if str(csv).endswith(".csv") else Path(f"{csv}.csv"))
         info(f"wrote {csv}", quiet)
     if plot:
         import matplotlib
 
         matplotlib.use("Agg")
-        fig = result.figure()
+        if method is Method.sweep:
+            import matplotlib.pyplot as plt
+
+            fig, ax = plt.subplots(figsize=(8, 4.5))
+            result.plot(ax)
+        else:
+            fig = result.figure()
         save_figure(fig, plot)
         info(f"wrote {plot}", quiet)
-    summary = result.summary()
     if json_:
         emit_json(summary)
     else:

@@ -1,0 +1,213 @@
+"""The main job: a full analysis of one parameter set, written to a folder with an HTML report.
+
+Steps: linear stability, bifurcation diagram (continuation), the verdict at the
+operating speed with wear indicators, phase portraits there from small and large
+disturbances, exact sensitivities of the bifurcation speeds (Fig. 9), and design
+options that move the SEV band out of the operating range (Figs. 10-12).
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from . import __version__
+from .params import Params, to_toml
+
+__all__ = ["Report", "operating_verdict", "run_report"]
+
+
+@dataclass
+class Report:
+    """Everything the main job computed, with the files it wrote."""
+
+    params: Params
+    summary: dict
+    files: dict = field(default_factory=dict)
+
+
+def operating_verdict(diagram, params: Params, speed_kmh: float) -> dict:
+    """What happens at one speed: SEV or not, amplitude, trigger, wear indicators."""
+    from .analysis.wear import wear_indicators
+    from .models import get_model
+
+    model = get_model(params.model)
+    p = model.pack(params)
+    x = diagram.state_names.index("x")
+    in_linear = any(a <= speed_kmh <= b for a, b in diagram.linear_band_kmh)
+    in_sev = any(a <= speed_kmh <= b for a, b in diagram.sev_band_kmh)
+    cycles = diagram.cycles_at(speed_kmh) if in_sev else []
+    stable = [c for c in cycles if c.stable]
+    unstable = [c for c in cycles if not c.stable]
+    verdict = {
+        "speed_kmh": speed_kmh,
+        "steady_rolling_stable": not in_linear,
+        "in_sev_band": in_sev,
+        "regime": "unstable rolling (soft SEV)" if in_linear else ("hard SEV region" if in_sev else "no SEV"),
+    }
+    if stable:
+        big = stable[-1]
+        verdict["sev_amplitude_x_m"] = float(big.amplitude[x])
+        verdict["wear"] = wear_indicators(model, p, big.orbit, params.operating.rolling_radius_m).summary()
+    if unstable and not in_linear:
+        verdict["trigger_amplitude_x_m"] = float(min(c.amplitude[x] for c in unstable))
+    sev = diagram.sev_band_kmh
+    if sev:
+        verdict["margin_to_first_bifurcation_kmh"] = sev[0][0] - speed_kmh
+        verdict["margin_to_second_bifurcation_kmh"] = sev[-1][1] - speed_kmh
+    return verdict
+
+
+def _sentence(v: dict) -> str:
+    s = f"At {v['speed_kmh']:.0f} km/h: "
+    if v["regime"] == "no SEV":
+        return s + "no self-excited vibration; steady rolling is stable and no stable limit cycle exists."
+    if "sev_amplitude_x_m" in v:
+        w = v["wear"]
+        s += (
+            f"self-excited vibration of {v['sev_amplitude_x_m'] * 1e3:.3f} mm at {w['frequency_hz']:.1f} Hz "
+            f"(polygon order {w['polygon_order']:.2f}, RMS tread acceleration {w['rms_acceleration']:.0f} m/s^2, "
+            f"uneven-wear index {w['uneven_wear_index']:.3f})"
+        )
+    if v["regime"].startswith("hard"):
+        s += (
+            f"; steady rolling is stable, but a disturbance of the tread above "
+            f"{v.get('trigger_amplitude_x_m', float('nan')) * 1e3:.3f} mm starts it (hard excitation)."
+        )
+    else:
+        s += "; steady rolling is unstable, so any disturbance starts it."
+    return s
+
+
+def run_report(
+    params: Params,
+    out_dir: Path,
+    speed_range_kmh: tuple[float, float] = (20.0, 300.0),
+    operating_range_kmh: tuple[float, float] | None = None,
+    progress=None,
+) -> Report:
+    """Run the main job and write figures, data, ``summary.json`` and ``report.html`` to ``out_dir``.
+
+    ``progress(message)`` is called before each step.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .analysis.bifurcation import bifurcation_diagram
+    from .analysis.design import clear_operating_range
+    from .analysis.sensitivity import local_sensitivity
+    from .analysis.simulation import simulate_disturbances
+
+    say = progress or (lambda message: None)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    files: dict[str, str] = {}
+    speed = params.operating.speed_kmh
+    operating_range = operating_range_kmh or (max(speed - 30.0, 1.0), speed + 20.0)
+
+    def save(fig, name, caption):
+        fig.savefig(out_dir / name, dpi=120, bbox_inches="tight")
+        plt.close(fig)
+        files[name] = caption
+
+    say("bifurcation diagram (continuation)")
+    diagram = bifurcation_diagram(params, speed_range_kmh)
+    diagram.save(out_dir / "bifurcation.nc")
+    diagram.save(out_dir / "cycles.csv")
+    files["bifurcation.nc"] = "bifurcation diagram: branch table and equilibria (netCDF)"
+    files["cycles.csv"] = "cycle branch table (CSV)"
+    save(diagram.figure(), "bifurcation.png", "Bifurcation diagram: amplitude of every coordinate against speed (paper Fig. 6)")
+    fig, ax = plt.subplots(figsize=(7, 4))
+    diagram.stability.plot(ax)
+    save(fig, "stability.png", "Real parts of the eigenvalues of steady rolling against speed")
+
+    say("verdict at the operating speed")
+    verdict = operating_verdict(diagram, params, speed)
+
+    say("phase portraits at the operating speed")
+    runs = simulate_disturbances(params, [1e-5, 1e-4, 1e-3], speed_kmh=speed, duration_s=1.0)
+    save(runs.plot()[0].figure, "phase_portraits.png", f"Phase portraits at {speed:g} km/h from small and large disturbances (paper Fig. 5)")
+
+    say("exact sensitivities of the bifurcation speeds")
+    sens = local_sensitivity(params, diagram=diagram)
+    sens.save(out_dir / "sensitivity.csv")
+    files["sensitivity.csv"] = "sensitivity rows (CSV)"
+    save(sens.figure(), "sensitivity.png", "Normalized sensitivities S = (p/V) dV/dp of every bifurcation speed (paper Fig. 9)")
+
+    say("design options for the operating range")
+    design = clear_operating_range(
+        params, operating_range, keys=("operating.toe_deg", "adhesion_scale", "friction.mu_static"),
+        combine=("operating.toe_deg", "adhesion_scale"), speed_range_kmh=speed_range_kmh, diagram=diagram,
+    )
+    if design.options:
+        fig, ax = plt.subplots(figsize=(8, 4.5))
+        design.plot(ax)
+        save(fig, "design.png", "Original and optimized bifurcation diagrams (paper Figs. 10-12)")
+
+    summary = {
+        "polywear_version": __version__,
+        "model": params.model,
+        "operating": verdict,
+        "bifurcation": diagram.summary(),
+        "sensitivity": sens.summary(),
+        "design": design.summary(),
+    }
+    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
+    (out_dir / "params.toml").write_text(to_toml(params))
+    files["summary.json"] = "everything above as JSON"
+    files["params.toml"] = "the parameter set used"
+    (out_dir / "report.html").write_text(_html(params, summary, verdict, files))
+    files["report.html"] = "this report"
+    return Report(params, summary, files)
+
+
+def _html(params: Params, summary: dict, verdict: dict, files: dict) -> str:
+    b = summary["bifurcation"]
+    e = html.escape
+
+    def band(bands):
+        return ", ".join(f"{lo:.1f}-{hi:.1f} km/h" for lo, hi in bands) or "none"
+
+    rows = "".join(
+        f"<tr><td>Hopf</td><td>{h['speed_kmh']:.2f}</td><td>{h['frequency_hz']:.1f}</td><td>{e(h['criticality'])}, mode {e(h['mode'])}</td></tr>"
+        for h in b["hopf_points"]
+    ) + "".join(
+        f"<tr><td>fold of cycles</td><td>{f['speed_kmh']:.2f}</td><td>{f['frequency_hz']:.1f}</td><td>amplitude {f['amplitude_x_m'] * 1e3:.3f} mm</td></tr>"
+        for f in b["folds"]
+    )
+    design_rows = "".join(
+        f"<tr><td>{e(' + '.join(o['labels']))}</td><td>{', '.join(f'{n:g} &rarr; {v:.4g}' for n, v in zip(o['nominal'], o['values']))}</td>"
+        f"<td>{o['relative_change']:.0%}</td><td>{'yes' if o['achieved'] else 'no'}</td><td>{band(o['sev_band_kmh'])}</td></tr>"
+        for o in summary["design"]["options"]
+    )
+    figures = "".join(
+        f"<figure><img src='{e(name)}' alt='{e(caption)}'><figcaption>{e(caption)}</figcaption></figure>"
+        for name, caption in files.items()
+        if name.endswith(".png")
+    )
+    file_list = "".join(f"<li><a href='{e(n)}'>{e(n)}</a>: {e(c)}</li>" for n, c in files.items() if not n.endswith(".png"))
+    return f"""<!doctype html>
+<html><head><meta charset="utf-8"><title>polywear report: {e(params.model)}</title>
+<style>body{{font-family:sans-serif;max-width:960px;margin:2em auto;color:#222}}
+table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:left}}
+figure{{margin:1.5em 0}}img{{max-width:100%}}.verdict{{background:#fff4e0;padding:1em;border-left:4px solid #e69500}}</style>
+</head><body>
+<h1>polywear report: {e(params.model)}</h1>
+<p class="verdict">{e(_sentence(verdict))}</p>
+<h2>Speed bands</h2>
+<ul><li>steady rolling unstable (linear band): {band(b['linear_band_kmh'])}</li>
+<li>SEV after a large disturbance (first to second bifurcation speed): {band(b['sev_band_kmh'])}</li>
+<li>hard excitation (stable rolling and stable SEV coexist): {band(b['hard_regions_kmh'])}</li></ul>
+<table><tr><th>point</th><th>speed [km/h]</th><th>frequency [Hz]</th><th></th></tr>{rows}</table>
+<h2>Design options for {summary['design']['operating_range_kmh'][0]:.0f}-{summary['design']['operating_range_kmh'][1]:.0f} km/h</h2>
+<table><tr><th>change</th><th>values</th><th>relative change</th><th>range cleared</th><th>SEV band after</th></tr>{design_rows}</table>
+{figures}
+<h2>Files</h2><ul>{file_list}</ul>
+<h2>Parameters</h2><pre>{e(to_toml(params))}</pre>
+<p>polywear {e(__version__)}</p>
+</body></html>
+"""
