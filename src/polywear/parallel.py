@@ -120,7 +120,7 @@ def _dask(func, items, scheduler, batch_size, report) -> list:
     except ImportError as exc:  # pragma: no cover - dask[distributed] is a dependency
         raise RuntimeError("the dask backend needs dask[distributed]") from exc
 
-    with Client(scheduler, timeout="30s") as client:
+    with Client(scheduler) as client:  # connect timeout: dask config distributed.comm.timeouts.connect
         slots = sum(client.nthreads().values())
         batches = _batches(items, batch_size or default_batch_size(len(items), slots))
         futures = {client.submit(run_batch, func, batch, pure=False): i for i, batch in enumerate(batches)}
