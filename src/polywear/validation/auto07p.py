@@ -53,6 +53,7 @@ __all__ = [
     "auto_jacobian",
     "orbit_extremes",
     "tread1dof_diagram",
+    "headline_numbers",
     "refinement_study",
 ]
 
@@ -105,11 +106,23 @@ class AutoSettings:
     """Largest step on a branch of periodic orbits."""
     nmx: int = 5000
     """Largest number of steps per branch."""
-    samples_per_interval: int = 32
-    """Points per mesh interval at which the collocation polynomial is evaluated for
-    the amplitude (the orbit AUTO stores has ``ncol + 1`` per interval)."""
+    samples_per_interval: int = 16
+    """Points per mesh interval searched for the extrema of the collocation polynomial
+    (then polished by Newton steps; the stored orbit has ``ncol + 1`` per interval)."""
     transpile: bool = True
     """Compile the model to a native AUTO executable (True) or call back into Python."""
+
+    def __post_init__(self) -> None:
+        # out-of-range constants make AUTO run away rather than fail: refuse them here
+        if not 2 <= self.ncol <= 7:
+            raise ValueError(f"ncol = {self.ncol}: AUTO-07p supports 2 to 7 collocation points")
+        if self.ntst < 2 or self.nmx < 1 or self.samples_per_interval < 2:
+            raise ValueError("ntst >= 2, nmx >= 1 and samples_per_interval >= 2 are required")
+        steps = (self.epsl, self.epsu, self.epss, self.ds, self.dsmin)
+        if not all(v > 0 for v in steps) or not self.dsmin <= self.ds <= min(
+            self.dsmax_equilibrium, self.dsmax_cycles
+        ):
+            raise ValueError("tolerances must be > 0 and 0 < dsmin <= ds <= dsmax")
 
     def refined(self) -> AutoSettings:
         """Twice the mesh intervals, tolerances / 10, steps / 2 (for refinement studies)."""
@@ -228,34 +241,41 @@ def _starting_point(u_eq, speed):
 
 
 # -- orbits ---------------------------------------------------------------------------
-def _lagrange_basis(ncol: int, samples: int) -> np.ndarray:
-    """Degree-``ncol`` Lagrange basis on equispaced nodes of [0, 1] at ``samples`` points."""
-    nodes = np.linspace(0.0, 1.0, ncol + 1)
-    s = np.linspace(0.0, 1.0, samples)[:, None]
-    basis = np.ones((samples, ncol + 1))
-    for j in range(ncol + 1):
-        for k in range(ncol + 1):
-            if k != j:
-                basis[:, j] *= (s[:, 0] - nodes[k]) / (nodes[j] - nodes[k])
-    return basis
-
-
-def orbit_extremes(state, ncol: int, samples_per_interval: int = 32) -> tuple[np.ndarray, np.ndarray]:
+def orbit_extremes(state, ncol: int, samples_per_interval: int = 16) -> tuple[np.ndarray, np.ndarray]:
     """Per-state minimum and maximum of AUTO's piecewise-polynomial orbit.
 
     ``state`` is an orbit as AUTO stores it: ``ntst * ncol + 1`` rows, ``ncol + 1``
     equispaced values per mesh interval (shared at interval ends), which define the
-    degree-``ncol`` collocation polynomial of that interval. The polynomial is evaluated
-    at ``samples_per_interval`` points per interval, so extrema between stored points
-    are not missed.
+    degree-``ncol`` collocation polynomial of that interval. Each extremum is found on
+    ``samples_per_interval`` points per interval, then polished by Newton steps on the
+    derivative of that interval's polynomial, so it does not depend on where AUTO
+    happened to store points.
     """
     values = np.asarray(state, dtype=float)
     ntst, rest = divmod(len(values) - 1, ncol)
     if rest or ntst < 1:
         raise ValueError(f"orbit of {len(values)} points is not ntst * {ncol} + 1")
     pieces = np.stack([values[i * ncol : (i + 1) * ncol + 1] for i in range(ntst)])
-    fine = np.einsum("sk,ikn->isn", _lagrange_basis(ncol, samples_per_interval), pieces)
-    return fine.min(axis=(0, 1)), fine.max(axis=(0, 1))
+    order = np.arange(ncol + 1)
+    to_monomial = np.linalg.inv(np.linspace(0.0, 1.0, ncol + 1)[:, None] ** order)
+    coeffs = np.einsum("mj,ijn->imn", to_monomial, pieces)  # p(s) = sum_m c_m s^m, s in [0, 1]
+    grid = np.linspace(0.0, 1.0, samples_per_interval)
+    fine = np.einsum("sm,imn->isn", grid[:, None] ** order, coeffs)
+    extremes = np.empty((2, values.shape[1]))
+    for row, sign in enumerate((-1.0, 1.0)):
+        for n in range(values.shape[1]):
+            interval, sample = np.unravel_index(np.argmax(sign * fine[:, :, n]), fine.shape[:2])
+            c = sign * coeffs[interval, :, n]
+            best, s = sign * fine[interval, sample, n], grid[sample]
+            for _ in range(4):  # Newton on p'(s) = 0 from the best sample
+                slope = np.sum(order[1:] * c[1:] * s ** (order[1:] - 1))
+                curvature = np.sum(order[2:] * (order[2:] - 1) * c[2:] * s ** (order[2:] - 2))
+                if curvature >= 0.0:
+                    break
+                s = min(max(s - slope / curvature, 0.0), 1.0)
+                best = max(best, float(np.sum(c * s**order)))
+            extremes[row, n] = sign * best
+    return extremes[0], extremes[1]
 
 
 def _cycle_summary(point, speed: float, sin_toe: float, settings: AutoSettings) -> dict[str, Any]:
@@ -297,13 +317,13 @@ def _scratch_directory() -> Iterator[str]:
             tempfile.tempdir = previous
 
 
-def _auto_seconds(output_directory: str | None) -> float:
-    """AUTO's own reported run time ("Total Time" in its output) [s]."""
+def _auto_seconds(output_directory: str | None) -> float | None:
+    """AUTO's own reported run time ("Total Time" in its output) [s], None if absent."""
     if output_directory is None:
-        return math.nan
+        return None
     path = Path(output_directory) / "stdout.txt"
-    match = re.search(r"Total Time\s+([0-9.EeDd+-]+)", path.read_text()) if path.exists() else None
-    return float(match.group(1).replace("D", "E").replace("d", "e")) if match else math.nan
+    match = re.search(r"Total Time\s+([0-9.Ee+-]+)", path.read_text()) if path.is_file() else None
+    return float(match.group(1)) if match else None
 
 
 def _call_auto(entry, *args, **kwargs):
@@ -397,7 +417,7 @@ def tread1dof_diagram(
     func = auto_rhs(p)
     common = dict(transpile=settings.transpile)
     start = time.perf_counter()
-    auto_time = 0.0
+    auto_seconds = []
 
     with _scratch_directory():
         eq_constants = _constants(settings, auto.IPS_EQUILIBRIUM, lo, hi, settings.dsmax_equilibrium)
@@ -405,7 +425,7 @@ def tread1dof_diagram(
             auto.run, func, _starting_point(MODEL.equilibrium(lo, p), lo), eq_constants,
             icu=[SPEED_INDEX], jac=auto_jacobian(p, [SPEED_INDEX]), **common,
         )  # fmt: skip
-        auto_time += seconds
+        auto_seconds.append(seconds)
         eq_points = [pt for branch in equilibrium.branches for pt in branch.points]
         hopf_points = [pt for pt in eq_points if pt.point_type == auto.PointType.HOPF_BIFURCATION]
         hopf = [
@@ -429,7 +449,7 @@ def tread1dof_diagram(
                 jac=auto_jacobian(p, icu), stop=["BP1"],
                 uzr={SPEED_INDEX: [operating]} if lo < operating < hi else None, **common,
             )  # fmt: skip
-            auto_time += seconds
+            auto_seconds.append(seconds)
             points = [pt for branch in result.branches for pt in branch.points]
             rows = [_cycle_summary(pt, pt.parameters[0], sin_toe, settings) for pt in points]
             end, hopf_index = _return_to_hopf(
@@ -485,12 +505,13 @@ def tread1dof_diagram(
             "units": "AUTO works in mm (x, z), m/s (x'), ms (time); results here are SI",
         },
         "wall_time_s": time.perf_counter() - start,
-        "auto_time_s": auto_time,
+        "auto_time_s": None if None in auto_seconds else sum(auto_seconds),
     }
 
 
-def _headline(diagram: dict[str, Any]) -> dict[str, float]:
-    """The numbers a refinement study compares, by name."""
+def headline_numbers(diagram: dict[str, Any]) -> dict[str, float]:
+    """Hopf speeds and frequencies, fold speeds, amplitudes and periods, amplitude and
+    period at the operating speed of a :func:`tread1dof_diagram` result, by name."""
     out = {}
     for i, h in enumerate(diagram["hopf"]):
         out[f"hopf{i + 1}_speed_kmh"] = h["speed_kmh"]
@@ -516,8 +537,8 @@ def refinement_study(
     "max_relative_change": float}`` over the Hopf speeds and frequencies, fold speeds,
     amplitudes and periods, and the amplitude and period at the operating speed.
     """
-    base = _headline(tread1dof_diagram(params, speed_range_kmh, settings))
-    fine = _headline(tread1dof_diagram(params, speed_range_kmh, settings.refined()))
+    base = headline_numbers(tread1dof_diagram(params, speed_range_kmh, settings))
+    fine = headline_numbers(tread1dof_diagram(params, speed_range_kmh, settings.refined()))
     if base.keys() != fine.keys():
         raise Auto07pError(f"refinement changed the special points found: {sorted(base)} vs {sorted(fine)}")
     change = {k: abs(fine[k] - base[k]) / abs(fine[k]) for k in base}
