@@ -81,3 +81,19 @@ def test_report_writes_everything(tmp_path):
                  "bifurcation.nc", "cycles.csv", "params.toml"):
         assert (tmp_path / name).stat().st_size > 0
     assert "self-excited vibration" in (tmp_path / "report.html").read_text()
+
+
+def test_excitation_soft_and_hard_regions_end_on_the_right_attractor():
+    code, out, err = run_main(["excitation", "--json"])
+    assert code == 0, err
+    soft, hard = json.loads(out)["portraits"]
+    assert soft["regime"].startswith("soft") and hard["regime"].startswith("hard")
+    (stable,) = soft["cycles"]
+    assert all(r["outcome"] == "cycle" for r in soft["runs"])
+    assert all(r["final_amplitude_x_m"] == pytest.approx(stable["amplitude_x_m"], rel=1e-5) for r in soft["runs"])
+    unstable, stable = hard["cycles"]
+    assert not unstable["stable"] and stable["stable"]
+    outcome = {r["start"]: r for r in hard["runs"]}
+    assert outcome["near steady rolling"]["outcome"] == outcome["inside cycle 1"]["outcome"] == "equilibrium"
+    for start in ("outside cycle 1", "inside cycle 2", "outside cycle 2"):
+        assert outcome[start]["final_amplitude_x_m"] == pytest.approx(stable["amplitude_x_m"], rel=1e-5)

@@ -130,6 +130,13 @@ def run_report(
 
     say("phase portraits at the operating speed")
     runs = simulate_disturbances(params, [1e-5, 1e-4, 1e-3], speed_kmh=speed, duration_s=1.0)
+    from .analysis.excitation import default_speeds, excitation_portraits, portraits_figure
+
+    speeds = default_speeds(diagram, speed)
+    if speeds:
+        save(portraits_figure(excitation_portraits(diagram, speeds)), "excitation.png",
+             "Soft and hard self-excitation: cycles from the continuation and trajectories from inside and "
+             "outside them (paper Fig. 2)")
     save(runs.plot()[0].figure, "phase_portraits.png", f"Phase portraits at {speed:g} km/h from small and large disturbances (paper Fig. 5)")
 
     say("exact sensitivities of the bifurcation speeds")

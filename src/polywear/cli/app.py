@@ -36,6 +36,7 @@ def _register() -> None:
     from . import (
         bifurcation_cmd,
         design_cmd,
+        excitation_cmd,
         friction_cmd,
         params_cmd,
         report_cmd,
@@ -52,6 +53,7 @@ def _register() -> None:
     app.command("simulate")(simulate_cmd.simulate)
     app.command("sensitivity")(sensitivity_cmd.sensitivity)
     app.command("study")(study_cmd.study)
+    app.command("excitation")(excitation_cmd.excitation)
     app.command("design")(design_cmd.design)
     app.command("report")(report_cmd.report)
 

@@ -1,0 +1,131 @@
+"""Soft and hard self-excitation in the phase plane (the paper's Fig. 2).
+
+At a chosen speed, the limit cycles of the bifurcation diagram (stable and unstable)
+are drawn in the (x, x') plane together with trajectories started just inside and
+just outside every cycle and near steady rolling: in a soft region every start ends
+on the stable cycle; in a hard region starts inside the unstable cycle decay to
+steady rolling and starts outside it grow to the stable cycle.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..models import get_model
+from ..models.base import kmh_to_ms
+from .bifurcation import BifurcationDiagram, CyclePoint
+from .simulation import SimulationResult, simulate
+
+__all__ = ["ExcitationPortrait", "excitation_portraits", "default_speeds", "portraits_figure"]
+
+
+@dataclass
+class ExcitationPortrait:
+    """Cycles and trajectories at one speed."""
+
+    speed_kmh: float
+    regime: str
+    cycles: list[CyclePoint]
+    runs: list[SimulationResult]
+
+    def summary(self) -> dict:
+        x = self.runs[0].model.index("x") if self.runs else 0
+        return {
+            "speed_kmh": self.speed_kmh,
+            "regime": self.regime,
+            "cycles": [{"amplitude_x_m": float(c.amplitude[x]), "stable": c.stable} for c in self.cycles],
+            "runs": [
+                {"start": r.label, "initial_x_m": float(r.initial[x] - r.equilibrium[x]), "outcome": r.steady.outcome,
+                 "final_amplitude_x_m": float(r.steady.amplitude[x])}
+                for r in self.runs
+            ],
+        }
+
+    def plot(self, ax=None):
+        """x' against x: cycles (stable solid, unstable dashed), trajectories thin. Returns artists."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(5, 4.5))
+        artists = []
+        for k, run in enumerate(self.runs):
+            model = run.model
+            i, j = model.index("x"), model.index("xdot")
+            artists += ax.plot(1e3 * (run.u[:, i] - run.equilibrium[i]), run.u[:, j], lw=0.5, color=f"C{k + 2}",
+                               label=f"start {run.label}: {run.steady.outcome}")
+            artists += ax.plot(1e3 * (run.u[0, i] - run.equilibrium[i]), run.u[0, j], "o", ms=3, color=f"C{k + 2}")
+        for c in self.cycles:
+            tau, u = c.orbit.dense(32)
+            model = self.runs[0].model
+            i, j = model.index("x"), model.index("xdot")
+            eq = self.runs[0].equilibrium
+            style = "-" if c.stable else "--"
+            artists += ax.plot(1e3 * (u[:, i] - eq[i]), u[:, j], style, color="k", lw=2,
+                               label=f"{'stable' if c.stable else 'unstable'} cycle {c.amplitude[i] * 1e3:.3f} mm")
+        artists += ax.plot([0.0], [0.0], "k+", ms=10)
+        ax.set_xlabel("x - x_eq [mm]")
+        ax.set_ylabel("x' [m/s]")
+        ax.set_title(f"{self.speed_kmh:g} km/h: {self.regime}", fontsize=10)
+        ax.legend(fontsize=7, loc="upper right")
+        return artists
+
+
+def default_speeds(diagram: BifurcationDiagram, operating_kmh: float) -> list[float]:
+    """A soft speed (the operating speed if it is in the linear band) and the middle of the first hard region."""
+    speeds = []
+    soft = [b for b in diagram.linear_band_kmh]
+    if any(a <= operating_kmh <= b for a, b in soft):
+        speeds.append(operating_kmh)
+    elif soft:
+        speeds.append(0.5 * (soft[0][0] + soft[0][1]))
+    if diagram.hard_regions_kmh:
+        a, b = diagram.hard_regions_kmh[0]
+        speeds.append(0.5 * (a + b))
+    return speeds
+
+
+def excitation_portraits(diagram: BifurcationDiagram, speeds_kmh, duration_s: float = 0.6) -> list[ExcitationPortrait]:
+    """Cycles from the diagram and trajectories from inside/outside each cycle at every speed."""
+    params = diagram.params
+    model = get_model(params.model)
+    p = model.pack(params)
+    x = diagram.state_names.index("x")
+    out = []
+    for speed in speeds_kmh:
+        in_linear = any(a <= speed <= b for a, b in diagram.linear_band_kmh)
+        in_sev = any(a <= speed <= b for a, b in diagram.sev_band_kmh)
+        regime = "soft self-excitation" if in_linear else ("hard self-excitation" if in_sev else "no SEV")
+        cycles = diagram.cycles_at(speed)
+        u_eq = model.equilibrium(kmh_to_ms(speed), p)
+        # starts on the ray from steady rolling through each cycle's point farthest from it
+        # in x: s < 1 is inside that cycle, s > 1 outside
+        starts = {}
+        for k, c in enumerate(sorted(cycles, key=lambda c: c.amplitude[x]), 1):
+            if k == 1:
+                tau, u = c.orbit.dense(32)
+                starts["near steady rolling"] = u_eq + 0.02 * (u[np.argmax(np.abs(u[:, x] - u_eq[x]))] - u_eq)
+            tau, u = c.orbit.dense(32)
+            tip = u[np.argmax(np.abs(u[:, x] - u_eq[x]))]
+            starts[f"inside cycle {k}"] = u_eq + 0.8 * (tip - u_eq)
+            starts[f"outside cycle {k}"] = u_eq + 1.25 * (tip - u_eq)
+        if not cycles:
+            starts["small"] = u_eq + np.eye(model.n)[x] * 1e-5
+        runs = []
+        for label, initial in starts.items():
+            runs.append(replace(simulate(params, speed, duration_s, initial=initial), label=label))
+        out.append(ExcitationPortrait(speed, regime, cycles, runs))
+    return out
+
+
+def portraits_figure(portraits: list[ExcitationPortrait]):
+    """One panel per speed."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(portraits), figsize=(5.2 * len(portraits), 4.6), squeeze=False)
+    for ax, portrait in zip(axes[0], portraits):
+        portrait.plot(ax)
+    fig.tight_layout()
+    return fig
+
