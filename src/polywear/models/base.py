@@ -131,12 +131,12 @@ class Model:
 
     def diagnostics(self, u, V, p) -> np.ndarray:
         """Auxiliary outputs (``aux_names``) for one state or an array of states ``(..., n)``."""
+        from .kernels import batch
+
         u = np.asarray(u, dtype=float)
-        flat = u.reshape(-1, self.n)
+        flat = np.ascontiguousarray(u.reshape(-1, self.n))
         out = np.empty((flat.shape[0], len(self.aux_names)))
-        p = np.asarray(p, dtype=float)
-        for i in range(flat.shape[0]):
-            self.kernels.aux(flat[i], float(V), p, out[i])
+        batch(self.compiled_aux, flat, float(V), np.ascontiguousarray(p, dtype=float), out)
         return out.reshape(u.shape[:-1] + (len(self.aux_names),))
 
     def equilibrium(self, V, p) -> np.ndarray:
@@ -146,6 +146,13 @@ class Model:
     @cached_property
     def compiled(self):
         """First-class (cfunc) kernels ``(rhs, jac, dfdv)`` for compiled solvers."""
-        from ..solvers.kernels import as_cfuncs
+        from .kernels import as_cfuncs
 
         return as_cfuncs(self.kernels)
+
+    @cached_property
+    def compiled_aux(self):
+        """First-class (cfunc) ``aux`` kernel."""
+        from .kernels import aux_cfunc
+
+        return aux_cfunc(self.kernels)

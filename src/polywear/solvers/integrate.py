@@ -516,7 +516,7 @@ def integrate(
 
 def _integrate_rodas(model, u0, V, p, t_end, rtol, atol, t_out, record_steps, dense_from, h0,
                      max_steps) -> Trajectory:
-    rhs, jac, _ = model.compiled
+    rhs, jac = model.compiled[:2]
     status, t, y, h, stats, u_out, steps, dense = _rodas4(
         rhs, jac, u0, V, p, t_end, rtol, atol, 0.0 if h0 is None else float(h0), t_out,
         record_steps, math.inf if dense_from is None else float(dense_from), int(max_steps),
