@@ -175,16 +175,30 @@ class StabilityResult:
     unstable_intervals_kmh: list[tuple[float, float]]
     state_names: tuple[str, ...]
     settings: dict = field(default_factory=dict)
+    alignment_deg: np.ndarray | None = None
+    """(n_speeds, 2) running toe and camber [deg] of the equilibria, for models whose
+    alignment comes out of the equilibrium solve (axle4dof); None otherwise."""
 
     def summary(self) -> dict:
         """The JSON summary of ``polywear stability``."""
-        return {
+        out = {
             "model": self.params.model,
             "hopf_speeds_kmh": [h.speed_kmh for h in self.hopf_points],
             "hopf_frequencies_hz": [h.frequency_hz for h in self.hopf_points],
             "unstable_intervals_kmh": [list(iv) for iv in self.unstable_intervals_kmh],
             "hopf_points": [h.summary() for h in self.hopf_points],
         }
+        if self.alignment_deg is not None:
+            op = self.params.operating.speed_kmh
+            at = [float(np.interp(op, self.speeds_kmh, self.alignment_deg[:, k])) for k in (0, 1)]
+            out["running_alignment"] = {
+                "speed_kmh": op,
+                "toe_deg": at[0],
+                "camber_deg": at[1],
+                "toe_range_deg": [float(self.alignment_deg[:, 0].min()), float(self.alignment_deg[:, 0].max())],
+                "camber_range_deg": [float(self.alignment_deg[:, 1].min()), float(self.alignment_deg[:, 1].max())],
+            }
+        return out
 
     def to_dataset(self):
         """xarray Dataset: eigenvalues (real, imag) and equilibria against speed."""
@@ -268,6 +282,7 @@ def stability_analysis(
         hopfs += _hopf_in_bracket(model, p, speeds[i], speeds[i + 1], eig[i], eig[i + 1], xtol_ms)
     hopfs.sort(key=lambda h: h.speed)
     intervals = _unstable_intervals(model, p, speeds_kmh, hopfs)
+    alignment = getattr(model.kernels, "running_alignment", None)
     return StabilityResult(
         params=params,
         speeds_kmh=speeds_kmh,
@@ -277,6 +292,7 @@ def stability_analysis(
         unstable_intervals_kmh=intervals,
         state_names=model.state_names,
         settings={"n_speeds": n_speeds, "xtol_ms": xtol_ms},
+        alignment_deg=None if alignment is None else np.degrees([alignment(u, p) for u in states]),
     )
 
 

@@ -57,3 +57,9 @@ def stability(
         )
     for lo, hi in summary["unstable_intervals_kmh"]:
         typer.echo(f"steady rolling unstable from {lo:.3f} to {hi:.3f} km/h")
+    if "running_alignment" in summary:
+        a = summary["running_alignment"]
+        typer.echo(
+            f"running toe {a['toe_deg']:.4f} deg, camber {a['camber_deg']:.4f} deg at {a['speed_kmh']:g} km/h "
+            f"(toe {a['toe_range_deg'][0]:.4f} .. {a['toe_range_deg'][1]:.4f} deg over the speed range)"
+        )

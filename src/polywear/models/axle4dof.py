@@ -114,6 +114,7 @@ class _Kernels:
     dfdv = _gen.dfdv
     aux = _gen.aux
     equilibrium = staticmethod(equilibrium)
+    running_alignment = staticmethod(running_alignment)
 
 
 rhs_python = _gen.rhs_python
