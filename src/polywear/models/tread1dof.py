@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..physics.lugre import bristle_rate, real_abs, real_sign, stribeck, stribeck_dv
+from ..physics.lugre import bristle_rate, bristle_rate_partials, stribeck, stribeck_dv
 from .base import DEG, Model, ParamSlot
 
 SLOTS = (
@@ -52,8 +52,7 @@ def _partials(u, V, p):
     vr = V * np.sin(p[TOE]) - u[1]
     g = stribeck(vr, p[MUS], p[MUC], p[VS], p[DELTA])
     dg = stribeck_dv(vr, p[MUS], p[MUC], p[VS], p[DELTA])
-    dzd_dvr = 1.0 - p[S0] * u[2] * (real_sign(vr) * g - real_abs(vr) * dg) / (g * g)
-    dzd_dz = -p[S0] * real_abs(vr) / g
+    dzd_dvr, dzd_dz = bristle_rate_partials(vr, u[2], p[S0], g, dg)
     df_dvr = p[N] * (p[S1] * dzd_dvr + p[S2])
     df_dz = p[N] * (p[S0] + p[S1] * dzd_dz)
     return vr, dzd_dvr, dzd_dz, df_dvr, df_dz
