@@ -38,6 +38,7 @@ def _register() -> None:
         design_cmd,
         excitation_cmd,
         friction_cmd,
+        map_cmd,
         params_cmd,
         report_cmd,
         sensitivity_cmd,
@@ -53,6 +54,7 @@ def _register() -> None:
     app.command("simulate")(simulate_cmd.simulate)
     app.command("sensitivity")(sensitivity_cmd.sensitivity)
     app.command("study")(study_cmd.study)
+    app.command("map")(map_cmd.map_)
     app.command("excitation")(excitation_cmd.excitation)
     app.command("design")(design_cmd.design)
     app.command("report")(report_cmd.report)

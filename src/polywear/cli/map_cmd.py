@@ -1,0 +1,96 @@
+"""``polywear map``: stability map of one parameter against speed (two-parameter continuation)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, progress, save_figure
+
+
+def map_(
+    config: ConfigOpt = None,
+    set_: SetOpt = None,
+    param: Annotated[str, typer.Option("--param", "-p", help="Parameter key, e.g. operating.toe_deg or adhesion_scale.")]
+    = "operating.toe_deg",
+    range_: Annotated[
+        Optional[tuple[float, float]],
+        typer.Option("--range", help="Lowest and highest parameter value [key units] (default: nominal x0.5 .. x1.5)."),
+    ] = None,
+    speed_range: Annotated[
+        tuple[float, float], typer.Option("--speed-range", help="Lowest and highest speed [km/h].")
+    ] = (20.0, 300.0),
+    operating_range: Annotated[
+        Optional[tuple[float, float]],
+        typer.Option("--operating-range", help="Operating speeds to keep free of SEV [km/h] (drawn, safe values)."),
+    ] = None,
+    no_folds: Annotated[bool, typer.Option("--no-folds", help="Hopf curves only (no cycle continuation).")] = False,
+    json_: JsonOpt = False,
+    plot: PlotOpt = None,
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write the map (.nc, or JSON otherwise).")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
+) -> None:
+    """Stability map: Hopf and fold-of-cycles curves in the (speed, parameter) plane, linear and hard bands."""
+    params = load(config, set_)
+    from ..analysis.sensitivity import nominal_value
+    from ..analysis.stability_map import stability_map
+    from ..params import study_keys
+
+    if param not in study_keys():
+        raise UserError(f"--param {param}: not a numeric parameter key (e.g. operating.toe_deg, adhesion_scale)")
+    if range_ is None:
+        nominal = nominal_value(params, param)
+        if nominal == 0.0:
+            raise UserError(f"{param} = 0: give --range LOW HIGH")
+        range_ = tuple(sorted((0.5 * nominal, 1.5 * nominal)))
+    lo, hi = range_
+    if not lo < hi:
+        raise UserError(f"--range {lo} {hi}: need low < high")
+    if not 0.0 < speed_range[0] < speed_range[1]:
+        raise UserError(f"--speed-range {speed_range[0]} {speed_range[1]}: need 0 < low < high [km/h]")
+    if operating_range is not None and not 0.0 < operating_range[0] < operating_range[1]:
+        raise UserError(f"--operating-range {operating_range[0]} {operating_range[1]}: need 0 < low < high [km/h]")
+    with progress(f"map of {param}: continuation steps", total=None, enabled=not quiet) as advance:
+        result = stability_map(params, param, (lo, hi), tuple(speed_range), operating_range, folds=not no_folds,
+                               on_step=advance)
+    if out:
+        result.save(out)
+        info(f"wrote {out}", quiet)
+    if plot:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(10, 5.5))
+        result.plot(ax)
+        save_figure(fig, plot)
+        info(f"wrote {plot}", quiet)
+    summary = result.summary()
+    if json_:
+        emit_json(summary)
+    else:
+        _print_summary(summary)
+
+
+def _print_summary(s: dict) -> None:
+    typer.echo(f"model {s['model']}: {s['param']} from {s['range'][0]:g} to {s['range'][1]:g} "
+               f"(nominal {s['nominal']:g}), speeds {s['speed_range_kmh'][0]:g}-{s['speed_range_kmh'][1]:g} km/h")
+    for kind in ("hopf_curves", "fold_curves"):
+        for k, c in enumerate(s[kind], 1):
+            typer.echo(f"  {kind[:-7]} curve {k}: {c['n_points']} points, {s['param']} {c['value_range'][0]:.4g}.."
+                       f"{c['value_range'][1]:.4g}, {c['speed_range_kmh'][0]:.1f}..{c['speed_range_kmh'][1]:.1f} km/h "
+                       f"(ends: {'; '.join(c['end_reasons'])})")
+    for b in s["band_closures"]:
+        typer.echo(f"  linear band closes at {s['param']} = {b['value']:.6g} ({b['speed_kmh']:.2f} km/h)")
+    for b in s["bautin_points"]:
+        typer.echo(f"  Bautin point (soft/hard switch) at {s['param']} = {b['value']:.6g} ({b['speed_kmh']:.2f} km/h)")
+    if s["at_nominal"]:
+        sev = s["at_nominal"]["sev"]
+        typer.echo("  at the nominal value: SEV " + (", ".join(f"{a:.1f}..{b:.1f}" for a, b in sev) or "none") + " km/h")
+    if s["operating_range_kmh"]:
+        lo, hi = s["operating_range_kmh"]
+        safe = ", ".join(f"{a:.4g}..{b:.4g}" for a, b in s["safe_values"]) or "none in the range"
+        typer.echo(f"  no SEV in {lo:g}-{hi:g} km/h for {s['param']} in: {safe}")
