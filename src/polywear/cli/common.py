@@ -68,14 +68,15 @@ def info(message: str, quiet: bool = False) -> None:
 
 @contextmanager
 def progress(description: str, total: float | None, enabled: bool = True) -> Iterator[Any]:
-    """A rich progress bar on stderr; yields ``advance(n=1)``."""
-    if not enabled:
-        yield lambda n=1: None
-        return
+    """A rich progress bar on stderr (a terminal only: logs stay clean); yields ``advance(n=1)``."""
     from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
     console = Console(stderr=True)
+    if not (enabled and console.is_terminal):
+        yield lambda n=1: None
+        return
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
     count = "{task.completed:.0f}/{task.total:.0f}" if total is not None else "{task.completed:.0f} steps"
     columns = [
         TextColumn("[progress.description]{task.description}"),
