@@ -148,3 +148,25 @@ def test_dataset_and_csv_round_trip(default_diagram, tmp_path):
     assert np.allclose(ds["amplitude"].sel(state="x").values, table["amplitude_x"].values)
     assert json.loads(ds.attrs["summary_json"])["folds"][0]["speed_kmh"] == pytest.approx(
         default_diagram.folds[0].speed * 3.6)
+
+
+@pytest.mark.slow
+def test_sweep_agrees_with_continuation_on_stable_branches_and_in_the_hard_region(default_diagram):
+    """The paper's brute-force way as a cross-check: steady amplitudes from large
+    disturbances match the stable cycles within 0.5 %, SEV persists beyond the subcritical
+    Hopf point exactly up to the fold, and small disturbances die out in the hard region."""
+    from polywear.analysis.sweep import sweep
+
+    speeds = [100.0, 150.0, 215.0, 235.0, 250.0, 253.5, 256.0, 270.0]
+    result = sweep(Params(), speeds)
+    fold = default_diagram.folds[0].speed * 3.6
+    for run_large, run_small in zip(result.runs["large"], result.runs["small"]):
+        v = run_large.speed_kmh
+        stable = [c for c in default_diagram.cycles_at(v) if c.stable]
+        if v < fold:
+            assert len(stable) == 1 and run_large.outcome == "cycle", v
+            assert run_large.amplitude[0] == pytest.approx(stable[0].amplitude[0], rel=5e-3), v
+        else:
+            assert not stable and run_large.outcome == "equilibrium", v
+        in_hard = 207.7503 < v < fold
+        assert (run_small.outcome == "equilibrium") == (in_hard or v > fold), v
