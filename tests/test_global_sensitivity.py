@@ -30,7 +30,7 @@ from polywear.models import get_model
 from polywear.params import ParameterError, Params, load_params, with_updates
 
 from .cli_runner import run_main
-from .oracles import routh_hurwitz_hopf_speeds
+from .oracles import characteristic_polynomial, routh_hurwitz_hopf_speeds
 
 TREAD = get_model("tread1dof")
 RANGE = (20.0, 300.0)
@@ -41,9 +41,27 @@ def _flat(intervals) -> list[float]:
 
 
 def _oracle_band(params, speed_range=RANGE) -> list[float]:
-    """Hopf speeds [km/h] of tread1dof from the Routh-Hurwitz condition of the cubic."""
+    """Hopf speeds [km/h] of tread1dof from the Routh-Hurwitz condition of the cubic.
+
+    a2 a1 = a3 a0 also holds at a neutral saddle (real eigenvalues +-r); a Hopf point
+    needs the imaginary pair +-i omega with omega^2 = a1 / a3 > 0.
+    """
     lo, hi = speed_range
-    return [3.6 * v for v in routh_hurwitz_hopf_speeds(TREAD.pack(params), lo / 3.6, hi / 3.6)]
+    p = TREAD.pack(params)
+    roots = routh_hurwitz_hopf_speeds(p, lo / 3.6, hi / 3.6)
+    return [3.6 * v for v in roots if characteristic_polynomial(v, p)[2] / characteristic_polynomial(v, p)[0] > 0]
+
+
+def _oracle_unstable_edges(params, speed_range=RANGE, n=2000) -> list[float]:
+    """Speeds [km/h] where the largest real part of the cubic's roots changes sign (Hopf or real crossing)."""
+    p = TREAD.pack(params)
+
+    def rate(v_kmh):
+        return np.roots(characteristic_polynomial(v_kmh / 3.6, p)).real.max()
+
+    grid = np.linspace(*speed_range, n)
+    r = np.array([rate(v) for v in grid])
+    return [brentq(rate, grid[i], grid[i + 1], xtol=1e-13) for i in np.flatnonzero((r[:-1] > 0) != (r[1:] > 0))]
 
 
 # -- the fast linear band ------------------------------------------------------------------------
@@ -56,17 +74,19 @@ def _oracle_band(params, speed_range=RANGE) -> list[float]:
     sigma1=st.floats(0.0, 0.1),
     delta=st.floats(1.0, 3.0),
 )
-def test_fast_band_matches_routh_hurwitz(toe, damping, mu_s, v_s, sigma1, delta):
+def test_fast_band_matches_the_characteristic_polynomial(toe, damping, mu_s, v_s, sigma1, delta):
     params = with_updates(Params(), {
         "operating.toe_deg": toe, "tread.lateral_damping_ns_per_m": damping, "friction.mu_static": mu_s,
         "friction.stribeck_velocity_m_per_s": v_s, "friction.sigma1_s_per_m": sigma1,
         "friction.stribeck_exponent": delta,
     })
     fast = _flat(fast_linear_band(params, RANGE))
-    oracle = _oracle_band(params)
-    inner = [v for v in fast if RANGE[0] + 1e-6 < v < RANGE[1] - 1e-6]  # range ends are not Hopf speeds
+    oracle = _oracle_unstable_edges(params)
+    inner = [v for v in fast if RANGE[0] + 1e-6 < v < RANGE[1] - 1e-6]  # range ends are not crossings
     assert len(inner) == len(oracle)
     assert np.allclose(inner, oracle, rtol=1e-9)
+    hopf = _oracle_band(params)  # the Hopf points among them
+    assert all(np.min(np.abs(np.array(inner) - v)) < 1e-9 * v for v in hopf)
 
 
 def test_fast_band_finds_a_band_narrower_than_its_grid():

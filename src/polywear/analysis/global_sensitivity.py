@@ -280,8 +280,12 @@ class StudyEvaluator:
 
 
 # -- analysis -------------------------------------------------------------------------------
-def _analyze(method, problem, X, Y, n_base, settings, boot_seed) -> dict:
-    """Indices of one output from the first ``n_base`` blocks, NaN blocks dropped."""
+def _analyze(method, problem, X, Y, n_base, settings, boot_seed, second_order=True) -> dict:
+    """Indices of one output from the first ``n_base`` blocks, NaN blocks dropped.
+
+    ``second_order=False`` on a second-order Saltelli sample uses only its A, AB_j and B
+    runs (the first-order layout): first and total indices, without the cost of S2.
+    """
     from SALib.analyze import morris, sobol
 
     D = problem["num_vars"]
@@ -291,6 +295,9 @@ def _analyze(method, problem, X, Y, n_base, settings, boot_seed) -> dict:
         step = D + 1
     blocks = Y[: n_base * step].reshape(n_base, step)
     keep = np.all(np.isfinite(blocks), axis=1)
+    second_order = second_order and settings["second_order"]
+    if method == "sobol" and settings["second_order"] and not second_order:
+        blocks = blocks[:, [*range(D + 1), 2 * D + 1]]
     y = blocks[keep].ravel()
     out = {"n_used": int(keep.sum()), "n_dropped": int((~keep).sum())}
     if keep.sum() < 4 or np.ptp(y) == 0.0:
@@ -300,9 +307,9 @@ def _analyze(method, problem, X, Y, n_base, settings, boot_seed) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # SALib's notes on sample sizes; the counts above say it
         if method == "sobol":
-            S = sobol.analyze(problem, y, calc_second_order=settings["second_order"],
+            S = sobol.analyze(problem, y, calc_second_order=second_order,
                               num_resamples=settings["bootstrap"], conf_level=settings["confidence"], seed=rng)
-            keys = ("S1", "S1_conf", "ST", "ST_conf") + (("S2", "S2_conf") if settings["second_order"] else ())
+            keys = ("S1", "S1_conf", "ST", "ST_conf") + (("S2", "S2_conf") if second_order else ())
         else:
             x = X[: n_base * step].reshape(n_base, step, D)[keep].reshape(-1, D)
             S = morris.analyze(problem, x, y, num_resamples=settings["bootstrap"],
@@ -511,7 +518,8 @@ def global_sensitivity(
     main, conf = _primary(study.method)
     sizes = [study.n_base // 4, study.n_base // 2, study.n_base]
     for k, name in enumerate(evaluator.names):
-        runs = [_analyze(study.method, problem, X, Y[:, k], n, settings, boot_seed) for n in sizes]
+        runs = [_analyze(study.method, problem, X, Y[:, k], n, settings, boot_seed, n == study.n_base)
+                for n in sizes]
         indices[name] = runs[-1]
         history = [r.get(main, np.full(problem["num_vars"], np.nan)) for r in runs]
         change = np.abs(history[2] - history[1])
