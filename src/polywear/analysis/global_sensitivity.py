@@ -11,7 +11,7 @@ Outputs per sample (``study.outputs``):
 
 ``"hopf"`` (fast path, ~1 ms per sample)
     ``hopf_1_kmh``, ``hopf_2_kmh``: the lowest and highest bound of the linear band
-    (where steady rolling is unstable), from :func:`fast_linear_band`;
+    (where steady rolling is unstable: Hopf speeds), from :func:`fast_linear_band`;
     ``linear_band_width_kmh``: its total width.
 ``"bifurcation"`` (continuation, ~0.3 s per sample for tread1dof, a few s for axle4dof)
     ``first_bifurcation_kmh``, ``second_bifurcation_kmh``: bounds of the SEV band;
@@ -101,7 +101,8 @@ def fast_linear_band(
     [m/s]. Where ``r`` has a negative local maximum (or positive local minimum) on the
     grid, a bounded scalar search decides whether it crosses zero between the grid
     points, so a band narrower than the grid step is not missed. The ends of an
-    interval are Hopf speeds, or the range ends where the band reaches them.
+    interval are Hopf speeds (or, where a real eigenvalue crosses zero, that speed),
+    or the range ends where the band reaches them.
     """
     from scipy.optimize import brentq, minimize_scalar
 
