@@ -318,3 +318,74 @@ def test_cli_study_runs_on_axle4dof_defaults():
     data = json.loads(out)
     assert data["model"] == "axle4dof" and data["n_runs"] == 8 * 16 and data["failures"] == {}
     assert len(data["parameters"]) == 7
+
+
+# -- the [study] table ---------------------------------------------------------------------------
+STUDY_PARAMETERS = [
+    {"key": "operating.toe_deg", "low": 0.2, "high": 0.8},
+    {"key": "adhesion_scale", "low": 0.8, "high": 1.2, "distribution": "normal", "mean": 1.0, "std": 0.1},
+    {"key": "tread.lateral_damping_ns_per_m", "low": 60, "high": 100, "distribution": "triangular", "mode": 70},
+    {"key": "tread.mass_kg", "low": 0.5, "high": 2.0, "distribution": "loguniform"},
+]
+
+
+def test_study_table_round_trips_through_toml(tmp_path):
+    from polywear.params import to_toml
+
+    params = with_updates(Params(), {"study.method": "morris", "study.n_base": 12, "study.seed": 7,
+                                     "study.operating_range_kmh": [90, 120], "study.parameters": STUDY_PARAMETERS})
+    assert params.study.parameters[2].low == 60.0 and isinstance(params.study.parameters[2].low, float)
+    assert params.study.operating_range_kmh == (90.0, 120.0)
+    for comments in (False, True):
+        path = tmp_path / f"s{comments}.toml"
+        path.write_text(to_toml(params, comments=comments))
+        assert load_params(path) == params
+    assert to_toml(params).count("[[study.parameters]]") == 4
+
+
+@pytest.mark.parametrize("update, fragment", [
+    ({"study.n_base": 100}, "power of 2"),
+    ({"study.n_base": 4}, "power of 2"),
+    ({"study.n_base": 16.5}, "integer"),
+    ({"study.method": "fast"}, "'sobol' or 'morris'"),
+    ({"study.outputs": "amplitude"}, "'hopf' or 'bifurcation'"),
+    ({"study.confidence": 1.0}, "less than 1"),
+    ({"study.bootstrap": 5}, "at least 10"),
+    ({"study.seed": -1}, ">= 0"),
+    ({"study.speed_range_kmh": [300, 20]}, "0 < low < high"),
+    ({"study.parameters": [{"key": "tread.mass", "low": 1, "high": 2}]}, "unknown or non-numeric key"),
+    ({"study.parameters": [{"key": "axle.reference", "low": 1, "high": 2}]}, "unknown or non-numeric key"),
+    ({"study.parameters": [{"key": "tread.mass_kg", "low": 2, "high": 1}]}, "must be below high"),
+    ({"study.parameters": [{"key": "tread.mass_kg", "low": -1, "high": 1}]}, "greater than 0"),
+    ({"study.parameters": [{"key": "operating.toe_deg", "low": 0, "high": 25}]}, "less than 20"),
+    ({"study.parameters": [{"key": "adhesion_scale", "low": 0, "high": 1}]}, "greater than 0"),
+    ({"study.parameters": [{"key": "tread.mass_kg", "low": 1, "high": 2, "mode": 1.5}]}, "not used by"),
+    ({"study.parameters": [{"key": "tread.mass_kg", "low": 1, "high": 2, "distribution": "triangular",
+                            "mode": 2.0}]}, "[low, high)"),
+    ({"study.parameters": [{"key": "tread.mass_kg", "low": 1, "high": 2, "distribution": "normal", "std": 0}]},
+     "must be positive"),
+    ({"study.parameters": [{"key": "operating.camber_deg", "low": -2, "high": 0, "distribution": "loguniform"}]},
+     "low > 0"),
+    ({"study.parameters": [{"key": "tread.mass_kg", "low": 1, "high": 2}, {"key": "tread.mass_kg", "low": 1,
+                                                                           "high": 3}]}, "more than once"),
+    ({"study.parameters": [{"key": "tread.mass_kg", "low": 1, "high": 2, "typo": 3}]}, "study.parameters.0.typo"),
+])
+def test_study_table_validation(update, fragment):
+    with pytest.raises(ParameterError) as exc:
+        with_updates(Params(), update)
+    assert fragment in str(exc.value) and "\n" not in str(exc.value), str(exc.value)
+
+
+def test_salib_problem_follows_the_distributions():
+    """Samples honour the declared distributions (bounds, modes, means)."""
+    params = with_updates(Params(), {"study.n_base": 256, "study.second_order": False, "study.bootstrap": 10,
+                                     "study.parameters": STUDY_PARAMETERS})
+    from polywear.analysis.global_sensitivity import _salib_problem, study_parameters
+    from SALib.sample import sobol as sobol_sample
+
+    X = sobol_sample.sample(_salib_problem(study_parameters(params)), 256, calc_second_order=False, seed=1)
+    for j, q in enumerate(STUDY_PARAMETERS):
+        assert X[:, j].min() >= q["low"] and X[:, j].max() <= q["high"]
+    assert abs(np.median(X[:, 1]) - 1.0) < 0.02  # truncated normal about 1.0
+    assert abs(np.mean(X[:, 2]) - (60 + 100 + 70) / 3) < 1.0  # triangular mean (a + b + c) / 3
+    assert abs(np.median(np.log(X[:, 3])) - 0.5 * (np.log(0.5) + np.log(2.0))) < 0.05  # log-uniform
