@@ -389,3 +389,10 @@ def test_salib_problem_follows_the_distributions():
     assert abs(np.median(X[:, 1]) - 1.0) < 0.02  # truncated normal about 1.0
     assert abs(np.mean(X[:, 2]) - (60 + 100 + 70) / 3) < 1.0  # triangular mean (a + b + c) / 3
     assert abs(np.median(np.log(X[:, 3])) - 0.5 * (np.log(0.5) + np.log(2.0))) < 0.05  # log-uniform
+
+
+def test_a_tiny_study_is_not_called_converged():
+    params = with_updates(Params(), {"study.n_base": 8, "study.second_order": False, "study.bootstrap": 50})
+    result = global_sensitivity(params, backend="serial")
+    assert not any(c["converged"] for c in result.convergence.values())
+    assert all(result.indices[out]["n_used"] == 8 for out in result.outputs)

@@ -31,7 +31,8 @@ Confidence intervals are SALib's bootstrap intervals (``study.bootstrap`` resamp
 level ``study.confidence``). Convergence: the indices are recomputed from the first
 N/4 and N/2 base samples (prefixes of a scrambled Sobol sequence are balanced too) or
 trajectories; an output counts as converged when no index moved by more than its
-confidence half-width from N/2 to N.
+confidence half-width from N/2 to N, and every half-width is at most
+:data:`CONVERGED_HALF_WIDTH` (Sobol indices; for Morris, that fraction of the largest mu*).
 """
 
 from __future__ import annotations
@@ -65,6 +66,9 @@ BIFURCATION_OUTPUTS = ("first_bifurcation_kmh", "second_bifurcation_kmh", "sev_b
 NO_BAND = "no band in the speed range"
 AT_EDGE = "band reaches the edge of the speed range"
 OK = "ok"
+
+CONVERGED_HALF_WIDTH = 0.1
+"""Largest confidence half-width of a converged index (Sobol; Morris: relative to max mu*)."""
 
 DEFAULT_SPREAD = 0.10
 """Relative half-width of the default ranges (the paper's seven parameters, uniform)."""
@@ -320,6 +324,14 @@ def _analyze(method, problem, X, Y, n_base, settings, boot_seed, second_order=Tr
     return out
 
 
+def _converged(final: dict, main: str, conf: str, change: np.ndarray) -> bool:
+    """Indices stable from N/2 to N (within their intervals) and the intervals narrow."""
+    if main not in final:
+        return False
+    scale = 1.0 if main == "ST" else float(np.max(final[main]))
+    return bool(np.all(change <= final[conf]) and np.all(final[conf] <= CONVERGED_HALF_WIDTH * scale))
+
+
 def _primary(method) -> tuple[str, str]:
     return ("ST", "ST_conf") if method == "sobol" else ("mu_star", "mu_star_conf")
 
@@ -528,7 +540,7 @@ def global_sensitivity(
             "n_base": sizes,
             main: history,
             "max_change": float(np.max(change)) if np.all(np.isfinite(change)) else np.nan,
-            "converged": bool(main in runs[-1] and np.all(change <= runs[-1][conf])),
+            "converged": _converged(runs[-1], main, conf, change),
         }
     return GlobalSensitivityResult(
         params=params,
