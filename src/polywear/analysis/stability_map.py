@@ -460,8 +460,10 @@ class StabilityMap:
     hopf_curves: list[HopfCurve]
     fold_curves: list[FoldCurve]
     grid_values: np.ndarray
-    grid_bands: list[dict]  # per grid value: {"linear": [...], "hard": [...], "sev": [...]} [km/h]
+    grid_bands: list[dict]  # per grid value: {"linear": [...], "hard": [...], "sev": [...]} [km/h], or "error"
     settings: MapSettings = field(default_factory=MapSettings)
+    notes: list[str] = field(default_factory=list)
+    """Seeds or band-table rows that failed (with the reason)."""
 
     @property
     def nominal(self) -> float:
@@ -484,7 +486,7 @@ class StabilityMap:
         if self.operating_range_kmh is None:
             return []
         lo, hi = self.operating_range_kmh
-        safe = [not any(a < hi and b > lo for a, b in bands["sev"]) for bands in self.grid_bands]
+        safe = [not ("error" in bands or any(a < hi and b > lo for a, b in bands["sev"])) for bands in self.grid_bands]
         out, start = [], None
         for v, ok in zip(self.grid_values, safe):
             if ok and start is None:
@@ -529,6 +531,7 @@ class StabilityMap:
             "at_nominal": self.bands_at(self.nominal)
             if self.value_range[0] <= self.nominal <= self.value_range[1] else None,
             "safe_values": [list(iv) for iv in self.safe_values()],
+            "notes": self.notes,
         }
 
     def to_dataset(self):
@@ -550,7 +553,8 @@ class StabilityMap:
                 **{f"fold_{k}": ("fold_point", v) for k, v in f.items()},
                 "fold_curve": ("fold_point", f_idx.astype(int)),
                 "state": (("value", "speed_kmh"), self.state_grid(speeds),
-                          {"meaning": "0 stable, 1 linear band (unstable rolling), 2 hard (stable SEV and rolling)"}),
+                          {"meaning": "0 stable, 1 linear band (unstable rolling), 2 hard (stable SEV and rolling), "
+                                      "3 unknown (no equilibrium found)"}),
             },
             coords={"value": self.grid_values, "speed_kmh": speeds},
             attrs={
@@ -573,9 +577,11 @@ class StabilityMap:
                 json.dump({**self.summary(), "polywear_version": __version__}, fh, indent=2)
 
     def state_grid(self, speeds_kmh) -> np.ndarray:
-        """(n_values, n_speeds) of 0 stable, 1 linear band, 2 hard band."""
+        """(n_values, n_speeds) of 0 stable, 1 linear band, 2 hard band, 3 unknown (failed row)."""
         out = np.zeros((len(self.grid_values), len(speeds_kmh)), dtype=np.int8)
         for i, bands in enumerate(self.grid_bands):
+            if "error" in bands:
+                out[i] = 3
             for a, b in bands["hard"]:
                 out[i, (speeds_kmh >= a) & (speeds_kmh <= b)] = 2
             for a, b in bands["linear"]:
@@ -591,8 +597,9 @@ class StabilityMap:
             _, ax = plt.subplots(figsize=(8, 5))
         speeds = np.linspace(*self.speed_range_kmh, 561)
         grid = self.state_grid(speeds)
-        artists = [ax.pcolormesh(speeds, self.grid_values, grid, cmap=ListedColormap(["white", "#f4a3a3", "#ffd27f"]),
-                                 vmin=-0.5, vmax=2.5, shading="nearest", rasterized=True)]
+        colors = ["white", "#f4a3a3", "#ffd27f", "0.75"]
+        artists = [ax.pcolormesh(speeds, self.grid_values, grid, cmap=ListedColormap(colors), vmin=-0.5, vmax=3.5,
+                                 shading="nearest", rasterized=True)]
         from matplotlib.patches import Patch
 
         handles = [Patch(color="#f4a3a3", label="linear band: rolling unstable"),
@@ -649,7 +656,10 @@ def _union(intervals):
 def _bands(params, key, value, speed_range_kmh, fold_curves) -> dict:
     from .global_sensitivity import fast_linear_band
 
-    linear = fast_linear_band(perturbed(params, key, value), speed_range_kmh)
+    try:
+        linear = fast_linear_band(perturbed(params, key, value), speed_range_kmh)
+    except RuntimeError as exc:  # e.g. no equilibrium found (axle4dof, unloaded reference)
+        return {"linear": [], "hard": [], "sev": [], "error": str(exc)}
     edges = [v for iv in linear for v in iv]
     lo, hi = speed_range_kmh
     hard = []
@@ -716,13 +726,17 @@ def stability_map(
                 fold_curves.append(_fold_curve(model, p_of, direction, pt, scales, theta, (lo, hi), speed_box,
                                                settings, on_step))
 
-    found = []
+    found, notes = [], []
     for theta in sorted(seeds):
-        if folds:
-            hopfs, at_theta = fold_seeds_at(theta)
-            found.append((theta, at_theta))
-        else:
-            hopfs = stability_analysis(perturbed(params, key, theta), (s_lo, s_hi)).hopf_points
+        try:
+            if folds:
+                hopfs, at_theta = fold_seeds_at(theta)
+                found.append((theta, at_theta))
+            else:
+                hopfs = stability_analysis(perturbed(params, key, theta), (s_lo, s_hi)).hopf_points
+        except RuntimeError as exc:  # e.g. a real eigenvalue crossing, no equilibrium
+            notes.append(f"seed at {key} = {theta:.6g} skipped: {exc}")
+            continue
         for h in hopfs:
             if _near_curve(hopf_curves, theta, h.speed_kmh, hi - lo, s_hi - s_lo):
                 continue
@@ -737,10 +751,17 @@ def stability_map(
                 if _near_curve(fold_curves, theta_b, speed_b, hi - lo, s_hi - s_lo, tol=0.02):
                     continue
                 theta = _hard_side(curve, theta_b, speed_b, hi - lo, s_hi - s_lo)
-                if theta is not None:
-                    follow_folds(theta, fold_seeds_at(theta)[1])
+                try:
+                    if theta is not None:
+                        follow_folds(theta, fold_seeds_at(theta)[1])
+                except RuntimeError as exc:
+                    notes.append(f"fold seed at {key} = {theta:.6g} skipped: {exc}")
     grid = np.linspace(lo, hi, settings.n_grid)
     bands = [_bands(params, key, v, (s_lo, s_hi), fold_curves) for v in grid]
+    failed = [v for v, b in zip(grid, bands) if "error" in b]
+    if failed:
+        notes.append(f"band table: no result at {len(failed)} of {len(grid)} values of {key} (shaded grey), "
+                     f"first at {failed[0]:.6g}: {next(b['error'] for b in bands if 'error' in b)}")
     return StabilityMap(
         params=params,
         key=key,
@@ -752,4 +773,5 @@ def stability_map(
         grid_values=grid,
         grid_bands=bands,
         settings=settings,
+        notes=notes,
     )

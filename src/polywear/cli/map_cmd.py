@@ -94,3 +94,5 @@ def _print_summary(s: dict) -> None:
         lo, hi = s["operating_range_kmh"]
         safe = ", ".join(f"{a:.4g}..{b:.4g}" for a, b in s["safe_values"]) or "none in the range"
         typer.echo(f"  no SEV in {lo:g}-{hi:g} km/h for {s['param']} in: {safe}")
+    for note in s["notes"]:
+        typer.echo(f"  note: {note}")
