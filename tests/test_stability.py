@@ -100,3 +100,41 @@ def test_first_lyapunov_coefficient_predicts_the_emerging_cycle(index):
 def test_bad_speed_range_is_rejected():
     with pytest.raises(ValueError, match="speed range"):
         stability_analysis(Params(), (300.0, 5.0))
+
+
+class _RealCrossing:
+    """Eigenvalues V - 1 (real) and -1 +- 3i: a static divergence at V = 1, no Hopf point."""
+
+    n = 3
+
+    @staticmethod
+    def equilibrium(V, p):
+        return np.zeros(3)
+
+    @staticmethod
+    def jacobian(u, V, p):
+        return np.array([[V - 1.0, 0.0, 0.0], [0.0, -1.0, 3.0], [0.0, -3.0, -1.0]])
+
+
+def test_real_eigenvalue_crossing_is_located_not_a_hopf_point():
+    from polywear.analysis.stability import _hopf_in_bracket, equilibrium_eigenvalues
+
+    model = _RealCrossing()
+    _, eig = equilibrium_eigenvalues(model, None, [0.5, 1.7])
+    hopfs, reals = _hopf_in_bracket(model, None, 0.5, 1.7, eig[0], eig[1], 1e-12)
+    assert hopfs == [] and reals == [pytest.approx(1.0, abs=1e-11)]
+
+
+def test_unloaded_axle_equilibrium_follows_the_sliding_branch():
+    """With little toe the unloaded axle also has a sticking equilibrium (v_r = 0); the
+    homotopy from the running state must stay on the sliding one at every speed, so the
+    running toe and the sliding velocity vary smoothly with speed."""
+    params = with_updates(Params(), {"model": "axle4dof", "axle.reference": "unloaded", "operating.toe_deg": 0.3})
+    model = get_model("axle4dof")
+    p = model.pack(params)
+    speeds = np.linspace(5.0, 300.0, 60) / 3.6
+    v_r = np.array([model.diagnostics(model.equilibrium(V, p), V, p)[0] for V in speeds])
+    assert np.all(v_r > 1e-4)
+    assert np.all(np.diff(v_r) > 0)  # the sliding velocity grows with speed on this branch
+    result = stability_analysis(params, (5.0, 300.0))
+    assert result.summary()["running_alignment"]["toe_deg"] < 0.0  # compliance steer to toe-out

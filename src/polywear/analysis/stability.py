@@ -172,6 +172,8 @@ class StabilityResult:
     eigenvalues: np.ndarray  # (n_speeds, n) [1/s]
     equilibria: np.ndarray  # (n_speeds, n)
     hopf_points: list[HopfPoint]
+    real_crossings_kmh: list[float]
+    """Speeds where a real eigenvalue crosses zero (static divergence / fold of equilibria)."""
     unstable_intervals_kmh: list[tuple[float, float]]
     state_names: tuple[str, ...]
     settings: dict = field(default_factory=dict)
@@ -187,6 +189,7 @@ class StabilityResult:
             "hopf_frequencies_hz": [h.frequency_hz for h in self.hopf_points],
             "unstable_intervals_kmh": [list(iv) for iv in self.unstable_intervals_kmh],
             "hopf_points": [h.summary() for h in self.hopf_points],
+            "real_eigenvalue_crossings_kmh": list(self.real_crossings_kmh),
         }
         if self.alignment_deg is not None:
             op = self.params.operating.speed_kmh
@@ -241,6 +244,8 @@ class StabilityResult:
         artists.append(ax.axhline(0.0, color="k", lw=0.8))
         for lo, hi in self.unstable_intervals_kmh:
             artists.append(ax.axvspan(lo, hi, color="tab:red", alpha=0.12))
+        for v in self.real_crossings_kmh:
+            artists += ax.plot([v], [0.0], "D", color="tab:purple")
         for h in self.hopf_points:
             artists += ax.plot([h.speed_kmh], [0.0], "o", color="tab:red")
             artists.append(
@@ -278,10 +283,14 @@ def stability_analysis(
     states, eig = equilibrium_eigenvalues(model, p, speeds)
     unstable = _n_unstable(eig)
     hopfs: list[HopfPoint] = []
+    reals: list[float] = []
     for i in np.flatnonzero(np.diff(unstable) != 0):
-        hopfs += _hopf_in_bracket(model, p, speeds[i], speeds[i + 1], eig[i], eig[i + 1], xtol_ms)
+        h, r = _hopf_in_bracket(model, p, speeds[i], speeds[i + 1], eig[i], eig[i + 1], xtol_ms)
+        hopfs += h
+        reals += r
     hopfs.sort(key=lambda h: h.speed)
-    intervals = _unstable_intervals(model, p, speeds_kmh, hopfs)
+    real_kmh = sorted(ms_to_kmh(v) for v in reals)
+    intervals = _unstable_intervals(model, p, speeds_kmh, [h.speed_kmh for h in hopfs] + real_kmh)
     alignment = getattr(model.kernels, "running_alignment", None)
     return StabilityResult(
         params=params,
@@ -289,6 +298,7 @@ def stability_analysis(
         eigenvalues=eig,
         equilibria=states,
         hopf_points=hopfs,
+        real_crossings_kmh=real_kmh,
         unstable_intervals_kmh=intervals,
         state_names=model.state_names,
         settings={"n_speeds": n_speeds, "xtol_ms": xtol_ms},
@@ -296,53 +306,68 @@ def stability_analysis(
     )
 
 
-def _hopf_in_bracket(model, p, V_lo, V_hi, eig_lo, eig_hi, xtol) -> list[HopfPoint]:
-    """Hopf points between two grid speeds (refining the grid if several modes cross)."""
+def _hopf_in_bracket(model, p, V_lo, V_hi, eig_lo, eig_hi, xtol) -> tuple[list[HopfPoint], list[float]]:
+    """Hopf points and real-eigenvalue crossings [m/s] between two grid speeds (the bracket
+    is refined if several modes cross or the eigenvalues cannot be matched)."""
     crossing = _crossing_pairs(eig_lo, eig_hi)
     if crossing is None:  # ambiguous: split the bracket
         V_mid = 0.5 * (V_lo + V_hi)
         if V_hi - V_lo < 1e-6:
             raise RuntimeError(f"cannot separate eigenvalue crossings near {ms_to_kmh(V_lo):.6f} km/h")
         _, eig_mid = equilibrium_eigenvalues(model, p, [V_mid])
-        return _hopf_in_bracket(model, p, V_lo, V_mid, eig_lo, eig_mid[0], xtol) + _hopf_in_bracket(
-            model, p, V_mid, V_hi, eig_mid[0], eig_hi, xtol
-        )
-    return [locate_hopf(model, p, V_lo, V_hi, a, b, xtol) for a, b in crossing]
+        h1, r1 = _hopf_in_bracket(model, p, V_lo, V_mid, eig_lo, eig_mid[0], xtol)
+        h2, r2 = _hopf_in_bracket(model, p, V_mid, V_hi, eig_mid[0], eig_hi, xtol)
+        return h1 + h2, r1 + r2
+    pairs, reals = crossing
+    hopfs = [locate_hopf(model, p, V_lo, V_hi, a, b, xtol) for a, b in pairs]
+    return hopfs, [_locate_real_crossing(model, p, V_lo, V_hi, a, b, xtol) for a, b in reals]
+
+
+def _locate_real_crossing(model, p, V_lo, V_hi, lam_lo, lam_hi, xtol) -> float:
+    """Speed [m/s] where a real eigenvalue (tracked from lam_lo to lam_hi) passes through zero:
+    a static (divergence) instability or a fold of equilibria."""
+
+    def tracked(V):
+        s = (V - V_lo) / (V_hi - V_lo)
+        return _eigen_nearest(model, p, V, lam_lo + s * (lam_hi - lam_lo))[2].real
+
+    return float(brentq(tracked, V_lo, V_hi, xtol=xtol, rtol=4 * np.finfo(float).eps))
 
 
 def _crossing_pairs(eig_lo: np.ndarray, eig_hi: np.ndarray):
-    """Matched (lam_lo, lam_hi) of complex pairs (Im > 0) whose real part changes sign.
+    """Matched eigenvalues whose real part changes sign: ``(pairs, reals)`` with the
+    complex pairs (Im > 0) and the real eigenvalues that cross zero.
 
     Eigenvalues are matched by nearest distance; returns None when the matching is
-    ambiguous or a real eigenvalue crosses (then the bracket is refined).
+    ambiguous or a complex pair turns real within the bracket (then it is refined).
     """
     from scipy.optimize import linear_sum_assignment
 
     cost = np.abs(eig_lo[:, None] - eig_hi[None, :])
     rows, cols = linear_sum_assignment(cost)
-    pairs = []
+    pairs, reals = [], []
     for r, c in zip(rows, cols):
         a, b = eig_lo[r], eig_hi[c]
         if np.sign(a.real) != np.sign(b.real):
             if a.imag > 0 and b.imag > 0:
                 pairs.append((a, b))
+            elif a.imag == 0 and b.imag == 0:
+                reals.append((a, b))
             elif a.imag == 0 or b.imag == 0:
-                if abs(a.imag) + abs(b.imag) == 0:
-                    raise RuntimeError("a real eigenvalue crosses zero (fold of equilibria): not supported")
                 return None
     # every crossing pair has a conjugate partner; the sign count must match
     n_change = np.sum(eig_hi.real > 0) - np.sum(eig_lo.real > 0)
-    signed = sum(2 if b.real > 0 else -2 for _, b in pairs)
-    return pairs if signed == n_change else None
+    signed = sum(2 if b.real > 0 else -2 for _, b in pairs) + sum(1 if b.real > 0 else -1 for _, b in reals)
+    return (pairs, reals) if signed == n_change else None
 
 
-def _unstable_intervals(model, p, speeds_kmh, hopfs) -> list[tuple[float, float]]:
+def _unstable_intervals(model, p, speeds_kmh, edges_kmh) -> list[tuple[float, float]]:
     """Speed intervals [km/h] where the equilibrium has an eigenvalue with Re > 0.
 
-    Between consecutive Hopf speeds the number of unstable eigenvalues is constant;
-    it is evaluated at the middle of each piece.
+    Between consecutive crossings (Hopf or real) the number of unstable eigenvalues is
+    constant; it is evaluated at the middle of each piece.
     """
-    edges = sorted(h.speed_kmh for h in hopfs)
+    edges = sorted(edges_kmh)
     points = [float(speeds_kmh[0]), *edges, float(speeds_kmh[-1])]
     intervals: list[tuple[float, float]] = []
     for a, b in zip(points[:-1], points[1:]):

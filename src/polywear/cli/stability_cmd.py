@@ -55,6 +55,8 @@ def stability(
             f"Hopf {s['speed_kmh']:9.3f} km/h  {s['frequency_hz']:7.2f} Hz  {s['criticality']:4s} "
             f"({s['crossing']}, mode {s['mode']}, l1 = {s['first_lyapunov_coefficient']:.3g})"
         )
+    for v in summary["real_eigenvalue_crossings_kmh"]:
+        typer.echo(f"real eigenvalue crosses zero at {v:9.3f} km/h (static divergence / fold of equilibria)")
     for lo, hi in summary["unstable_intervals_kmh"]:
         typer.echo(f"steady rolling unstable from {lo:.3f} to {hi:.3f} km/h")
     if "running_alignment" in summary:

@@ -83,24 +83,57 @@ def equilibrium(V, p):
     """Steady rolling state at speed ``V`` [m/s].
 
     ``running`` reference: closed form, alpha = beta = gamma = 0, x' = 0 and the steady
-    LuGre state. ``unloaded``: Newton solve (``scipy.optimize.root``, analytic Jacobian)
-    from the running-reference state; the steady tire force deflects the axle, and
-    :func:`running_alignment` gives the resulting toe and camber.
+    LuGre state. ``unloaded``: the steady tire force deflects the axle; the equilibrium
+    is the one connected to the running state, found by following the preload blend
+    r from 0 (running) to 1 (unloaded) with Newton steps (step in r halved when Newton
+    fails). Where the friction curve allows several equilibria (e.g. a sticking one
+    with zero sliding velocity) this picks the one reached by relaxing the preload,
+    deterministically. :func:`running_alignment` gives the resulting toe and camber.
     """
-    u0 = np.empty(len(STATE_NAMES))
-    _gen.running_equilibrium(float(V), p, u0)
+    u = np.empty(len(STATE_NAMES))
+    _gen.running_equilibrium(float(V), p, u)
     if p[_REFERENCE] == 0.0:
-        return u0
-    from scipy.optimize import root
+        return u
+    q = np.array(p, dtype=float)
+    q[_REFERENCE] = 1.0
+    f1 = MODEL.f(u, V, q)
+    q[_REFERENCE] = 0.0
+    df_dr = f1 - MODEL.f(u, V, q)  # the preload, hence f, is linear in r: exact
+    r, dr = 0.0, 0.1
+    while r < 1.0:
+        r_new = min(1.0, r + dr)
+        q[_REFERENCE] = r
+        predicted = u - (r_new - r) * np.linalg.solve(MODEL.jacobian(u, V, q), df_dr)
+        q[_REFERENCE] = r_new
+        corrected = _newton(predicted, V, q)
+        # accept only a small correction of the sliding velocity against its predicted change:
+        # no jump across the |v_r| kink onto another (e.g. sticking) equilibrium
+        if corrected is not None:
+            v0, vp, vc = (MODEL.diagnostics(w, V, q)[0] for w in (u, predicted, corrected))
+            jump = abs(vc - vp)
+            if np.sign(vc) == np.sign(v0) and jump <= 0.2 * abs(vp - v0) + 1e-12 and jump <= 0.1 * abs(vc):
+                u, r = corrected, r_new
+                dr = min(2.0 * dr, 0.1)
+                continue
+        dr *= 0.5
+        if dr < 1e-6:
+            raise RuntimeError(
+                f"axle4dof: no unloaded-reference equilibrium connected to the running state at "
+                f"V = {V * 3.6:.3f} km/h (the preload homotopy stalled at r = {r:.6f})"
+            )
+    return u
 
-    sol = root(MODEL.f, u0, args=(V, p), jac=MODEL.jacobian, method="hybr")
-    u = sol.x
-    for _ in range(3):  # hybr stops near 1e-8 relative; Newton polishes to rounding
+
+def _newton(u, V, p, max_iter=20):
+    """Newton from ``u``: the converged state, or None."""
+    for _ in range(max_iter):
         step = np.linalg.solve(MODEL.jacobian(u, V, p), MODEL.f(u, V, p))
+        if not np.all(np.isfinite(step)):
+            return None
         u = u - step
         if np.abs(step).max() < _EQUILIBRIUM_TOL:
             return u
-    raise RuntimeError(f"axle4dof: no unloaded-reference equilibrium at V = {V} m/s ({sol.message})")
+    return None
 
 
 def running_alignment(u, p) -> tuple[float, float]:

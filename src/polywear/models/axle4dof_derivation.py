@@ -331,31 +331,35 @@ def running_equilibrium(V, p, u0):
 def _preload(V, p, P):
     """Constant generalized preloads P [N m, N m, N m, N].
 
-    running: the negative generalized forces of friction and load at the running
-    equilibrium (so alpha = beta = gamma = 0 there at every speed); unloaded: the
-    negative generalized force of N0 at alpha = beta = gamma = 0 only."""
+    running (reference r = 0): the negative generalized forces of friction and load at
+    the running equilibrium (so alpha = beta = gamma = 0 there at every speed);
+    unloaded (r = 1): the negative generalized force of N0 at alpha = beta = gamma = 0
+    only. A value 0 < r < 1 blends the two linearly: the unloaded equilibrium solve
+    follows r from 0 to 1 (a homotopy from the running state)."""
+    r = p[_REFERENCE].real
     u0 = np.empty(_ZB + 1, dtype=P.dtype)
     GF = np.empty(_NQ, dtype=P.dtype)
     GN = np.empty(_NQ, dtype=P.dtype)
-    if p[_REFERENCE].real > 0.5:
-        for i in range(u0.shape[0]):
-            u0[i] = 0.0 * V
-        _contact(u0, p, GF, GN)
-        F0 = 0.0 * V
-    else:
+    for i in range(u0.shape[0]):
+        u0[i] = 0.0 * V
+    _contact(u0, p, GF, GN)
+    for i in range(_NQ - 1):
+        P[i] = -r * p[_N0] * GN[i]
+    if r < 1.0:
         F0 = running_equilibrium(V, p, u0)[0]
         _contact(u0, p, GF, GN)
-    for i in range(_NQ - 1):
-        P[i] = -(F0 * GF[i] + p[_N0] * GN[i])
+        for i in range(_NQ - 1):
+            P[i] -= (1.0 - r) * (F0 * GF[i] + p[_N0] * GN[i])
     P[3] = 0.0 * V
 
 
 @njit(cache=True)
 def _preload_dv(V, p, dP):
-    """dP/dV of :func:`_preload` (non-zero for the running reference only)."""
+    """dP/dV of :func:`_preload` (from the running part only)."""
+    r = p[_REFERENCE].real
     for i in range(_NQ):
         dP[i] = 0.0 * V
-    if p[_REFERENCE].real > 0.5:
+    if r >= 1.0:
         return
     u0 = np.empty(_ZB + 1, dtype=dP.dtype)
     F0, dF0 = running_equilibrium(V, p, u0)
@@ -367,7 +371,7 @@ def _preload_dv(V, p, dP):
     _contact_partials(u0, p, dGF, dGN)
     dx0 = dF0 * GF[3] / p[_K]
     for i in range(_NQ - 1):
-        dP[i] = -(dF0 * GF[i] + (F0 * dGF[i, 3] + p[_N0] * dGN[i, 3]) * dx0)
+        dP[i] = -(1.0 - r) * (dF0 * GF[i] + (F0 * dGF[i, 3] + p[_N0] * dGN[i, 3]) * dx0)
 
 
 @njit(cache=True)
