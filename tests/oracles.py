@@ -19,7 +19,8 @@ def characteristic_polynomial(V, p):
 
 
 def routh_hurwitz_hopf_speeds(p, lo, hi, n=2000):
-    """Speeds [m/s] where a2 a1 - a3 a0 of the cubic changes sign (the Hopf condition)."""
+    """Speeds [m/s] where a2 a1 - a3 a0 of the cubic changes sign with a1/a3 > 0: the Hopf
+    condition (a zero with a1/a3 <= 0 is a neutral saddle, real roots +-r, not a Hopf point)."""
 
     def delta(V):
         a3, a2, a1, a0 = characteristic_polynomial(V, p)
@@ -29,5 +30,8 @@ def routh_hurwitz_hopf_speeds(p, lo, hi, n=2000):
     vals = np.array([delta(v) for v in grid])
     roots = []
     for i in np.flatnonzero(np.sign(vals[:-1]) != np.sign(vals[1:])):
-        roots.append(brentq(delta, grid[i], grid[i + 1], xtol=1e-14, rtol=1e-15))
+        root = brentq(delta, grid[i], grid[i + 1], xtol=1e-14, rtol=1e-15)
+        a3, _, a1, _ = characteristic_polynomial(root, p)
+        if a1 / a3 > 0.0:
+            roots.append(root)
     return roots

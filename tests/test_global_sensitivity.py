@@ -41,15 +41,9 @@ def _flat(intervals) -> list[float]:
 
 
 def _oracle_band(params, speed_range=RANGE) -> list[float]:
-    """Hopf speeds [km/h] of tread1dof from the Routh-Hurwitz condition of the cubic.
-
-    a2 a1 = a3 a0 also holds at a neutral saddle (real eigenvalues +-r); a Hopf point
-    needs the imaginary pair +-i omega with omega^2 = a1 / a3 > 0.
-    """
+    """Hopf speeds [km/h] of tread1dof from the Routh-Hurwitz condition of the cubic."""
     lo, hi = speed_range
-    p = TREAD.pack(params)
-    roots = routh_hurwitz_hopf_speeds(p, lo / 3.6, hi / 3.6)
-    return [3.6 * v for v in roots if characteristic_polynomial(v, p)[2] / characteristic_polynomial(v, p)[0] > 0]
+    return [3.6 * v for v in routh_hurwitz_hopf_speeds(TREAD.pack(params), lo / 3.6, hi / 3.6)]
 
 
 def _oracle_unstable_edges(params, speed_range=RANGE, n=2000) -> list[float]:
