@@ -43,7 +43,7 @@ from .. import __version__
 from ..models import get_model
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, ParameterError, to_toml
-from ..solvers.continuation import BranchPoint, ContinuationSettings
+from ..solvers.continuation import BranchPoint, ContinuationSettings, fold_near
 from .sensitivity import PARAMETER_LABELS, fold_speed_derivative, nominal_value, parameter_direction, perturbed
 from .stability import critical_eigenvalue_derivative, first_lyapunov_coefficient
 
@@ -344,38 +344,7 @@ def _near_curve(curves, value, speed_kmh, scale_value, scale_speed, tol=5e-3) ->
 # -- fold curves ---------------------------------------------------------------------------------
 def _relocate_fold(model, p, guess: BranchPoint, V_pred, scales, settings: MapSettings):
     """The fold of cycles at parameter vector ``p`` near ``guess`` (an orbit and tangent at a nearby p)."""
-    from ..solvers.continuation import _Stepper
-
-    orbit = guess.orbit
-    c_settings = settings.continuation
-    stepper = _Stepper(model, p, orbit.mesh, c_settings, scales, 0.1 * V_pred, orbit.period)
-    c = stepper.coll
-    X0 = c.pack(orbit)
-    X0[-1] = V_pred
-    t0 = stepper.unit(guess.tangent)
-    out = stepper.correct(X0, t0, 0.0, orbit)
-    if out is None:
-        return None
-    Xa, ta = out[0], out[1]
-    ref = c.unpack(Xa)
-    s0, g0 = 0.0, float(ta[-1])
-    s1 = 1e-2 * (1.0 if g0 == 0.0 else -np.sign(g0))
-    out = stepper.correct(Xa, ta, s1, ref)
-    if out is None:
-        return None
-    g1 = float(out[1][-1])
-    for _ in range(30):
-        if abs(g1) < c_settings.fold_tol:
-            X, t, iterations, multipliers = out
-            return BranchPoint(c.unpack(X), multipliers, t, iterations, "LP")
-        if g1 == g0:
-            return None
-        s = s1 - g1 * (s1 - s0) / (g1 - g0)
-        out = stepper.correct(Xa, ta, s, ref)
-        if out is None:
-            return None
-        s0, g0, s1, g1 = s1, g1, s, float(out[1][-1])
-    return None
+    return fold_near(model, p, guess, V_pred, scales, settings.continuation)
 
 
 def _adapt(model, p, fold: BranchPoint, settings: MapSettings) -> BranchPoint:

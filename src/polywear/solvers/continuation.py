@@ -20,7 +20,15 @@ from dataclasses import dataclass, field
 import numpy as np
 from .collocation import Collocation, PeriodicOrbit, monodromy
 
-__all__ = ["ContinuationSettings", "BranchPoint", "Branch", "continue_from_hopf", "solve_at_speed", "switching_times"]
+__all__ = [
+    "ContinuationSettings",
+    "BranchPoint",
+    "Branch",
+    "continue_from_hopf",
+    "solve_at_speed",
+    "switching_times",
+    "fold_near",
+]
 
 
 @dataclass(frozen=True)
@@ -370,24 +378,63 @@ def _multiplier_events(a: BranchPoint, b: BranchPoint) -> list[str]:
 
 
 def _locate_fold(stepper, X0, t0, ds, phase_ref, prev, point, settings):
-    """Secant iteration on the arclength from X0 for a zero of the speed component of the tangent."""
-    s_a, g_a = 0.0, prev.tangent_speed
-    s_b, g_b = ds, point.tangent_speed
+    """The fold between two branch points: zero of the tangent's speed component in the arclength."""
+    return _fold_by_secant(stepper, X0, t0, phase_ref, 0.0, prev.tangent_speed, ds, point.tangent_speed,
+                           settings.fold_tol, bracketed=True)
+
+
+def _fold_by_secant(stepper, X0, t0, phase_ref, s_a, g_a, s_b, g_b, tol, bracketed):
+    """Secant iteration on the arclength s from X0 (along t0) for dV/ds = 0.
+
+    ``g_a``, ``g_b`` are dV/ds at arclengths ``s_a``, ``s_b``; with ``bracketed`` they
+    have opposite signs and the iteration keeps the bracket (regula falsi with bisection
+    fallback), otherwise plain secant steps. Returns the fold BranchPoint or None.
+    """
     best = None
     for _ in range(30):
+        if g_b == g_a:
+            break
         s = s_b - g_b * (s_b - s_a) / (g_b - g_a)
-        if not min(s_a, s_b) < s < max(s_a, s_b):
+        if bracketed and not min(s_a, s_b) < s < max(s_a, s_b):
             s = 0.5 * (s_a + s_b)
         out = stepper.correct(X0, t0, s, phase_ref)
         if out is None:
-            return best
+            break
         X, t, iterations, multipliers = out
         g = float(t[-1])
         best = BranchPoint(stepper.coll.unpack(X), multipliers, t, iterations, "LP")
-        if abs(g) < settings.fold_tol:
-            break
-        if np.sign(g) == np.sign(g_a):
+        if abs(g) < tol:
+            return best
+        if not bracketed:
+            s_a, g_a, s_b, g_b = s_b, g_b, s, g
+        elif np.sign(g) == np.sign(g_a):
             s_a, g_a = s, g
         else:
             s_b, g_b = s, g
-    return best
+    # a bracketed search keeps its best point; an unbracketed one that did not converge failed
+    return best if bracketed else None
+
+
+def fold_near(model, p, guess: BranchPoint, speed: float, scales: np.ndarray,
+              settings: ContinuationSettings = ContinuationSettings()) -> BranchPoint | None:
+    """The fold of cycles near a guess (an orbit and tangent from a nearby parameter set),
+    with the guess's speed replaced by ``speed`` [m/s]: correct onto the branch, then
+    secant steps along it to dV/ds = 0. ``scales`` are the state scales of the norm."""
+    orbit = guess.orbit
+    stepper = _Stepper(model, p, orbit.mesh, settings, scales, 0.1 * speed, orbit.period)
+    c = stepper.coll
+    X0 = c.pack(orbit)
+    X0[-1] = speed
+    out = stepper.correct(X0, stepper.unit(guess.tangent), 0.0, orbit)
+    if out is None:
+        return None
+    Xa, ta = out[0], out[1]
+    g0 = float(ta[-1])
+    s1 = 1e-2 * (1.0 if g0 == 0.0 else -np.sign(g0))
+    out = stepper.correct(Xa, ta, s1, c.unpack(Xa))
+    if out is None:
+        return None
+    if abs(out[1][-1]) < settings.fold_tol:
+        return BranchPoint(c.unpack(out[0]), out[3], out[1], out[2], "LP")
+    return _fold_by_secant(stepper, Xa, ta, c.unpack(Xa), 0.0, g0, s1, float(out[1][-1]), settings.fold_tol,
+                           bracketed=False)
