@@ -21,7 +21,9 @@ def excitation(
     json_: JsonOpt = False,
     plot: PlotOpt = None,
 ) -> None:
-    """Cycles from the continuation (stable solid, unstable dashed) and trajectories started
+    """Soft and hard self-excitation in the phase plane (paper Fig. 2).
+
+    Cycles from the continuation (stable solid, unstable dashed) and trajectories started
     inside and outside each of them, at soft and hard speeds."""
     params = load(config, set_)
     from ..analysis.bifurcation import bifurcation_diagram

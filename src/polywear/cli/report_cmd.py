@@ -24,8 +24,10 @@ def report(
     json_: JsonOpt = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
 ) -> None:
-    """Full analysis: stability, bifurcation diagram, verdict at the operating speed, phase
-    portraits, sensitivities and design options; figures, data and report.html in --out."""
+    """The main job: full analysis with figures, data and report.html in --out.
+
+    Stability, bifurcation diagram, verdict at the operating speed with wear indicators,
+    phase portraits, sensitivities and design options."""
     params = load(config, set_)
     if not 0.0 < speed_range[0] < speed_range[1]:
         raise UserError(f"--speed-range {speed_range[0]} {speed_range[1]}: need 0 < low < high [km/h]")

@@ -81,8 +81,9 @@ def simulate(
     plot: PlotOpt = None,
     out: OutOpt = None,
 ) -> None:
-    """Simulate from a disturbed steady rolling state: steady-state amplitude per state,
-    SEV frequency, polygon order; phase portraits of every coordinate."""
+    """Simulate from a disturbed steady rolling state: amplitudes, SEV frequency, polygon order.
+
+    Phase portraits of every coordinate; --sweep KEY=v1,v2 compares parameter values."""
     params = load(config, set_)
     from ..analysis.simulation import SimulationSettings, simulate_disturbances, simulate_values
 
