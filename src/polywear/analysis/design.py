@@ -207,7 +207,7 @@ def _secant(params, group, nominal, direction, quantity, target, step_dir, s0, g
     s_max = max_rel / max(np.max(np.abs(step_dir) / scale), 1e-300)
     s_prev, g_prev = 0.0, g0
     s = float(np.clip(s0, -s_max, s_max))
-    last, best, s_fail = None, None, 0.0
+    last, best, best_s, s_fail = None, None, 0.0, 0.0
     note = ""
 
     def run(step):

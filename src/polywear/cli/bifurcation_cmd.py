@@ -8,7 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, OutOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, progress, save_figure
+from .common import ConfigOpt, JsonOpt, OutOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, progress, one_axes, write_figure
 
 
 class Method(str, Enum):
@@ -67,18 +67,7 @@ def bifurcation(
         result.save(csv if str(csv).endswith(".csv") else Path(f"{csv}.csv"))
         info(f"wrote {csv}", quiet)
     if plot:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        if method is Method.sweep:
-            import matplotlib.pyplot as plt
-
-            fig, ax = plt.subplots(figsize=(8, 4.5))
-            result.plot(ax)
-        else:
-            fig = result.figure()
-        save_figure(fig, plot)
-        info(f"wrote {plot}", quiet)
+        write_figure(plot, (lambda: one_axes(result.plot)) if method is Method.sweep else result.figure, quiet)
     if json_:
         emit_json(summary)
     else:

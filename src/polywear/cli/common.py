@@ -91,9 +91,23 @@ def progress(description: str, total: float | None, enabled: bool = True) -> Ite
         yield lambda n=1: bar.advance(task, n)
 
 
-def save_figure(fig: Any, path: Path) -> None:
-    """Save a matplotlib figure and close it."""
+def write_figure(path: Path, make_figure, quiet: bool = False) -> None:
+    """Build a figure with ``make_figure()`` on the Agg backend, write it to ``path``, close it."""
+    import matplotlib
+
+    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    fig = make_figure()
     fig.savefig(path, dpi=150, bbox_inches="tight")
     plt.close(fig)
+    info(f"wrote {path}", quiet)
+
+
+def one_axes(draw, figsize=(8.0, 4.5)):
+    """A figure with one axes drawn by ``draw(ax)`` (e.g. a result's ``.plot``)."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=figsize)
+    draw(ax)
+    return fig

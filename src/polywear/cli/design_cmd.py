@@ -6,7 +6,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, save_figure
+from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, one_axes, write_figure
 
 DEFAULT_KEYS = ("operating.toe_deg", "adhesion_scale", "friction.mu_static", "tread.lateral_damping_ns_per_m")
 
@@ -55,15 +55,7 @@ def design(
     except ValueError as exc:
         raise UserError(str(exc)) from None
     if plot:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(figsize=(8, 4.5))
-        result.plot(ax)
-        save_figure(fig, plot)
-        info(f"wrote {plot}")
+        write_figure(plot, lambda: one_axes(result.plot))
     summary = result.summary()
     if json_:
         emit_json(summary)

@@ -6,7 +6,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, save_figure
+from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, write_figure
 
 
 def excitation(
@@ -39,11 +39,7 @@ def excitation(
     info(f"excitation: simulating at {', '.join(f'{v:.1f}' for v in speeds)} km/h ...")
     portraits = excitation_portraits(diagram, speeds, duration)
     if plot:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        save_figure(portraits_figure(portraits), plot)
-        info(f"wrote {plot}")
+        write_figure(plot, lambda: portraits_figure(portraits))
     summary = {"model": params.model, "portraits": [p.summary() for p in portraits]}
     if json_:
         emit_json(summary)

@@ -19,7 +19,8 @@ from .common import (
     info,
     load,
     progress,
-    save_figure,
+    one_axes,
+    write_figure,
 )
 
 app = typer.Typer(help="LuGre friction: static curve, hysteresis loops, fits to measured mu(v) and loops.",
@@ -39,17 +40,12 @@ def _operating_sliding_velocity(params) -> float:
 
 
 def _write_plot(result, path: Path, extra=None) -> None:
-    import matplotlib
+    def draw(ax):
+        result.plot(ax=ax)
+        if extra is not None:
+            extra(ax)
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6.4, 4.4))
-    result.plot(ax=ax)
-    if extra is not None:
-        extra(ax)
-    save_figure(fig, path)
-    info(f"wrote {path}")
+    write_figure(path, lambda: one_axes(draw, (6.4, 4.4)))
 
 
 def _save(result, out: Path | None) -> None:

@@ -7,7 +7,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, progress, save_figure
+from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, progress, one_axes, write_figure
 
 
 def map_(
@@ -59,15 +59,7 @@ def map_(
         result.save(out)
         info(f"wrote {out}", quiet)
     if plot:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(figsize=(10, 5.5))
-        result.plot(ax)
-        save_figure(fig, plot)
-        info(f"wrote {plot}", quiet)
+        write_figure(plot, lambda: one_axes(result.plot, (10, 5.5)), quiet)
     summary = result.summary()
     if json_:
         emit_json(summary)

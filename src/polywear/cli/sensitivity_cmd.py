@@ -8,7 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, progress, save_figure
+from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, progress, write_figure
 
 
 class Method(str, Enum):
@@ -69,11 +69,7 @@ def sensitivity(
         result.save(out)
         info(f"wrote {out}", quiet)
     if plot and result.rows:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        save_figure(result.figure(), plot)
-        info(f"wrote {plot}", quiet)
+        write_figure(plot, result.figure, quiet)
     if json_:
         emit_json(result.summary())
     else:

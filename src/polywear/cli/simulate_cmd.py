@@ -18,7 +18,7 @@ from .common import (
     info,
     load,
     progress,
-    save_figure,
+    write_figure,
 )
 
 
@@ -124,13 +124,8 @@ def simulate(
         (single or result).save(out)
         info(f"wrote {out}", quiet=json_)
     if plot:
-        import matplotlib
-
-        matplotlib.use("Agg")
         # parameter sweeps compare the final cycles; disturbances show the way there
         tail = settings.window_fraction * duration if key else None
-        artists = (single or result).plot(tail_s=tail)
-        save_figure(artists[0].figure, plot)
-        info(f"wrote {plot}", quiet=json_)
+        write_figure(plot, lambda: (single or result).plot(tail_s=tail)[0].figure, quiet=json_)
     if json_:
         emit_json(single.summary() if single else result.summary())

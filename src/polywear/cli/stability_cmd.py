@@ -6,7 +6,7 @@ from typing import Annotated
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, OutOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, save_figure
+from .common import ConfigOpt, JsonOpt, OutOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, one_axes, write_figure
 
 
 def stability(
@@ -32,15 +32,7 @@ def stability(
         result.save(out)
         info(f"wrote {out}")
     if plot:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(figsize=(7, 4))
-        result.plot(ax)
-        save_figure(fig, plot)
-        info(f"wrote {plot}")
+        write_figure(plot, lambda: one_axes(result.plot, (7, 4)))
     summary = result.summary()
     if json_:
         emit_json(summary)

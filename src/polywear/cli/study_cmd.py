@@ -8,7 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, progress, save_figure
+from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, progress, write_figure
 
 
 class Backend(str, Enum):
@@ -68,11 +68,7 @@ def study(
         result.save(out)
         info(f"wrote {out}", quiet)
     if plot:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        save_figure(result.figure(), plot)
-        info(f"wrote {plot}", quiet)
+        write_figure(plot, result.figure, quiet)
     summary = result.summary()
     if json_:
         emit_json(summary)
