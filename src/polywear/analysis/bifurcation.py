@@ -139,20 +139,6 @@ class BifurcationDiagram:
                 )
         return out
 
-    def trigger_amplitude_at(self, speed_kmh: float, state: str = "x") -> float | None:
-        """Smallest unstable-cycle amplitude [state units] at a speed where rolling is stable."""
-        i = self.state_names.index(state)
-        values = []
-        for b in range(len(self.branches)):
-            pts = [c for c in self.cycles if c.branch == b]
-            for a, c in zip(pts[:-1], pts[1:]):
-                v0, v1 = ms_to_kmh(a.speed), ms_to_kmh(c.speed)
-                if (a.stable or c.stable) or not (min(v0, v1) <= speed_kmh <= max(v0, v1)) or v0 == v1:
-                    continue
-                s = (speed_kmh - v0) / (v1 - v0)
-                values.append((1 - s) * a.amplitude[i] + s * c.amplitude[i])
-        return min(values) if values else None
-
     def cycles_at(self, speed_kmh: float) -> list[CyclePoint]:
         """Every cycle of the diagram at exactly this speed (Newton at fixed speed from the
         two branch points that bracket it), sorted by amplitude of x."""

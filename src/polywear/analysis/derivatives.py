@@ -31,16 +31,6 @@ def jac_directional(model, u, V, p, du=None, dV=0.0, dp=None) -> np.ndarray:
     return model.jacobian(uc, complex(V, H * dV), pc).imag / H
 
 
-def rhs_param_jacobian(model, u, V, p, indices) -> np.ndarray:
-    """df/dp_j for the parameter indices given, shape (n, len(indices))."""
-    out = np.empty((model.n, len(indices)))
-    for col, j in enumerate(indices):
-        dp = np.zeros(len(p))
-        dp[j] = 1.0
-        out[:, col] = rhs_directional(model, u, V, p, dp=dp)
-    return out
-
-
 def bilinear(model, u, V, p, a, b) -> np.ndarray:
     """Second derivative B(a, b) = sum_jk d2f/du_j du_k a_j b_k (complex a, b allowed)."""
     a = np.asarray(a)

@@ -30,12 +30,6 @@ class UserError(Exception):
     """Bad input from the user: reported as one line, exit code 2, no traceback."""
 
 
-def fail(message: str) -> None:
-    """Print ``error: message`` to stderr and exit with code 2."""
-    typer.echo(f"error: {message}", err=True)
-    raise typer.Exit(code=2)
-
-
 def load(config: Path | None, sets: list[str] | None):
     """Resolved, validated parameters from a file and ``--set`` overrides."""
     from ..params import load_params

@@ -97,13 +97,6 @@ class Model:
             out[i] = slot.encode(params) if slot.encode else slot.factor * value
         return out
 
-    def slot_of_key(self, key: str) -> int:
-        """Index in ``p`` of the entry that a configuration key sets."""
-        for i, slot in enumerate(self.slots):
-            if slot.key == key and slot.encode is None:
-                return i
-        raise KeyError(f"{key}: not a parameter of model {self.name}")
-
     # -- convenient float evaluations -------------------------------------------------
     def f(self, u, V, p) -> np.ndarray:
         """du/dt at one state (works for complex arrays too)."""

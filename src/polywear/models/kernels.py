@@ -13,8 +13,6 @@ VEC = types.float64[::1]
 MAT = types.float64[:, ::1]
 RHS_SIG = types.void(VEC, types.float64, VEC, VEC)
 JAC_SIG = types.void(VEC, types.float64, VEC, MAT)
-RHS_TYPE = types.FunctionType(RHS_SIG)
-JAC_TYPE = types.FunctionType(JAC_SIG)
 
 
 def as_cfuncs(kernels):
