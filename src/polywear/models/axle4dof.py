@@ -15,6 +15,8 @@ the LuGre bristle deflection.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from . import _axle4dof_generated as _gen
@@ -150,7 +152,18 @@ class _Kernels:
     running_alignment = staticmethod(running_alignment)
 
 
-rhs_python = _gen.rhs_python
+def rhs_python(t, u, V, p):
+    """du/dt in pure Python/NumPy (no numba anywhere), from the same generated source:
+    the reference right-hand side for tests and the benchmark baseline."""
+    return _pure_rhs()(t, u, V, p)
+
+
+@functools.cache
+def _pure_rhs():
+    from ..physics import lugre
+    from .pure import pure_python_namespace
+
+    return pure_python_namespace(lugre, _gen)["rhs_python"]
 
 MODEL = Model(
     name="axle4dof",

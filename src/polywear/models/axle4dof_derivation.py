@@ -527,20 +527,21 @@ def aux(u, V, p, out):
 
 
 def rhs_python(t, u, V, p):
-    """du/dt in plain Python/NumPy, no numba (reference for tests and benchmarks)."""
+    """du/dt for scipy (t unused). Pure Python only in the twin of this module without numba
+    (``polywear.models.axle4dof.rhs_python``); here the helpers it calls are compiled."""
     u = np.asarray(u, dtype=float)
     M = np.empty((_NQ, _NQ))
     h = np.empty(_NQ)
     GF = np.empty(_NQ)
     GN = np.empty(_NQ)
-    _inertia.py_func(u, V, p, M, h)
-    rise = _contact.py_func(u, p, GF, GN)
+    _inertia(u, V, p, M, h)
+    rise = _contact(u, p, GF, GN)
     P = np.empty(_NQ)
-    _preload.py_func(V, p, P)
-    vr = _sliding.py_func(u, V, p)
+    _preload(V, p, P)
+    vr = _sliding(u, V, p)
     load = max(p[_N0] - p[_K_Z] * rise - p[_C_Z] * (GN @ u[_NQ:2 * _NQ]), 0.0)
-    g = stribeck.py_func(vr, p[_MU_S], p[_MU_C], p[_V_S], p[_DELTA])
-    zd = bristle_rate.py_func(vr, u[_ZB], p[_SIGMA0], g)
+    g = stribeck(vr, p[_MU_S], p[_MU_C], p[_V_S], p[_DELTA])
+    zd = bristle_rate(vr, u[_ZB], p[_SIGMA0], g)
     force = load * (p[_SIGMA0] * u[_ZB] + p[_SIGMA1] * zd + p[_SIGMA2] * vr)
     stiff = p[[_K_ALPHA, _K_BETA, _K_GAMMA, _K]]
     damp = p[[_C_ALPHA, _C_BETA, _C_GAMMA, _C]]
