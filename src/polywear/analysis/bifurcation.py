@@ -141,7 +141,7 @@ class BifurcationDiagram:
 
     def cycles_at(self, speed_kmh: float) -> list[CyclePoint]:
         """Every cycle of the diagram at exactly this speed (Newton at fixed speed from the
-        two branch points that bracket it), sorted by amplitude of x."""
+        two branch points that bracket it, located folds included), sorted by amplitude of x."""
         from ..solvers.continuation import solve_at_speed
 
         model = get_model(self.params.model)
@@ -149,7 +149,7 @@ class BifurcationDiagram:
         V = kmh_to_ms(speed_kmh)
         found = []
         for b, branch in enumerate(self.branches):
-            pts = branch.points
+            pts = _points_with_folds(branch)
             for a, c in zip(pts[:-1], pts[1:]):
                 va, vc = a.orbit.speed, c.orbit.speed
                 if not (min(va, vc) <= V <= max(va, vc)) or va == vc:
@@ -419,6 +419,17 @@ def _subtract(a, b):
             pieces = nxt
         out += [p for p in pieces if p[1] - p[0] > 1e-9]
     return out
+
+
+def _points_with_folds(branch: Branch) -> list:
+    """The branch's points with its located folds in their place, so that neighbours
+    bracket every speed the branch covers, on both sides of each fold (the steps
+    straddle a fold and the turning point itself lies beyond every stored point)."""
+    points = list(branch.points)
+    for label, point, index in sorted(branch.special, key=lambda s: s[2], reverse=True):
+        if label == "LP":  # between points[index - 1] and points[index]
+            points.insert(index, point)
+    return points
 
 
 def _crossing_speed(a: CyclePoint, c: CyclePoint) -> float:

@@ -1,16 +1,26 @@
-"""The ``tread1dof`` bifurcation diagram computed by AUTO-07p, as an independent reference.
+"""Bifurcation diagrams computed by AUTO-07p, as an independent reference.
 
 AUTO-07p (Doedel et al.) is the reference continuation code; it is reached through the
 ``bifpy`` package (PyPI, optional extra ``polywear[auto07p]``), which compiles AUTO-07p
 from source at install time (gfortran and GNU make: ``scripts/ensure-auto07p.sh``).
+:func:`model_diagram` runs the same diagram for either model; only the way the
+equations reach AUTO differs (:data:`AUTO_MODELS`):
 
-The equations are written here again, from MODEL.md section 3, independently of the
-numba kernels in :mod:`polywear.models.tread1dof` (the tests check that both agree), as
-plain Python that bifpy traces symbolically and compiles to a native AUTO-07p
-executable (``transpile=True``). AUTO works in scaled units so that every unknown is of
-order one and its relative tolerances mean the same for every state: displacement and
-bristle deflection in mm, time in ms (so the tread velocity stays in m/s = mm/ms and the
-period comes out in ms); the vehicle speed ``V`` [m/s] is PAR(1).
+* ``tread1dof``: the equations are written here again, from MODEL.md section 3,
+  independently of the numba kernels in :mod:`polywear.models.tread1dof` (the tests
+  check that both agree), as plain Python that bifpy traces symbolically and compiles
+  to a native AUTO-07p executable (``transpile=True``). This checks both the equations
+  and the continuation.
+* ``axle4dof``: its 9 equations come from a sympy derivation and exist only as compiled
+  kernels, so AUTO calls back into Python (``transpile=False``): FUNC is ``MODEL.f``,
+  the analytic Jacobian ``MODEL.jacobian`` and ``MODEL.df_dspeed``. This validates the
+  continuation (AUTO's algorithms against ours) on the 9-dimensional system, not the
+  equations; those are checked by ``tests/test_axle4dof.py``.
+
+AUTO works in scaled units so that every unknown is of order one and its relative
+tolerances mean the same for every state: time in ms, lengths in mm, angles in mrad, so
+rates come out in mm/ms = m/s and mrad/ms = rad/s and the period in ms; the vehicle
+speed ``V`` [m/s] is PAR(1).
 
 Runs: (1) the steady rolling state continued in ``V`` over the speed range, Hopf
 points detected (HB); (2) from every Hopf point not already reached by an earlier
@@ -33,25 +43,33 @@ import tempfile
 import time
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, replace
+from functools import partial
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any, Callable, Iterator
 
 import numpy as np
 
-from ..models.base import kmh_to_ms, ms_to_kmh
+from ..models import get_model
+from ..models.base import Model, kmh_to_ms, ms_to_kmh
 from ..models.tread1dof import MODEL
 from ..params import ParameterError, Params
 
 __all__ = [
     "AutoSettings",
+    "AutoModel",
+    "AUTO_MODELS",
     "Auto07pError",
     "INSTALL_HINT",
     "STATE_UNIT",
+    "AXLE4DOF_STATE_UNIT",
     "TIME_UNIT_S",
     "auto07p_available",
     "auto_rhs",
     "auto_jacobian",
+    "kernel_rhs",
+    "kernel_jacobian",
     "orbit_extremes",
+    "model_diagram",
     "tread1dof_diagram",
     "headline_numbers",
     "refinement_study",
@@ -65,7 +83,10 @@ INSTALL_HINT = (
 TIME_UNIT_S = 1.0e-3
 """AUTO's time unit [s] (1 ms)."""
 STATE_UNIT = (1.0e-3, 1.0e-3 / TIME_UNIT_S, 1.0e-3)
-"""SI value of one AUTO unit of each state (x [mm], x' [mm/ms = m/s], z [mm])."""
+"""SI value of one AUTO unit of each ``tread1dof`` state (x [mm], x' [mm/ms = m/s], z [mm])."""
+AXLE4DOF_STATE_UNIT = (1.0e-3,) * 4 + (1.0e-3 / TIME_UNIT_S,) * 4 + (1.0e-3,)
+"""SI value of one AUTO unit of each ``axle4dof`` state: alpha, beta, gamma [mrad], x [mm],
+their rates [mrad/ms = rad/s, mm/ms = m/s], z [mm]."""
 _RATE_FACTOR = tuple(TIME_UNIT_S / unit for unit in STATE_UNIT)
 """d(scaled state)/d(scaled time) per unit of the SI rate d(state)/dt."""
 
@@ -79,11 +100,12 @@ class Auto07pError(RuntimeError):
 
 @dataclass(frozen=True)
 class AutoSettings:
-    """AUTO-07p constants for :func:`tread1dof_diagram` (names as in AUTO's manual).
+    """AUTO-07p constants for :func:`model_diagram` (names as in AUTO's manual).
 
-    The defaults were chosen by the refinement study in docs/validation_auto07p.md:
-    doubling ``ntst``, tightening the tolerances tenfold and halving the steps moves
-    the Hopf speeds, fold and operating-speed amplitude by far less than 1e-4.
+    The defaults (those of ``tread1dof``; ``AUTO_MODELS[name].settings`` per model) were
+    chosen by the refinement study in docs/validation_auto07p.md: doubling ``ntst``,
+    tightening the tolerances tenfold and halving the steps moves the Hopf speeds, fold
+    and operating-speed amplitude by far less than 1e-4.
     """
 
     ntst: int = 40
@@ -228,14 +250,103 @@ def auto_jacobian(p, icu):
     return jac
 
 
-def _starting_point(u_eq, speed):
-    """AUTO's STPNT: the closed-form equilibrium ``u_eq`` (SI) at ``speed`` [m/s]."""
-    scaled = [float(u_eq[i]) / STATE_UNIT[i] for i in range(3)]
+def kernel_rhs(model: Model, p, state_unit):
+    """AUTO's FUNC from a model's compiled kernel: ``func(u, par)`` = du/dT in AUTO's units.
+
+    ``u`` is the state in units of ``state_unit`` (SI value of one unit per state),
+    ``par[0]`` = V [m/s], T in ms; ``model.f`` does the work.
+    """
+    unit = np.asarray(state_unit, dtype=float)
+    rate = TIME_UNIT_S / unit
+    p = np.asarray(p, dtype=float)
+
+    def func(u, par):
+        return rate * model.f(unit * u, par[0], p)
+
+    return func
+
+
+def kernel_jacobian(model: Model, p, state_unit, icu):
+    """AUTO's analytic Jacobian of :func:`kernel_rhs`: ``jac(u, par) -> (d/du, d/dPAR(icu))``
+    from ``model.jacobian`` and ``model.df_dspeed`` (columns of other PAR indices are 0)."""
+    unit = np.asarray(state_unit, dtype=float)
+    rate = TIME_UNIT_S / unit
+    scale = rate[:, None] * unit[None, :]
+    p = np.asarray(p, dtype=float)
+    speed_columns = [k for k, index in enumerate(icu) if index == SPEED_INDEX]
+
+    def jac(u, par):
+        u_si = unit * u
+        d_state = scale * model.jacobian(u_si, par[0], p)
+        d_par = np.zeros((len(unit), len(icu)))
+        d_par[:, speed_columns] = (rate * model.df_dspeed(u_si, par[0], p))[:, None]
+        return d_state, d_par
+
+    return jac
+
+
+@dataclass(frozen=True)
+class AutoModel:
+    """How one model's equations reach AUTO-07p, in which units, with which defaults."""
+
+    name: str
+    state_unit: tuple[float, ...]
+    """SI value of one AUTO unit of each state."""
+    units: str
+    """The units in words (for the result)."""
+    settings: AutoSettings
+    """Default AUTO constants (chosen by a refinement study)."""
+    written_out: Callable[[np.ndarray], tuple[Callable, Callable]] | None = None
+    """Equations written out for bifpy's tracer, ``p -> (func, jacobian_for)``, or None:
+    the model's compiled kernels through callbacks (:func:`kernel_rhs`)."""
+
+    @property
+    def model(self) -> Model:
+        return get_model(self.name)
+
+    @property
+    def traceable(self) -> bool:
+        """bifpy can compile the equations natively (``transpile=True``)."""
+        return self.written_out is not None
+
+    def equations(self, p) -> tuple[Callable, Callable]:
+        """``(func(u, par), jacobian_for(icu) -> jac(u, par))`` at parameter vector ``p``."""
+        if self.written_out is not None:
+            return self.written_out(p)
+        model = self.model
+        return kernel_rhs(model, p, self.state_unit), partial(kernel_jacobian, model, p, self.state_unit)
+
+
+def _tread1dof_written_out(p):
+    return auto_rhs(p), partial(auto_jacobian, p)
+
+
+AUTO_MODELS = {
+    "tread1dof": AutoModel(
+        name="tread1dof",
+        state_unit=STATE_UNIT,
+        units="AUTO works in mm (x, z), m/s (x'), ms (time); results here are SI",
+        settings=AutoSettings(),
+        written_out=_tread1dof_written_out,
+    ),
+    "axle4dof": AutoModel(
+        name="axle4dof",
+        state_unit=AXLE4DOF_STATE_UNIT,
+        units="AUTO works in mrad (angles), mm (x, z), rad/s and m/s (rates), ms (time); "
+        "results here are SI",
+        settings=AutoSettings(transpile=False),
+    ),
+}
+"""The models AUTO-07p can compute, by name."""
+
+
+def _starting_point(u_eq, speed, state_unit):
+    """AUTO's STPNT: the equilibrium ``u_eq`` (SI) at ``speed`` [m/s]."""
+    scaled = np.asarray(u_eq, dtype=float) / np.asarray(state_unit)
 
     def stpnt(u, par, t):
         par[0] = speed
-        for i in range(3):
-            u[i] = scaled[i]
+        u[:] = scaled
 
     return stpnt
 
@@ -278,13 +389,23 @@ def orbit_extremes(state, ncol: int, samples_per_interval: int = 16) -> tuple[np
     return extremes[0], extremes[1]
 
 
-def _cycle_summary(point, speed: float, sin_toe: float, settings: AutoSettings) -> dict[str, Any]:
-    """Speed, period, per-state amplitude (SI), stability of one periodic-orbit point."""
+def _cycle_summary(point, problem: AutoModel, p, settings: AutoSettings) -> dict[str, Any]:
+    """Speed, period, per-state amplitude (SI), smallest sliding velocity, stability of one
+    periodic-orbit point.
+
+    The sliding velocity (the model's ``aux`` kernel) at the stored points is extended by
+    the same piecewise polynomial as the states (exact where it is linear in the state,
+    as in ``tread1dof``).
+    """
     orbit = point.periodic_orbit
     if orbit is None:
         raise Auto07pError(f"AUTO stored no orbit for point {point.point_number} (NPR = 1 expected)")
-    low, high = orbit_extremes(orbit.state, orbit.collocation_points_per_interval, settings.samples_per_interval)
-    units = np.asarray(STATE_UNIT)
+    model, units, speed = problem.model, np.asarray(problem.state_unit), point.parameters[0]
+    ncol, samples = orbit.collocation_points_per_interval, settings.samples_per_interval
+    low, high = orbit_extremes(orbit.state, ncol, samples)
+    aux = model.diagnostics(np.asarray(orbit.state) * units, speed, p)
+    sliding = aux[:, model.aux_names.index("sliding_velocity")]
+    min_sliding = orbit_extremes(sliding[:, None], ncol, samples)[0][0]
     multipliers = np.asarray(point.floquet_multipliers or (), dtype=complex)
     if multipliers.size:  # drop the trivial multiplier (the one nearest 1)
         multipliers = np.delete(multipliers, np.argmin(np.abs(multipliers - 1.0)))
@@ -292,9 +413,9 @@ def _cycle_summary(point, speed: float, sin_toe: float, settings: AutoSettings) 
         "speed_kmh": float(ms_to_kmh(speed)),
         "period_s": float(orbit.period) * TIME_UNIT_S,
         "amplitude": {
-            name: float(a) for name, a in zip(MODEL.state_names, 0.5 * (high - low) * units)
+            name: float(a) for name, a in zip(model.state_names, 0.5 * (high - low) * units)
         },
-        "min_sliding_velocity_m_per_s": float(speed * sin_toe - high[1] * STATE_UNIT[1]),
+        "min_sliding_velocity_m_per_s": float(min_sliding),
         "stable": point.stability.name == "STABLE",
         "floquet_max_modulus": float(np.abs(multipliers).max()) if multipliers.size else None,
     }
@@ -338,9 +459,9 @@ def _call_auto(entry, *args, **kwargs):
     return result, _auto_seconds(result.output_directory)
 
 
-def _constants(settings: AutoSettings, ips: int, lo: float, hi: float, dsmax: float) -> dict[str, Any]:
+def _constants(settings: AutoSettings, ndim: int, ips: int, lo: float, hi: float, dsmax: float) -> dict[str, Any]:
     return dict(
-        ips=ips, ndim=3, npar=SPEED_INDEX, jac=1, ilp=1, isp=2, iad=3,
+        ips=ips, ndim=ndim, npar=SPEED_INDEX, jac=1, ilp=1, isp=2, iad=3,
         ntst=settings.ntst, ncol=settings.ncol, nmx=settings.nmx, npr=1,
         ds=settings.ds, dsmin=settings.dsmin, dsmax=dsmax, rl0=lo, rl1=hi,
         epsl=settings.epsl, epsu=settings.epsu, epss=settings.epss,
@@ -375,55 +496,64 @@ def _end_reason(point, lo: float, hi: float) -> str:
     return {"ABNORMAL_TERMINATION": "no_convergence", "BRANCH_POINT": "branch_point"}.get(name, "step_limit")
 
 
-def tread1dof_diagram(
+def model_diagram(
     params: Params,
     speed_range_kmh: tuple[float, float] = (20.0, 300.0),
-    settings: AutoSettings = AutoSettings(),
+    settings: AutoSettings | None = None,
 ) -> dict[str, Any]:
-    """Bifurcation diagram of ``tread1dof`` in the vehicle speed, by AUTO-07p.
+    """Bifurcation diagram of ``params.model`` in the vehicle speed, by AUTO-07p.
 
     Parameters
     ----------
-    params : every value is used (``MODEL.pack(params)``); the operating speed is also
+    params : every value is used (``model.pack(params)``); the operating speed is also
         located on every cycle branch that passes it.
     speed_range_kmh : (low, high) speed range [km/h], low > 0.
-    settings : AUTO constants, :class:`AutoSettings`.
+    settings : AUTO constants, :class:`AutoSettings`; default: the model's own
+        (``AUTO_MODELS[params.model].settings``). ``axle4dof`` needs ``transpile=False``.
 
     Returns
     -------
     A JSON-serializable dict: ``hopf`` (speed_kmh, frequency_hz), ``folds``
     (speed_kmh, amplitude_x_m, period_s), ``operating_point`` (cycles at the operating
     speed), ``equilibrium`` (speed_kmh, stable), ``cycles`` (one entry per branch:
-    arrays speed_kmh, period_s, amplitude per state [m, m/s, m], stable,
+    arrays speed_kmh, period_s, amplitude per state [SI], stable,
     floquet_max_modulus, min_sliding_velocity_m_per_s, and how the branch ended),
     ``auto`` (versions, settings) and ``wall_time_s`` / ``auto_time_s`` (AUTO's own
-    solver time, without tracing, compiling and parsing).
+    solver time, without tracing, compiling and parsing; None on the callback path,
+    where AUTO does not report it).
     """
+    if params.model not in AUTO_MODELS:
+        raise ParameterError(f"model = {params.model!r}: AUTO-07p covers {', '.join(AUTO_MODELS)}")
+    problem = AUTO_MODELS[params.model]
+    settings = problem.settings if settings is None else settings
+    if settings.transpile and not problem.traceable:
+        raise ParameterError(
+            f"model = {params.model!r}: its equations are compiled kernels that bifpy cannot "
+            "trace; use AutoSettings(transpile=False)"
+        )
+    lo_kmh, hi_kmh = (float(v) for v in speed_range_kmh)
+    if not 0.0 < lo_kmh < hi_kmh:
+        raise ParameterError(f"speed range {speed_range_kmh!r} km/h: need 0 < low < high")
     try:
         from bifpy import auto
     except ImportError:
         raise ImportError(INSTALL_HINT) from None
     from importlib.metadata import version
 
-    if params.model != "tread1dof":
-        raise ParameterError(f"model = {params.model!r}: the AUTO-07p validation covers tread1dof only")
-    lo_kmh, hi_kmh = (float(v) for v in speed_range_kmh)
-    if not 0.0 < lo_kmh < hi_kmh:
-        raise ParameterError(f"speed range {speed_range_kmh!r} km/h: need 0 < low < high")
     lo, hi = kmh_to_ms(lo_kmh), kmh_to_ms(hi_kmh)
     operating = kmh_to_ms(params.operating.speed_kmh)
-    p = MODEL.pack(params)
-    sin_toe = math.sin(_coefficients(p)["toe"])
-    func = auto_rhs(p)
+    model = problem.model
+    p = model.pack(params)
+    func, jacobian_for = problem.equations(p)
     common = dict(transpile=settings.transpile)
     start = time.perf_counter()
     auto_seconds = []
 
     with _scratch_directory():
-        eq_constants = _constants(settings, auto.IPS_EQUILIBRIUM, lo, hi, settings.dsmax_equilibrium)
+        eq_constants = _constants(settings, model.n, auto.IPS_EQUILIBRIUM, lo, hi, settings.dsmax_equilibrium)
         equilibrium, seconds = _call_auto(
-            auto.run, func, _starting_point(MODEL.equilibrium(lo, p), lo), eq_constants,
-            icu=[SPEED_INDEX], jac=auto_jacobian(p, [SPEED_INDEX]), **common,
+            auto.run, func, _starting_point(model.equilibrium(lo, p), lo, problem.state_unit), eq_constants,
+            icu=[SPEED_INDEX], jac=jacobian_for([SPEED_INDEX]), **common,
         )  # fmt: skip
         auto_seconds.append(seconds)
         eq_points = [pt for branch in equilibrium.branches for pt in branch.points]
@@ -437,7 +567,7 @@ def tread1dof_diagram(
         ]
         hopf_speeds = [pt.all_parameters[SPEED_INDEX - 1] for pt in hopf_points]
 
-        cycle_constants = _constants(settings, auto.IPS_PERIODIC_ORBIT, lo, hi, settings.dsmax_cycles)
+        cycle_constants = _constants(settings, model.n, auto.IPS_PERIODIC_ORBIT, lo, hi, settings.dsmax_cycles)
         icu = [SPEED_INDEX, auto.PERIOD_INDEX]
         cycles, folds, at_operating, reached = [], [], [], set()
         for index, hb in enumerate(hopf_points):
@@ -446,12 +576,12 @@ def tread1dof_diagram(
             result, seconds = _call_auto(
                 auto.restart, func, cycle_constants, restart_point=hb, icu=icu,
                 isw=auto.ISW_HOPF_TO_PERIODIC_ORBIT, source_ips=auto.IPS_EQUILIBRIUM,
-                jac=auto_jacobian(p, icu), stop=["BP1"],
+                jac=jacobian_for(icu), stop=["BP1"],
                 uzr={SPEED_INDEX: [operating]} if lo < operating < hi else None, **common,
             )  # fmt: skip
             auto_seconds.append(seconds)
             points = [pt for branch in result.branches for pt in branch.points]
-            rows = [_cycle_summary(pt, pt.parameters[0], sin_toe, settings) for pt in points]
+            rows = [_cycle_summary(pt, problem, p, settings) for pt in points]
             end, hopf_index = _return_to_hopf(
                 np.array([r["amplitude"]["x"] for r in rows]),
                 np.array([pt.parameters[0] for pt in points]),
@@ -480,7 +610,7 @@ def tread1dof_diagram(
                     "end_speed_kmh": float(ms_to_kmh(end_speed)),
                     "speed_kmh": [r["speed_kmh"] for r in rows],
                     "period_s": [r["period_s"] for r in rows],
-                    "amplitude": {n: [r["amplitude"][n] for r in rows] for n in MODEL.state_names},
+                    "amplitude": {n: [r["amplitude"][n] for r in rows] for n in model.state_names},
                     "stable": [r["stable"] for r in rows],
                     "floquet_max_modulus": [r["floquet_max_modulus"] for r in rows],
                     "min_sliding_velocity_m_per_s": [r["min_sliding_velocity_m_per_s"] for r in rows],
@@ -488,7 +618,7 @@ def tread1dof_diagram(
             )
 
     return {
-        "model": MODEL.name,
+        "model": model.name,
         "params": params.model_dump(),
         "speed_range_kmh": [lo_kmh, hi_kmh],
         "hopf": hopf,
@@ -502,16 +632,27 @@ def tread1dof_diagram(
         "auto": {
             "package": f"bifpy {version('bifpy')}",
             "settings": asdict(settings),
-            "units": "AUTO works in mm (x, z), m/s (x'), ms (time); results here are SI",
+            "units": problem.units,
         },
         "wall_time_s": time.perf_counter() - start,
         "auto_time_s": None if None in auto_seconds else sum(auto_seconds),
     }
 
 
+def tread1dof_diagram(
+    params: Params,
+    speed_range_kmh: tuple[float, float] = (20.0, 300.0),
+    settings: AutoSettings = AutoSettings(),
+) -> dict[str, Any]:
+    """:func:`model_diagram` for ``tread1dof`` parameters (others are refused)."""
+    if params.model != "tread1dof":
+        raise ParameterError(f"model = {params.model!r}: tread1dof_diagram covers tread1dof only")
+    return model_diagram(params, speed_range_kmh, settings)
+
+
 def headline_numbers(diagram: dict[str, Any]) -> dict[str, float]:
     """Hopf speeds and frequencies, fold speeds, amplitudes and periods, amplitude and
-    period at the operating speed of a :func:`tread1dof_diagram` result, by name."""
+    period at the operating speed of a :func:`model_diagram` result, by name."""
     out = {}
     for i, h in enumerate(diagram["hopf"]):
         out[f"hopf{i + 1}_speed_kmh"] = h["speed_kmh"]
@@ -529,16 +670,18 @@ def headline_numbers(diagram: dict[str, Any]) -> dict[str, float]:
 def refinement_study(
     params: Params,
     speed_range_kmh: tuple[float, float] = (20.0, 300.0),
-    settings: AutoSettings = AutoSettings(),
+    settings: AutoSettings | None = None,
 ) -> dict[str, Any]:
-    """Run the diagram at ``settings`` and at ``settings.refined()``; relative changes.
+    """Run the diagram at ``settings`` (default: the model's) and at ``settings.refined()``;
+    relative changes.
 
     Returns ``{"base": {...}, "refined": {...}, "relative_change": {...},
     "max_relative_change": float}`` over the Hopf speeds and frequencies, fold speeds,
     amplitudes and periods, and the amplitude and period at the operating speed.
     """
-    base = headline_numbers(tread1dof_diagram(params, speed_range_kmh, settings))
-    fine = headline_numbers(tread1dof_diagram(params, speed_range_kmh, settings.refined()))
+    settings = AUTO_MODELS[params.model].settings if settings is None else settings
+    base = headline_numbers(model_diagram(params, speed_range_kmh, settings))
+    fine = headline_numbers(model_diagram(params, speed_range_kmh, settings.refined()))
     if base.keys() != fine.keys():
         raise Auto07pError(f"refinement changed the special points found: {sorted(base)} vs {sorted(fine)}")
     change = {k: abs(fine[k] - base[k]) / abs(fine[k]) for k in base}
