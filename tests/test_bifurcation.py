@@ -170,3 +170,15 @@ def test_sweep_agrees_with_continuation_on_stable_branches_and_in_the_hard_regio
             assert not stable and run_large.outcome == "equilibrium", v
         in_hard = 207.7503 < v < fold
         assert (run_small.outcome == "equilibrium") == (in_hard or v > fold), v
+
+
+def test_cycles_at_finds_both_cycles_between_the_last_point_and_the_fold(default_diagram):
+    """Beyond the fastest stored point and short of the fold, only the located fold point
+    brackets the speed: both the stable and the unstable cycle are found there."""
+    (fold,) = default_diagram.folds
+    fastest = max(pt.orbit.speed for pt in default_diagram.branches[0].points)
+    assert fastest < fold.speed
+    small, large = default_diagram.cycles_at(1.8 * (fastest + fold.speed))  # midway, in km/h
+    assert not small.stable and large.stable
+    assert small.amplitude[0] < fold.amplitude[0] < large.amplitude[0]
+    assert default_diagram.cycles_at(3.6 * fold.speed + 0.01) == []
