@@ -18,7 +18,7 @@ from ..models.base import kmh_to_ms
 from .bifurcation import BifurcationDiagram, CyclePoint
 from .simulation import SimulationResult, simulate
 
-__all__ = ["ExcitationPortrait", "excitation_portraits", "default_speeds", "portraits_figure"]
+__all__ = ["ExcitationPortrait", "excitation_portraits", "default_speeds", "portraits_figure", "settling_time"]
 
 
 @dataclass
@@ -86,8 +86,31 @@ def default_speeds(diagram: BifurcationDiagram, operating_kmh: float) -> list[fl
     return speeds
 
 
-def excitation_portraits(diagram: BifurcationDiagram, speeds_kmh, duration_s: float = 0.6) -> list[ExcitationPortrait]:
-    """Cycles from the diagram and trajectories from inside/outside each cycle at every speed."""
+def settling_time(diagram: BifurcationDiagram, speed_kmh: float, cycles, factor: float = 8.0,
+                  bounds: tuple[float, float] = (0.6, 8.0)) -> float:
+    """Simulated time [s] for ``factor`` e-foldings of the slowest attractor at a speed:
+    the equilibrium's decay rate and each stable cycle's (from its largest nontrivial
+    Floquet multiplier), clipped to ``bounds``."""
+    rates = []
+    model = get_model(diagram.params.model)
+    p = model.pack(diagram.params)
+    V = kmh_to_ms(speed_kmh)
+    growth = np.linalg.eigvals(model.jacobian(model.equilibrium(V, p), V, p)).real.max()
+    if growth < 0.0:
+        rates.append(-growth)
+    for c in cycles:
+        if c.stable and 0.0 < c.max_multiplier < 1.0:
+            rates.append(-np.log(c.max_multiplier) / c.period)
+    if not rates:
+        return bounds[0]
+    return float(np.clip(factor / min(rates), *bounds))
+
+
+def excitation_portraits(diagram: BifurcationDiagram, speeds_kmh, duration_s: float | None = None) -> list[ExcitationPortrait]:
+    """Cycles from the diagram and trajectories from inside/outside each cycle at every speed.
+
+    ``duration_s`` [s] per start; by default long enough for the slowest attractor there
+    to settle (:func:`settling_time`)."""
     params = diagram.params
     model = get_model(params.model)
     p = model.pack(params)
@@ -112,9 +135,10 @@ def excitation_portraits(diagram: BifurcationDiagram, speeds_kmh, duration_s: fl
             starts[f"outside cycle {k}"] = u_eq + 1.25 * (tip - u_eq)
         if not cycles:
             starts["small"] = u_eq + np.eye(model.n)[x] * 1e-5
+        duration = duration_s or settling_time(diagram, speed, cycles)
         runs = []
         for label, initial in starts.items():
-            runs.append(replace(simulate(params, speed, duration_s, initial=initial), label=label))
+            runs.append(replace(simulate(params, speed, duration, initial=initial), label=label))
         out.append(ExcitationPortrait(speed, regime, cycles, runs))
     return out
 

@@ -17,7 +17,11 @@ def excitation(
         typer.Option("--speed", help="Speed [km/h] (repeatable; default: the operating speed or the middle of "
                      "the linear band, and the middle of the hard region)."),
     ] = None,
-    duration: Annotated[float, typer.Option("--duration", min=0.01, help="Simulated time per start [s].")] = 0.6,
+    duration: Annotated[
+        Optional[float],
+        typer.Option("--duration", min=0.01, help="Simulated time per start [s] (default: until the slowest "
+                     "attractor settles, 0.6-8 s)."),
+    ] = None,
     json_: JsonOpt = False,
     plot: PlotOpt = None,
 ) -> None:
