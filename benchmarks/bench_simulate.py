@@ -47,15 +47,27 @@ def bench(name: str, duration: float, speed_kmh: float, rtol: float, atol: float
     t0 = time.perf_counter()
     integrate(model, u0, V, p, 1e-3, rtol=rtol, atol=atol)
     cold = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    fast = integrate(model, u0, V, p, duration, dt_out=dt_out, rtol=rtol, atol=atol)
-    t_fast = time.perf_counter() - t0
+    fast_times = []
+    for _ in range(5):  # best of 5: the fast path is short enough for timer and load noise to matter
+        t0 = time.perf_counter()
+        fast = integrate(model, u0, V, p, duration, dt_out=dt_out, rtol=rtol, atol=atol)
+        fast_times.append(time.perf_counter() - t0)
+    t_fast = min(fast_times)
 
     rhs = module.rhs_python
-    t0 = time.perf_counter()
-    ref = solve_ivp(lambda t, u: rhs(t, u, V, p), (0.0, duration), u0, method="Radau", t_eval=grid,
-                    rtol=rtol, atol=atol)
-    t_ref = time.perf_counter() - t0
+
+    def baseline(pv):
+        t0 = time.perf_counter()
+        sol = solve_ivp(lambda t, u: rhs(t, u, V, pv), (0.0, duration), u0, method="Radau", t_eval=grid,
+                        rtol=rtol, atol=atol)
+        return sol, time.perf_counter() - t0
+
+    # the baseline: the pure-Python rhs of the same derivation, evaluating everything
+    # at every call as a lambdified function would; and, where the model caches speed-only
+    # quantities for the fast path (model.prepared), the same rhs given that cache too
+    ref, t_ref = baseline(p)
+    p_run = model.prepared(V, p)
+    cached = None if p_run is p else baseline(p_run)
     if ref.status != 0:
         print(f"{name}: baseline failed: {ref.message}")
         return
@@ -63,11 +75,15 @@ def bench(name: str, duration: float, speed_kmh: float, rtol: float, atol: float
     a_fast = _amplitudes(fast.t, fast.u, duration)
     a_ref = _amplitudes(ref.t, ref.y.T, duration)
     print(f"\n{name}: {duration:g} s at {speed_kmh:g} km/h, rtol {rtol:g}, atol {atol:g}, output every {dt_out:g} s")
-    print(f"  fast path  Rodas4 (numba, cfunc kernels, analytic Jacobian): {t_fast:8.3f} s "
-          f"({fast.stats.accepted} steps, {fast.stats.rejected} rejected; first call incl. cache load {cold:.2f} s)")
+    print(f"  fast path  Rodas4 (numba, cfunc kernels, analytic Jacobian): {t_fast:8.3f} s best of 5, "
+          f"median {np.median(fast_times):.3f} s ({fast.stats.accepted} steps, {fast.stats.rejected} rejected; "
+          f"first call incl. cache load {cold:.2f} s)")
     print(f"  baseline   solve_ivp Radau, rhs_python, finite-difference Jacobian: {t_ref:8.3f} s "
           f"({ref.nfev} rhs calls, {ref.njev} Jacobians)")
     print(f"  speed-up   {t_ref / t_fast:8.1f}x   (goal >= 100x)")
+    if cached is not None:
+        print(f"  baseline with the fast path's per-speed cache:                    {cached[1]:8.3f} s "
+              f"-> speed-up {cached[1] / t_fast:.1f}x")
     print(f"  {'state':>10s} {'fast':>13s} {'baseline':>13s} {'rel. diff':>10s}")
     for q, unit, a, b in zip(model.state_names, model.state_units, a_fast, a_ref):
         rel = abs(a - b) / abs(b) if b else float("nan")

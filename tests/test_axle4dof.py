@@ -372,7 +372,9 @@ def test_jacobian_and_speed_derivative_match_complex_step_and_central_difference
 
     dv = MODEL.df_dspeed(u, V, p)
     np.testing.assert_allclose(dv, MODEL.f(u, V + 1e-30j, p).imag / 1e-30, rtol=1e-10, atol=1e-12 * np.abs(dv).max())
-    central = (MODEL.f(u, V + 1e-4, p) - MODEL.f(u, V - 1e-4, p)) / 2e-4
+    # V ~ 10-70 m/s: a step of 1e-2 m/s keeps truncation (h^2) and rounding (eps |f| / h)
+    # both far below the tolerance; 1e-4 m/s was in the rounding regime for small rows
+    central = (MODEL.f(u, V + 1e-2, p) - MODEL.f(u, V - 1e-2, p)) / 2e-2
     np.testing.assert_allclose(dv, central, rtol=1e-5, atol=1e-6 * np.abs(dv).max())
 
 
@@ -543,3 +545,22 @@ def test_schematic_draws_into_given_axes(tmp_path):
     assert all(a.axes is ax for a in artists if hasattr(a, "axes") and a.axes is not None)
     fig.savefig(tmp_path / "schematic.png")
     plt.close(fig)
+
+
+def test_prepared_parameter_vector_caches_the_preloads_of_one_speed_only():
+    """``prepare`` caches the running preloads of one speed: kernels give identical results
+    at that speed and ignore the cache at any other speed (or for complex-step calls)."""
+    from polywear.models.axle4dof import prepare
+
+    p = pack()
+    assert np.isnan(p[-4:]).all()  # a packed vector caches nothing
+    V = kmh_to_ms(110.0)
+    q = prepare(V, p)
+    u = MODEL.equilibrium(V, p) + 1e-4
+    np.testing.assert_array_equal(MODEL.f(u, V, q), MODEL.f(u, V, p))
+    np.testing.assert_array_equal(MODEL.jacobian(u, V, q), MODEL.jacobian(u, V, p))
+    other = kmh_to_ms(140.0)
+    np.testing.assert_array_equal(MODEL.f(u, other, q), MODEL.f(u, other, p))
+    np.testing.assert_array_equal(MODEL.df_dspeed(u, V, q), MODEL.df_dspeed(u, V, p))
+    cs = MODEL.f(u, V + 1e-30j, q).imag / 1e-30  # complex V never matches the cached speed
+    np.testing.assert_allclose(cs, MODEL.df_dspeed(u, V, p), rtol=1e-10, atol=1e-12 * np.abs(cs).max())

@@ -16,6 +16,7 @@ the LuGre bristle deflection.
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 
@@ -63,13 +64,21 @@ def _reference_flag(params) -> float:
     return float(REFERENCES.index(params.axle.reference))
 
 
-SLOTS = tuple(
-    ParamSlot("reference", None, encode=_reference_flag)
-    if name == "reference"
-    else ParamSlot(name, _KEYS[name][0], _KEYS[name][1])
-    for name in _gen.PARAM_NAMES
-)
-"""Kernel parameter vector layout (order fixed by the derivation)."""
+def _not_cached(params) -> float:
+    return math.nan
+
+
+def _slot(name: str) -> ParamSlot:
+    if name == "reference":
+        return ParamSlot(name, None, encode=_reference_flag)
+    if name.startswith("preload_"):
+        return ParamSlot(name, None, encode=_not_cached)
+    return ParamSlot(name, _KEYS[name][0], _KEYS[name][1])
+
+
+SLOTS = tuple(_slot(name) for name in _gen.PARAM_NAMES)
+"""Kernel parameter vector layout (order fixed by the derivation); the ``preload_*``
+entries are a per-speed cache, empty (NaN) in a packed vector (see :func:`prepare`)."""
 
 STATE_NAMES = _gen.STATE_NAMES
 AUX_NAMES = ("sliding_velocity", "friction_force", "normal_load", "contact_lost")
@@ -77,6 +86,7 @@ AUX_NAMES = ("sliding_velocity", "friction_force", "normal_load", "contact_lost"
 _TOE0 = _gen.PARAM_NAMES.index("toe0")
 _CAMBER0 = _gen.PARAM_NAMES.index("camber0")
 _REFERENCE = _gen.PARAM_NAMES.index("reference")
+_PRELOAD_SPEED = _gen.PARAM_NAMES.index("preload_speed")
 _EQUILIBRIUM_TOL = 1e-12
 """Accept a solution when the Newton step is below this [rad, m, rad/s, m/s]."""
 
@@ -138,6 +148,22 @@ def _newton(u, V, p, max_iter=20):
     return None
 
 
+def prepare(V, p):
+    """``p`` with the preloads of speed ``V`` [m/s] cached, for time integration at fixed V.
+
+    The running-reference preloads depend on V only, yet the kernels would otherwise
+    recompute them (a quarter of the rhs cost) at every call. The kernels use the cache
+    only when called with exactly this V, so a prepared vector stays correct at other
+    speeds; do not use it for complex-step derivatives with respect to ``p``."""
+    q = np.array(p, dtype=float)
+    q[_PRELOAD_SPEED] = math.nan
+    P = np.empty(4)
+    _gen._preload(float(V), q, P)
+    q[_PRELOAD_SPEED + 1 : _PRELOAD_SPEED + 4] = P[:3]
+    q[_PRELOAD_SPEED] = float(V)
+    return q
+
+
 def running_alignment(u, p) -> tuple[float, float]:
     """Running toe and camber [rad] of state ``u``: ``toe0 + alpha``, ``camber0 + beta``."""
     return p[_TOE0] + u[0], p[_CAMBER0] + u[1]
@@ -149,6 +175,7 @@ class _Kernels:
     dfdv = _gen.dfdv
     aux = _gen.aux
     equilibrium = staticmethod(equilibrium)
+    prepare = staticmethod(prepare)
     running_alignment = staticmethod(running_alignment)
 
 

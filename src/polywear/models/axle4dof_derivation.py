@@ -52,9 +52,11 @@ PARAM_NAMES = (
     "J1", "J2", "J3",
     "k_alpha", "c_alpha", "k_beta", "c_beta", "k_gamma", "c_gamma",
     "L", "b", "H", "eps", "I_w", "k_z", "c_z", "reference",
+    "preload_speed", "preload_alpha", "preload_beta", "preload_gamma",
 )  # fmt: skip
 """Kernel parameter vector layout (SI units, angles in rad); ``reference`` is 0 = running,
-1 = unloaded."""
+1 = unloaded. The last four entries cache the preloads for one speed (NaN: not cached);
+see ``axle4dof.prepare``."""
 
 GENERATED_PATH = Path(__file__).with_name("_axle4dof_generated.py")
 
@@ -311,12 +313,11 @@ def _solve(M, B):
 @njit(cache=True)
 def running_equilibrium(V, p, u0):
     """Steady state of the running reference: alpha = beta = gamma = 0, rates 0,
-    z0 = sgn(v_r0) G(v_r0)/sigma0, k x0 = F0 G_F,x; fills u0, returns (F0, dF0/dV)."""
+    z0 = sgn(v_r0) G(v_r0)/sigma0, k x0 = F0 G_F,x; fills u0, returns the friction force F0 [N]."""
     vr0 = V * (sin(p[_TOE0]) - p[_EPS] * sin(p[_CAMBER0]))
     g0 = stribeck(vr0, p[_MU_S], p[_MU_C], p[_V_S], p[_DELTA])
     sgn = real_sign(vr0)
     mu0 = sgn * g0 + p[_SIGMA2] * vr0
-    dmu0 = sgn * stribeck_dv(vr0, p[_MU_S], p[_MU_C], p[_V_S], p[_DELTA]) + p[_SIGMA2]
     for i in range(u0.shape[0]):
         u0[i] = 0.0 * V
     GF = np.empty(_NQ, dtype=u0.dtype)
@@ -324,7 +325,16 @@ def running_equilibrium(V, p, u0):
     _contact(u0, p, GF, GN)
     u0[3] = p[_N0] * mu0 * GF[3] / p[_K]
     u0[_ZB] = sgn * g0 / p[_SIGMA0]
-    return p[_N0] * mu0, p[_N0] * dmu0 * (sin(p[_TOE0]) - p[_EPS] * sin(p[_CAMBER0]))
+    return p[_N0] * mu0
+
+
+@njit(cache=True)
+def _running_force_dv(V, p):
+    """dF0/dV [N s/m] of the running equilibrium's friction force."""
+    slip = sin(p[_TOE0]) - p[_EPS] * sin(p[_CAMBER0])
+    vr0 = V * slip
+    dmu0 = real_sign(vr0) * stribeck_dv(vr0, p[_MU_S], p[_MU_C], p[_V_S], p[_DELTA]) + p[_SIGMA2]
+    return p[_N0] * dmu0 * slip
 
 
 @njit(cache=True)
@@ -335,22 +345,30 @@ def _preload(V, p, P):
     the running equilibrium (so alpha = beta = gamma = 0 there at every speed);
     unloaded (r = 1): the negative generalized force of N0 at alpha = beta = gamma = 0
     only. A value 0 < r < 1 blends the two linearly: the unloaded equilibrium solve
-    follows r from 0 to 1 (a homotopy from the running state)."""
+    follows r from 0 to 1 (a homotopy from the running state). When ``p`` caches the
+    preloads of this very speed (``preload_speed == V``), those are used."""
+    if p[_PRELOAD_SPEED] == V:
+        for i in range(_NQ - 1):
+            P[i] = p[_PRELOAD_ALPHA + i]
+        P[3] = 0.0 * V
+        return
     r = p[_REFERENCE].real
     u0 = np.empty(_ZB + 1, dtype=P.dtype)
     GF = np.empty(_NQ, dtype=P.dtype)
     GN = np.empty(_NQ, dtype=P.dtype)
-    for i in range(u0.shape[0]):
-        u0[i] = 0.0 * V
-    _contact(u0, p, GF, GN)
-    for i in range(_NQ - 1):
-        P[i] = -r * p[_N0] * GN[i]
+    for i in range(_NQ):
+        P[i] = 0.0 * V
+    if r > 0.0:
+        for i in range(u0.shape[0]):
+            u0[i] = 0.0 * V
+        _contact(u0, p, GF, GN)
+        for i in range(_NQ - 1):
+            P[i] = -r * p[_N0] * GN[i]
     if r < 1.0:
-        F0 = running_equilibrium(V, p, u0)[0]
+        F0 = running_equilibrium(V, p, u0)
         _contact(u0, p, GF, GN)
         for i in range(_NQ - 1):
             P[i] -= (1.0 - r) * (F0 * GF[i] + p[_N0] * GN[i])
-    P[3] = 0.0 * V
 
 
 @njit(cache=True)
@@ -362,7 +380,8 @@ def _preload_dv(V, p, dP):
     if r >= 1.0:
         return
     u0 = np.empty(_ZB + 1, dtype=dP.dtype)
-    F0, dF0 = running_equilibrium(V, p, u0)
+    F0 = running_equilibrium(V, p, u0)
+    dF0 = _running_force_dv(V, p)
     GF = np.empty(_NQ, dtype=dP.dtype)
     GN = np.empty(_NQ, dtype=dP.dtype)
     dGF = np.empty((_NQ, _NQ), dtype=dP.dtype)

@@ -132,6 +132,12 @@ class Model:
         batch(self.compiled_aux, flat, float(V), np.ascontiguousarray(p, dtype=float), out)
         return out.reshape(u.shape[:-1] + (len(self.aux_names),))
 
+    def prepared(self, V, p) -> np.ndarray:
+        """Parameter vector for repeated calls at one speed V [m/s] (time integration):
+        the model may cache speed-only quantities in it (``kernels.prepare``); else ``p``."""
+        prepare = getattr(self.kernels, "prepare", None)
+        return p if prepare is None else prepare(V, p)
+
     def equilibrium(self, V, p) -> np.ndarray:
         """Steady rolling state at speed ``V`` [m/s] (raises if it cannot be found)."""
         return self.kernels.equilibrium(float(V), np.asarray(p, dtype=float))

@@ -505,6 +505,9 @@ def integrate(
     """
     if method not in METHODS:
         raise ValueError(f"method = {method!r}: must be one of {', '.join(METHODS)}")
+    if not math.isfinite(float(V)):
+        raise ValueError(f"speed V = {V!r} m/s: must be finite")
+    p = model.prepared(float(V), np.asarray(p, dtype=float))  # speed-only quantities cached once
     u0, p, atol = _check_inputs(model, u0, float(V), p, float(t_end), float(rtol), atol, dt_out)
     t_out = output_grid(t_end, dt_out) if dt_out is not None else np.empty(0)
     if method == "rodas":
