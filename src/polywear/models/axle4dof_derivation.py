@@ -394,6 +394,14 @@ def _preload_dv(V, p, dP):
 
 
 @njit(cache=True)
+def _workspace(u, V, p):
+    """A zero of the common dtype and empty M (4, 4), Q (4, 1), G_F, G_N for :func:`_evaluate`."""
+    zero = _zero(u, V, p)
+    M = np.empty((_NQ, _NQ), dtype=np.asarray(zero).dtype)
+    return zero, M, np.empty((_NQ, 1), dtype=M.dtype), np.empty(_NQ, dtype=M.dtype), np.empty(_NQ, dtype=M.dtype)
+
+
+@njit(cache=True)
 def _evaluate(u, V, p, M, Q, GF, GN):
     """Fill M, the total generalized force Q (4, 1), G_F and G_N at u;
     return (v_r, G(v_r), z', F, N, clamped)."""
@@ -422,11 +430,7 @@ def _evaluate(u, V, p, M, Q, GF, GN):
 @njit(cache=True)
 def rhs(u, V, p, out):
     """du/dt [rad/s, rad/s, rad/s, m/s, rad/s^2, rad/s^2, rad/s^2, m/s^2, m/s]."""
-    zero = _zero(u, V, p)
-    M = np.empty((_NQ, _NQ), dtype=np.asarray(zero).dtype)
-    Q = np.empty((_NQ, 1), dtype=M.dtype)
-    GF = np.empty(_NQ, dtype=M.dtype)
-    GN = np.empty(_NQ, dtype=M.dtype)
+    zero, M, Q, GF, GN = _workspace(u, V, p)
     zd = _evaluate(u, V, p, M, Q, GF, GN)[2]
     _solve(M, Q)
     for i in range(_NQ):
@@ -439,11 +443,7 @@ def rhs(u, V, p, out):
 def jac(u, V, p, out):
     """df/du (9 x 9)."""
     n2 = 2 * _NQ
-    zero = _zero(u, V, p)
-    M = np.empty((_NQ, _NQ), dtype=np.asarray(zero).dtype)
-    Q = np.empty((_NQ, 1), dtype=M.dtype)
-    GF = np.empty(_NQ, dtype=M.dtype)
-    GN = np.empty(_NQ, dtype=M.dtype)
+    zero, M, Q, GF, GN = _workspace(u, V, p)
     vr, g, zd, force, load, clamped = _evaluate(u, V, p, M, Q, GF, GN)
     _solve(M, Q)
     a = Q[:, 0].copy()
@@ -502,11 +502,7 @@ def jac(u, V, p, out):
 @njit(cache=True)
 def dfdv(u, V, p, out):
     """df/dV [per m/s]: through v_r, the wheel-spin rate V/R_e and the running preloads."""
-    zero = _zero(u, V, p)
-    M = np.empty((_NQ, _NQ), dtype=np.asarray(zero).dtype)
-    Q = np.empty((_NQ, 1), dtype=M.dtype)
-    GF = np.empty(_NQ, dtype=M.dtype)
-    GN = np.empty(_NQ, dtype=M.dtype)
+    zero, M, Q, GF, GN = _workspace(u, V, p)
     vr, g, zd, force, load, clamped = _evaluate(u, V, p, M, Q, GF, GN)
     dvr = np.empty(2 * _NQ, dtype=M.dtype)
     dvr_dv = _sliding_partials(u, V, p, dvr)
@@ -533,11 +529,7 @@ def dfdv(u, V, p, out):
 @njit(cache=True)
 def aux(u, V, p, out):
     """Sliding velocity v_r [m/s], friction force F [N], normal load N [N], contact lost [0/1]."""
-    zero = _zero(u, V, p)
-    M = np.empty((_NQ, _NQ), dtype=np.asarray(zero).dtype)
-    Q = np.empty((_NQ, 1), dtype=M.dtype)
-    GF = np.empty(_NQ, dtype=M.dtype)
-    GN = np.empty(_NQ, dtype=M.dtype)
+    zero, M, Q, GF, GN = _workspace(u, V, p)
     vr, g, zd, force, load, clamped = _evaluate(u, V, p, M, Q, GF, GN)
     out[0] = vr
     out[1] = force
