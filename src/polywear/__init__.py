@@ -1,6 +1,89 @@
 """polywear: friction-induced lateral self-excited vibration of tire tread.
 
-The numeric core is imported on demand; ``import polywear`` stays light.
+The entry points are reachable from the top level and imported on first use, so
+``import polywear`` stays light (no numpy, scipy, numba or matplotlib)::
+
+    import polywear as pw
+
+    p = pw.load_params()                                  # the built-in defaults
+    p = p.with_updates({"operating.toe_deg": 0.3})        # validated again
+    stab = pw.stability(p)                                # Hopf speeds of steady rolling
+    diagram = pw.bifurcation(p)                           # bifurcation diagram, SEV band
+
+Entry points (each is the function or class named in brackets):
+
+- ``Params``, ``load_params``, ``ParameterError`` [polywear.params]
+- ``stability`` [analysis.stability.stability_analysis]
+- ``bifurcation`` [analysis.bifurcation.bifurcation_diagram]
+- ``simulate`` [analysis.simulation.simulate]
+- ``sensitivity`` [analysis.sensitivity.local_sensitivity]
+- ``stability_map`` [analysis.stability_map.stability_map]
+- ``study`` [analysis.global_sensitivity.global_sensitivity]
+- ``design`` [analysis.design.clear_operating_range]
+- ``excitation`` [analysis.excitation.excitation_portraits]
+- ``report`` [report.run_report]
+- ``friction`` (LuGre curves, loops and fits), ``models``, ``solvers``: modules.
 """
 
+from __future__ import annotations
+
+import sys
+import types
+from importlib import import_module
+
 __version__ = "0.1.0"
+
+# public name -> (module, attribute); attribute None: the module itself
+_ENTRY_POINTS: dict[str, tuple[str, str | None]] = {
+    "Params": ("polywear.params", "Params"),
+    "load_params": ("polywear.params", "load_params"),
+    "ParameterError": ("polywear.params", "ParameterError"),
+    "stability": ("polywear.analysis.stability", "stability_analysis"),
+    "bifurcation": ("polywear.analysis.bifurcation", "bifurcation_diagram"),
+    "simulate": ("polywear.analysis.simulation", "simulate"),
+    "sensitivity": ("polywear.analysis.sensitivity", "local_sensitivity"),
+    "stability_map": ("polywear.analysis.stability_map", "stability_map"),
+    "study": ("polywear.analysis.global_sensitivity", "global_sensitivity"),
+    "design": ("polywear.analysis.design", "clear_operating_range"),
+    "excitation": ("polywear.analysis.excitation", "excitation_portraits"),
+    "report": ("polywear.report", "run_report"),
+    "friction": ("polywear.analysis.friction", None),
+    "models": ("polywear.models", None),
+    "solvers": ("polywear.solvers", None),
+}
+
+__all__ = ["__version__", *_ENTRY_POINTS]
+
+
+class _Package(types.ModuleType):
+    """The ``polywear`` module object: an entry point is never replaced by a submodule.
+
+    Importing a submodule sets it as an attribute of its package; ``polywear.report``
+    (the module) would then hide ``pw.report`` (the function). Such a submodule stays
+    reachable through ``import polywear.report`` and ``sys.modules``.
+    """
+
+    def __setattr__(self, name: str, value: object) -> None:
+        target = _ENTRY_POINTS.get(name)
+        if target is not None and target[1] is not None and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+def __getattr__(name: str) -> object:
+    """Import an entry point on first access (PEP 562) and keep it."""
+    try:
+        module_name, attribute = _ENTRY_POINTS[name]
+    except KeyError:
+        raise AttributeError(f"module 'polywear' has no attribute {name!r}") from None
+    module = import_module(module_name)
+    value = module if attribute is None else getattr(module, attribute)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
+
+
+sys.modules[__name__].__class__ = _Package

@@ -270,7 +270,7 @@ class Study(_Table):
 
 
 class Params(_Table):
-    """A complete, validated parameter set (MODEL.md section 6)."""
+    """A complete, validated parameter set (every key: docs/model.md, "Configuration keys")."""
 
     model: Literal["tread1dof", "axle4dof"] = Field(
         "tread1dof", description='model: "tread1dof" or "axle4dof"'
@@ -281,6 +281,13 @@ class Params(_Table):
     axle: Axle = Axle()
     tire: Tire = Tire()
     study: Study = Study()
+
+    def with_updates(self, updates: dict[str, Any]) -> Params:
+        """A new parameter set with ``{"table.key": value}`` updates, validated again.
+
+        Same as :func:`polywear.params.with_updates`; raises :class:`ParameterError`.
+        """
+        return with_updates(self, updates)
 
 
 _TABLES: dict[str, type[_Table]] = {
