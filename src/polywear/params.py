@@ -412,8 +412,13 @@ def parse_override(text: str) -> tuple[str, Any]:
     return key, value
 
 
-def load_params(path: str | Path | None = None, overrides: list[str] | tuple[str, ...] = ()) -> Params:
-    """Defaults, then the TOML file at ``path`` (if any), then ``table.key=value`` overrides."""
+def load_params(
+    path: str | Path | None = None,
+    overrides: list[str] | tuple[str, ...] = (),
+    base: dict[str, Any] | None = None,
+) -> Params:
+    """Defaults, then ``base`` (``{"table.key": value}``, e.g. from a .tir file), then the
+    TOML file at ``path`` (if any), then ``table.key=value`` overrides."""
     data: dict[str, Any] = {}
     if path is not None:
         path = Path(path)
@@ -426,7 +431,7 @@ def load_params(path: str | Path | None = None, overrides: list[str] | tuple[str
         except tomllib.TOMLDecodeError as exc:
             raise ParameterError(f"{path}: not valid TOML ({exc})") from None
     flat = dict(parse_override(item) for item in overrides)
-    data = _merge(data, _nested(flat))
+    data = _merge(_merge(_nested(dict(base or {})), data), _nested(flat))
     return _validate(_coerce_numbers(data))
 
 
