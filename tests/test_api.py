@@ -1,0 +1,98 @@
+"""The public Python API: ``import polywear as pw`` (lazy entry points, the quick start)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import types
+from importlib import import_module
+
+import numpy as np
+import pytest
+
+import polywear as pw
+from polywear.params import ParameterError
+
+from .cli_runner import run_main
+
+# public name -> where it lives; written out here, independently of polywear._ENTRY_POINTS
+EXPECTED = {
+    "Params": "polywear.params:Params",
+    "load_params": "polywear.params:load_params",
+    "ParameterError": "polywear.params:ParameterError",
+    "stability": "polywear.analysis.stability:stability_analysis",
+    "bifurcation": "polywear.analysis.bifurcation:bifurcation_diagram",
+    "simulate": "polywear.analysis.simulation:simulate",
+    "sensitivity": "polywear.analysis.sensitivity:local_sensitivity",
+    "stability_map": "polywear.analysis.stability_map:stability_map",
+    "study": "polywear.analysis.global_sensitivity:global_sensitivity",
+    "design": "polywear.analysis.design:clear_operating_range",
+    "excitation": "polywear.analysis.excitation:excitation_portraits",
+    "report": "polywear.report:run_report",
+    "friction": "polywear.analysis.friction",
+    "models": "polywear.models",
+    "solvers": "polywear.solvers",
+}
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_entry_point_is_the_library_object(name):
+    module_name, _, attribute = EXPECTED[name].partition(":")
+    module = import_module(module_name)
+    assert getattr(pw, name) is (getattr(module, attribute) if attribute else module)
+    assert name in pw.__all__ and name in dir(pw)
+
+
+def test_unknown_name_is_an_attribute_error():
+    with pytest.raises(AttributeError, match="no attribute 'no_such_thing'"):
+        pw.no_such_thing  # noqa: B018
+
+
+def test_report_function_survives_import_of_the_report_module():
+    import polywear.report  # noqa: F401  (the submodule of the same name)
+
+    assert callable(pw.report) and not isinstance(pw.report, types.ModuleType)
+    assert sys.modules["polywear.report"].run_report is pw.report
+
+
+def test_import_is_lazy_and_dir_imports_nothing():
+    code = (
+        "import sys, polywear as pw; names = dir(pw); "
+        "heavy = ('numpy', 'scipy', 'numba', 'matplotlib', 'pydantic', 'xarray', 'typer', 'rich'); "
+        "print(sorted(m for m in heavy if m in sys.modules), 'stability' in names)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["[]", "True"]
+
+
+def test_with_updates_method_validates_again():
+    p = pw.load_params()
+    q = p.with_updates({"operating.toe_deg": 0.3, "tread.mass_kg": 2})
+    assert (q.operating.toe_deg, q.tread.mass_kg, p.operating.toe_deg) == (0.3, 2.0, 0.5)
+    with pytest.raises(ParameterError, match="operating.toe_deg"):
+        p.with_updates({"operating.toe_deg": 45.0})
+    with pytest.raises(ParameterError, match="unknown key"):
+        p.with_updates({"tread.mass": 1.0})
+
+
+def _round_trip(summary: dict) -> dict:
+    """The summary as the CLI prints it: through JSON (numpy values as lists and floats)."""
+    return json.loads(json.dumps(summary, default=lambda o: o.tolist() if isinstance(o, np.ndarray) else o.item()))
+
+
+def test_quick_start_stability_equals_cli_json():
+    code, out, err = run_main(["stability", "--json", "--set", "operating.toe_deg=0.4"])
+    assert code == 0, err
+    result = pw.stability(pw.load_params().with_updates({"operating.toe_deg": 0.4}))
+    assert _round_trip(result.summary()) == json.loads(out)
+    assert len(result.hopf_points) == 2
+
+
+@pytest.mark.slow
+def test_quick_start_bifurcation_equals_cli_json():
+    code, out, err = run_main(["bifurcation", "--json", "-q"])
+    assert code == 0, err
+    diagram = pw.bifurcation(pw.load_params())
+    assert _round_trip(diagram.summary()) == json.loads(out)
+    assert diagram.summary()["second_bifurcation_speed_kmh"] > diagram.summary()["first_bifurcation_speed_kmh"]
