@@ -25,6 +25,8 @@ __all__ = [
     "Friction",
     "Axle",
     "Tire",
+    "Wear",
+    "WearCycleEntry",
     "Study",
     "StudyParameter",
     "study_keys",
@@ -123,6 +125,8 @@ class Tire(_Table):
 
     vertical_stiffness_n_per_m: float = _f(2.0e5, "tire vertical stiffness k_z [N/m]", ge=0.0)
     vertical_damping_ns_per_m: float = _f(100.0, "tire vertical damping c_z [N s/m]", ge=0.0)
+    contact_length_m: float = _f(0.11, "contact patch length 2a along the circumference [m]", gt=0.0)
+    tread_width_m: float = _f(0.16, "tread (contact patch) width b_w [m]", gt=0.0)
 
 
 ADHESION_SCALE = "adhesion_scale"
@@ -136,7 +140,7 @@ def _float_fields() -> dict[str, Any]:
     """"table.key" -> pydantic FieldInfo of every float key of the model tables."""
     out = {}
     for table, cls in _TABLES.items():
-        if table == "study":
+        if table in ("study", "wear"):
             continue
         for name, info in cls.model_fields.items():
             if info.annotation is float:
@@ -161,6 +165,81 @@ def _integral(value: Any) -> Any:
     if isinstance(value, float) and value.is_integer():
         return int(value)
     return value
+
+
+CYCLE_SHARE_TOLERANCE = 0.01
+"""``[[wear.cycle]]`` shares must sum to 1 within this (rounding); they are then normalised."""
+
+
+class WearCycleEntry(_Table):
+    """One speed of the drive cycle and the share of the distance driven at it."""
+
+    speed_kmh: float = Field(description="vehicle speed [km/h]", gt=0.0, le=1000.0)
+    share: float = Field(description="share of the distance driven at this speed [-]", gt=0.0, le=1.0)
+
+    _to_float = field_validator("speed_kmh", "share", mode="before")(_number)
+
+
+def _default_cycle() -> tuple[WearCycleEntry, ...]:
+    """Urban / rural / motorway mix of the distance (a typical passenger-car use)."""
+    return (
+        WearCycleEntry(speed_kmh=50.0, share=0.3),
+        WearCycleEntry(speed_kmh=80.0, share=0.4),
+        WearCycleEntry(speed_kmh=120.0, share=0.3),
+    )
+
+
+class Wear(_Table):
+    """Polygonal wear: wear law, initial roughness, profile resolution, drive cycle."""
+
+    energetic_rate_mm3_per_j: float = _f(
+        1.0e-3, "energetic wear rate k_e: worn volume per friction energy [mm^3/J]", gt=0.0
+    )
+    initial_roughness_um: float = _f(
+        1.0, "RMS of the seeded initial roughness over orders 1..max_order [um]", gt=0.0
+    )
+    max_order: int = Field(60, description="highest harmonic (polygon order) of the profile [-]", ge=1)
+    profile_points: int = Field(720, description="samples of the worn profile around the tire [-]", ge=8)
+    seed: int = Field(0, description="seed of the initial roughness (numpy SeedSequence) [-]", ge=0)
+    visible_depth_mm: float = _f(
+        0.1, "peak-to-valley depth at which the polygon counts as visible [mm]", gt=0.0
+    )
+    cycle: tuple[WearCycleEntry, ...] = Field(
+        default_factory=_default_cycle,
+        description="drive cycle ([[wear.cycle]]): speeds and shares of the distance",
+    )
+
+    _to_int = field_validator("max_order", "profile_points", "seed", mode="before")(_integral)
+
+    @field_validator("cycle", mode="before")
+    @classmethod
+    def _array_of_tables(cls, value: Any) -> Any:
+        return tuple(value) if isinstance(value, list) else value
+
+    @model_validator(mode="after")
+    def _consistent(self) -> Wear:
+        if 2 * self.max_order >= self.profile_points:
+            raise ParameterError(
+                f"wear.max_order = {self.max_order!r}: must be below half of wear.profile_points = "
+                f"{self.profile_points!r} (sampling)"
+            )
+        if not self.cycle:
+            raise ParameterError("wear.cycle: needs at least one [[wear.cycle]] entry")
+        speeds = [entry.speed_kmh for entry in self.cycle]
+        duplicates = sorted({v for v in speeds if speeds.count(v) > 1})
+        if duplicates:
+            raise ParameterError(f"wear.cycle: speed_kmh = {duplicates[0]!r} given more than once")
+        total = sum(entry.share for entry in self.cycle)
+        if abs(total - 1.0) > CYCLE_SHARE_TOLERANCE:
+            raise ParameterError(
+                f"wear.cycle: shares sum to {total:.6g}: must sum to 1 (within {CYCLE_SHARE_TOLERANCE})"
+            )
+        return self
+
+    def cycle_shares(self) -> tuple[tuple[float, float], ...]:
+        """(speed [km/h], share [-]) of the drive cycle, shares normalised to sum exactly 1."""
+        total = math.fsum(entry.share for entry in self.cycle)
+        return tuple((entry.speed_kmh, entry.share / total) for entry in self.cycle)
 
 
 class StudyParameter(_Table):
@@ -281,6 +360,7 @@ class Params(_Table):
     axle: Axle = Axle()
     tire: Tire = Tire()
     study: Study = Study()
+    wear: Wear = Wear()
 
     def with_updates(self, updates: dict[str, Any]) -> Params:
         """A new parameter set with ``{"table.key": value}`` updates, validated again.
@@ -316,6 +396,8 @@ def _describe_error(exc: ValidationError, data: dict[str, Any]) -> str:
     if kind == "extra_forbidden":
         known = sorted(_table_at(err["loc"][:-1]).model_fields)
         return f"{loc}: unknown key (known keys: {', '.join(known)})"
+    if kind == "missing":
+        return f"{loc}: required key missing"
     ctx = err.get("ctx") or {}
     if isinstance(ctx.get("error"), ParameterError):
         return str(ctx["error"])
@@ -423,9 +505,11 @@ def load_params(
     if path is not None:
         path = Path(path)
         try:
-            text = path.read_text()
+            text = path.read_text(encoding="utf-8")
         except OSError as exc:
             raise ParameterError(f"{path}: cannot read parameter file ({exc.strerror})") from None
+        except UnicodeDecodeError:
+            raise ParameterError(f"{path}: not a text (UTF-8 TOML) file") from None
         try:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
@@ -466,11 +550,17 @@ _STUDY_EXAMPLE = """\
 #                                         # normal (mean = ..., std = ...; truncated to [low, high])"""
 
 
+_ARRAY_COMMENTS = {
+    "wear.cycle": "# drive cycle: one [[wear.cycle]] per speed, share = share of the distance "
+    f"(shares sum to 1 within {CYCLE_SHARE_TOLERANCE}, then normalised)",
+}
+
+
 def _array_of_tables(name: str, entries: tuple[BaseModel, ...], comments: bool) -> list[str]:
     """``[[name]]`` blocks, one per entry (None fields left out)."""
     if not entries:
         return ["", _STUDY_EXAMPLE] if comments else []
-    lines: list[str] = []
+    lines: list[str] = ["", _ARRAY_COMMENTS[name]] if comments and name in _ARRAY_COMMENTS else []
     for entry in entries:
         lines += ["", f"[[{name}]]"]
         lines += [f"{k} = {_toml_value(v)}" for k, v in entry if v is not None]
