@@ -57,6 +57,9 @@ SPEC_DEFAULTS = {
     "axle.reference": "running",
     "tire.vertical_stiffness_n_per_m": 2.0e5,
     "tire.vertical_damping_ns_per_m": 100.0,
+    # MODEL.md section 9 (wear): the contact patch
+    "tire.contact_length_m": 0.11,
+    "tire.tread_width_m": 0.16,
 }
 # The [study] table: settings of `polywear study` (docs/sensitivity.md), not model parameters.
 STUDY_DEFAULTS = {
@@ -72,6 +75,15 @@ STUDY_DEFAULTS = {
     "study.operating_range_kmh": (80.0, 130.0),
     "study.parameters": (),
 }
+# The [wear] table (MODEL.md section 9; tests/test_wear_params.py checks its validation).
+WEAR_DEFAULTS = {
+    "wear.energetic_rate_mm3_per_j": 1.0e-3,
+    "wear.initial_roughness_um": 1.0,
+    "wear.max_order": 60,
+    "wear.profile_points": 720,
+    "wear.seed": 0,
+    "wear.visible_depth_mm": 0.1,
+}
 CHOICES = {"model": ("tread1dof", "axle4dof"), "axle.reference": ("running", "unloaded")}
 NUMERIC_KEYS = [k for k, v in SPEC_DEFAULTS.items() if isinstance(v, float)]
 
@@ -86,8 +98,10 @@ def test_no_key_outside_the_spec_table():
     """A key that MODEL.md section 6 does not list must be added there (and here) first."""
     items = {key: value for key, value, _ in flat_items(Params())}
     assert len(items) == len(flat_items(Params()))
-    assert set(items) == set(SPEC_DEFAULTS) | set(STUDY_DEFAULTS), set(items) ^ (set(SPEC_DEFAULTS) | set(STUDY_DEFAULTS))
+    expected = set(SPEC_DEFAULTS) | set(STUDY_DEFAULTS) | set(WEAR_DEFAULTS) | {"wear.cycle"}
+    assert set(items) == expected, set(items) ^ expected
     assert {k: items[k] for k in STUDY_DEFAULTS} == STUDY_DEFAULTS
+    assert {k: items[k] for k in WEAR_DEFAULTS} == WEAR_DEFAULTS
 
 
 def test_every_key_has_a_description_with_a_unit_or_choice():
