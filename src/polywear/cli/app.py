@@ -16,6 +16,7 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,  # plain help: units in [brackets] stay, flags get no <bool> metavar
 )
 
 
@@ -70,21 +71,36 @@ def _is_user_error(exc: Exception) -> bool:
     return isinstance(exc, UserError) or (params is not None and isinstance(exc, params.ParameterError))
 
 
+def _interrupted(exc: BaseException) -> bool:
+    """Ctrl-C: a KeyboardInterrupt, or click's Abort raised from one."""
+    return isinstance(exc, KeyboardInterrupt) or (
+        isinstance(exc, typer.Abort) and isinstance(exc.__cause__ or exc.__context__, KeyboardInterrupt)
+    )
+
+
 def main() -> None:
-    """Console entry point: user errors become one line and exit code 2."""
+    """Console entry point: exit 0 on success, 2 with one line on bad input, 130 on Ctrl-C.
+
+    Bad input is a UserError, a ParameterError or a usage error found by click (unknown
+    option, a value of the wrong type); none of them prints a traceback.
+    """
     try:
         app(standalone_mode=False)
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
-    except typer.Abort:
-        typer.echo("aborted", err=True)
-        sys.exit(1)
+    except (KeyboardInterrupt, typer.Abort) as exc:
+        if not _interrupted(exc):
+            typer.echo("aborted", err=True)
+            sys.exit(1)
+        typer.echo("interrupted", err=True)
+        sys.exit(130)
     except Exception as exc:
         if _is_user_error(exc):
             typer.echo(f"error: {exc}", err=True)
             sys.exit(2)
-        # click (vendored by typer) usage errors carry .show() and .exit_code (2)
-        if hasattr(exc, "show") and hasattr(exc, "exit_code"):
-            exc.show()
+        # click (vendored by typer) usage errors carry .format_message() and .exit_code (2)
+        if hasattr(exc, "format_message") and hasattr(exc, "exit_code"):
+            command = getattr(getattr(exc, "ctx", None), "command_path", "polywear")
+            typer.echo(f"error: {exc.format_message()} (see {command} --help)", err=True)
             sys.exit(exc.exit_code)
         raise

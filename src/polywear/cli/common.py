@@ -7,9 +7,11 @@ Heavy libraries are imported inside the commands, never at module level, so that
 from __future__ import annotations
 
 import json
+import math
+import tempfile
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Annotated, Any, Iterator, Optional
+from typing import Annotated, Any, Callable, Iterator, Optional
 
 import typer
 
@@ -24,6 +26,14 @@ SetOpt = Annotated[
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print the summary as JSON on stdout.")]
 PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Write a figure (png, pdf, svg).")]
 OutOpt = Annotated[Optional[Path], typer.Option("--out", "-o", help="Write the result (netCDF .nc).")]
+QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="No progress output or notes on stderr.")]
+
+PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".svgz", ".eps", ".ps", ".jpg", ".jpeg", ".tif", ".tiff", ".webp")
+"""File types ``--plot`` writes (matplotlib's Agg, PDF, SVG and PS backends)."""
+MAX_SPEED_KMH = 1000.0
+"""Highest speed accepted anywhere [km/h] (the same limit as ``operating.speed_kmh``)."""
+MAX_GRID_POINTS = 20_000
+"""Most speeds of a stability grid or sweep a command accepts (20 000 eigen-solves: seconds)."""
 
 
 class UserError(Exception):
@@ -35,6 +45,74 @@ def load(config: Path | None, sets: list[str] | None):
     from ..params import load_params
 
     return load_params(config, sets or ())
+
+
+def check_speed_range(pair: tuple[float, float], option: str = "--speed-range") -> tuple[float, float]:
+    """``(low, high)`` checked: finite, 0 < low < high <= MAX_SPEED_KMH [km/h]."""
+    lo, hi = pair
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 < lo < hi <= MAX_SPEED_KMH):
+        raise UserError(f"{option} {lo:g} {hi:g}: need 0 < low < high <= {MAX_SPEED_KMH:g} [km/h]")
+    return float(lo), float(hi)
+
+
+def check_count(value: int | None, option: str, low: int, high: int) -> int | None:
+    """An integer option checked against ``low <= value <= high`` (None passes)."""
+    if value is not None and not low <= value <= high:
+        raise UserError(f"{option} {value}: must be between {low} and {high}")
+    return value
+
+
+def output_file(path: Path | None, option: str, suffixes: tuple[str, ...]) -> Path | None:
+    """Check, before any computation, that ``path`` can be written as one of ``suffixes``.
+
+    Refused with one line (exit 2): an unknown extension, an existing directory, a
+    missing parent directory, a parent that is a file, or a location that cannot be
+    written. Returns ``path`` unchanged (None passes).
+    """
+    if path is None:
+        return None
+    if path.suffix.lower() not in suffixes:
+        raise UserError(f"{option} {path}: unknown extension {path.suffix or '(none)'!r}, "
+                        f"expected {', '.join(suffixes)}")
+    if path.is_dir():
+        raise UserError(f"{option} {path}: is a directory, expected a file name")
+    _writable_directory(path.parent, f"{option} {path}")
+    return path
+
+
+def output_folder(path: Path, option: str, marker: str) -> Path:
+    """Check a results folder before any computation: a folder (or nothing yet) in a
+    writable directory, and, if it holds files, one this command wrote (it has ``marker``):
+    a run replaces the folder, so a folder of other files is never touched."""
+    if path.exists():
+        if not path.is_dir():
+            raise UserError(f"{option} {path}: is a file, expected a folder")
+        if any(path.iterdir()) and not (path / marker).exists():
+            raise UserError(f"{option} {path}: folder holds other files (no {marker}); give a new or empty folder")
+    _writable_directory(path.parent, f"{option} {path}")
+    return path
+
+
+def _writable_directory(directory: Path, what: str) -> None:
+    where = directory if str(directory) else Path(".")
+    if not where.exists():
+        raise UserError(f"{what}: directory {where} does not exist")
+    if not where.is_dir():
+        raise UserError(f"{what}: {where} is not a directory")
+    try:  # the real test (permissions, read-only file systems, root)
+        with tempfile.TemporaryFile(dir=where):
+            pass
+    except OSError as exc:
+        raise UserError(f"{what}: cannot write in {where} ({exc.strerror})") from None
+
+
+def write_output(path: Path, write: Callable[[Path], Any], quiet: bool = False) -> None:
+    """``write(tmp)`` to a temporary file next to ``path``, renamed onto it when complete."""
+    from ..io import atomic_path
+
+    with atomic_path(path) as tmp:
+        write(tmp)
+    info(f"wrote {path}", quiet)
 
 
 def emit_json(payload: Any) -> None:
@@ -93,9 +171,10 @@ def write_figure(path: Path, make_figure, quiet: bool = False) -> None:
     import matplotlib.pyplot as plt
 
     fig = make_figure()
-    fig.savefig(path, dpi=150, bbox_inches="tight")
-    plt.close(fig)
-    info(f"wrote {path}", quiet)
+    try:
+        write_output(path, lambda tmp: fig.savefig(tmp, dpi=150, bbox_inches="tight"), quiet)
+    finally:
+        plt.close(fig)
 
 
 def one_axes(draw, figsize=(8.0, 4.5)):

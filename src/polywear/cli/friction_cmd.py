@@ -24,7 +24,7 @@ from .common import (
 )
 
 app = typer.Typer(help="LuGre friction: static curve, hysteresis loops, fits to measured mu(v) and loops.",
-                  no_args_is_help=True)
+                  no_args_is_help=True, rich_markup_mode=None)
 
 
 def _operating_sliding_velocity(params) -> float:

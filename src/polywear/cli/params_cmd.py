@@ -9,7 +9,7 @@ import typer
 
 from .common import ConfigOpt, JsonOpt, SetOpt, emit_json, info, load
 
-app = typer.Typer(help="Show or write parameter sets (TOML).", no_args_is_help=True)
+app = typer.Typer(help="Show or write parameter sets (TOML).", no_args_is_help=True, rich_markup_mode=None)
 
 
 @app.command("show")

@@ -6,7 +6,26 @@ from typing import Annotated
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, OutOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, one_axes, write_figure
+from .common import (
+    MAX_GRID_POINTS,
+    PLOT_SUFFIXES,
+    ConfigOpt,
+    JsonOpt,
+    OutOpt,
+    PlotOpt,
+    QuietOpt,
+    SetOpt,
+    UserError,
+    check_count,
+    check_speed_range,
+    emit_json,
+    info,
+    load,
+    one_axes,
+    output_file,
+    write_figure,
+    write_output,
+)
 
 
 def stability(
@@ -19,20 +38,25 @@ def stability(
     json_: JsonOpt = False,
     plot: PlotOpt = None,
     out: OutOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Linear stability of steady rolling: Hopf speeds, frequencies, unstable speed bands."""
+    output_file(out, "--out", (".nc",))
+    output_file(plot, "--plot", PLOT_SUFFIXES)
+    lo, hi = check_speed_range(speed_range)
+    check_count(n_speeds, "--n-speeds", 3, MAX_GRID_POINTS)
     params = load(config, set_)
     from ..analysis.stability import stability_analysis
 
+    info(f"stability: eigenvalues at {n_speeds} speeds ...", quiet)
     try:
-        result = stability_analysis(params, tuple(speed_range), n_speeds=n_speeds)
+        result = stability_analysis(params, (lo, hi), n_speeds=n_speeds)
     except ValueError as exc:
         raise UserError(str(exc)) from None
     if out:
-        result.save(out)
-        info(f"wrote {out}")
+        write_output(out, result.save, quiet)
     if plot:
-        write_figure(plot, lambda: one_axes(result.plot, (7, 4)))
+        write_figure(plot, lambda: one_axes(result.plot, (7, 4)), quiet)
     summary = result.summary()
     if json_:
         emit_json(summary)
