@@ -8,7 +8,31 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, OutOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, progress, one_axes, write_figure
+from .common import (
+    MAX_GRID_POINTS,
+    PLOT_SUFFIXES,
+    ConfigOpt,
+    JsonOpt,
+    OutOpt,
+    PlotOpt,
+    QuietOpt,
+    SetOpt,
+    UserError,
+    check_count,
+    check_speed_range,
+    emit_json,
+    load,
+    one_axes,
+    output_file,
+    progress,
+    write_figure,
+    write_output,
+)
+
+MAX_SWEEP_SPEEDS = 1000
+"""Most speeds of the brute-force sweep (four simulations each)."""
+MAX_INTERVALS = 1000
+"""Most collocation mesh intervals (--ntst)."""
 
 
 class Method(str, Enum):
@@ -33,13 +57,18 @@ def bifurcation(
     json_: JsonOpt = False,
     plot: PlotOpt = None,
     out: OutOpt = None,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
+    quiet: QuietOpt = False,
 ) -> None:
     """Bifurcation diagram: Hopf points, cycle branches (stable and unstable), folds, SEV band."""
+    output_file(out, "--out", (".nc",))
+    output_file(csv, "--csv", (".csv",))
+    output_file(plot, "--plot", PLOT_SUFFIXES)
+    if csv and method is Method.sweep:
+        raise UserError("--csv: the sweep writes netCDF only (use --out FILE.nc)")
+    lo, hi = check_speed_range(speed_range)
+    check_count(n_intervals, "--ntst", 4, MAX_INTERVALS)
+    check_count(n_speeds, "--n-speeds", 3, MAX_SWEEP_SPEEDS if method is Method.sweep else MAX_GRID_POINTS)
     params = load(config, set_)
-    lo, hi = speed_range
-    if not 0.0 < lo < hi:
-        raise UserError(f"--speed-range {lo} {hi}: need 0 < low < high [km/h]")
     if method is Method.sweep:
         from ..analysis.bifurcation import sweep_bands
 
@@ -59,13 +88,9 @@ def bifurcation(
             )
         summary = result.summary()
     if out:
-        result.save(out)
-        info(f"wrote {out}", quiet)
+        write_output(out, result.save, quiet)
     if csv:
-        if method is Method.sweep:
-            raise UserError("--csv: the sweep writes netCDF only (use --out FILE.nc)")
-        result.save(csv if str(csv).endswith(".csv") else Path(f"{csv}.csv"))
-        info(f"wrote {csv}", quiet)
+        write_output(csv, result.save, quiet)
     if plot:
         write_figure(plot, (lambda: one_axes(result.plot)) if method is Method.sweep else result.figure, quiet)
     if json_:
