@@ -4,6 +4,11 @@ linear-stability picture of MODEL.md section 7."""
 
 from __future__ import annotations
 
+import importlib.util
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -18,6 +23,7 @@ from polywear.models.base import kmh_to_ms
 from polywear.params import Params, with_updates
 
 NQ = 4
+SCHEMATIC_SCRIPT = Path(__file__).resolve().parents[1] / "docs" / "figures" / "make_schematic.py"
 
 
 def pack(**updates) -> np.ndarray:
@@ -535,16 +541,25 @@ def test_schematic_draws_into_given_axes(tmp_path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from polywear.models.axle4dof_schematic import plot_schematic
+    spec = importlib.util.spec_from_file_location("make_schematic", SCHEMATIC_SCRIPT)
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
 
     fig, ax = plt.subplots()
-    artists = plot_schematic(ax)
+    artists = script.plot_schematic(ax)
     texts = " ".join(a.get_text() for a in artists if hasattr(a, "get_text"))
     for label in ("O (bushing)", "C", r"\alpha", r"\beta", r"\gamma", "toe_0", "camber_0", "k_z", "X (forward)"):
         assert label in texts, label
     assert all(a.axes is ax for a in artists if hasattr(a, "axes") and a.axes is not None)
     fig.savefig(tmp_path / "schematic.png")
     plt.close(fig)
+
+
+def test_schematic_script_runs(tmp_path):
+    """The figure script outside the package writes its PNG when run as a script."""
+    out = tmp_path / "axle4dof_schematic.png"
+    subprocess.run([sys.executable, str(SCHEMATIC_SCRIPT), str(out)], check=True, capture_output=True)
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_prepared_parameter_vector_caches_the_preloads_of_one_speed_only():

@@ -7,9 +7,11 @@ alpha/beta/gamma with their torsional springs; a top view with the running toe
 ``toe0 + alpha`` and the lateral direction d; a rear view with the running camber
 ``camber0 + beta``, the friction force F and the normal load N. Angles are exaggerated.
 
-Write the documentation figure with::
+Write the documentation figure (docs/model_axle4dof.md) with::
 
-    python -m polywear.models.axle4dof_schematic docs/figures/axle4dof_schematic.png
+    .venv/bin/python docs/figures/make_schematic.py docs/figures/axle4dof_schematic.png
+
+This script is not part of the installed package; tests load it by its path.
 """
 
 from __future__ import annotations
@@ -19,9 +21,12 @@ import sys
 
 import numpy as np
 
+from polywear.params import Axle, Operating
+
 __all__ = ["plot_schematic"]
 
-_ARM_LENGTH, _PIVOT_HEIGHT, _RADIUS = 0.45, 0.30, 0.30  # defaults of MODEL.md section 6 [m]
+# drawn to the default geometry [m]: arm length L, pivot height H, rolling radius R_e
+_ARM_LENGTH, _PIVOT_HEIGHT, _RADIUS = Axle().arm_length_m, Axle().pivot_height_m, Operating().rolling_radius_m
 _OBLIQUE = 0.5 * np.array([math.cos(math.radians(30)), math.sin(math.radians(30))])
 
 
