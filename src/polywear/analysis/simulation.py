@@ -7,7 +7,9 @@ displacement ``x`` (or from any full state), is integrated by
 
 ``"equilibrium"``
     every state has come back to ``u_eq`` to within ``equilibrium_rtol`` times the
-    largest deviation it had during the run, and is not moving away again;
+    largest deviation it had during the run, and is not moving away again (or what is
+    left is below the integrator's resolution ``atol + rtol |u_eq|``: rounding noise,
+    not an oscillation);
 ``"cycle"``
     the maxima of the lead state (``x``) repeat every m-th one (m = 1 for a simple
     cycle, more for stick-slip ringing or period doubling), there are at least
@@ -228,7 +230,12 @@ def classify_window(model, V, p, t, u, dense, u_eq, deviation_scale, settings: S
     last, previous = dev[half:].max(axis=0), dev[: max(half, 1)].max(axis=0)
     lead = model.index(settings.lead_state)
     nan = np.full(n, np.nan)
-    if np.all(last <= settings.equilibrium_rtol * deviation_scale) and np.all(last <= previous):
+    # deviations below what the integrator resolves (atol + rtol |u_eq|) are rounding noise:
+    # a motion decayed to that level is at the equilibrium whether or not the noise "grows"
+    resolved = settings.atol + settings.rtol * np.abs(u_eq)
+    if np.all(last <= np.maximum(settings.equilibrium_rtol * deviation_scale, resolved)) and np.all(
+        (last <= previous) | (last <= resolved)
+    ):
         return SteadyState(
             outcome="equilibrium", amplitude=0.5 * np.ptp(u[half:], axis=0), mean=u[half:].mean(axis=0),
             maximum=u[half:].max(axis=0), minimum=u[half:].min(axis=0), period=math.nan,

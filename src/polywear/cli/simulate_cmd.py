@@ -8,18 +8,29 @@ from typing import Annotated, Optional
 import typer
 
 from .common import (
+    MAX_SPEED_KMH,
+    PLOT_SUFFIXES,
     ConfigOpt,
     JsonOpt,
     OutOpt,
     PlotOpt,
+    QuietOpt,
     SetOpt,
     UserError,
     emit_json,
-    info,
     load,
+    output_file,
     progress,
     write_figure,
+    write_output,
 )
+
+MAX_DURATION_S = 60.0
+"""Longest simulated time per run [s] (50 000 stored samples per second and run)."""
+MAX_RUNS = 100
+"""Most runs (disturbances or sweep values) of one command."""
+RTOL_RANGE = (1e-13, 1e-2)
+"""Relative tolerances the integrators accept: tighter is below rounding, looser is meaningless."""
 
 
 def _numbers(texts: list[str], what: str) -> list[float]:
@@ -51,7 +62,7 @@ def _status(run) -> str:
     if run.contact_lost:
         head += " (the tire lost contact with the road)"
     if st.outcome == "equilibrium":
-        return head
+        return f"{head}: no oscillation, the disturbance decays"
     freq = f", {st.frequency:.2f} Hz, polygon order {run.polygon_order:.2f}" if math.isfinite(st.frequency) else ""
     return f"{head}, x amplitude {st.amplitude[x] * 1e3:.4g} mm{freq}"
 
@@ -80,18 +91,23 @@ def simulate(
     json_: JsonOpt = False,
     plot: PlotOpt = None,
     out: OutOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Simulate from a disturbed steady rolling state: amplitudes, SEV frequency, polygon order.
 
     Phase portraits of every coordinate; --sweep KEY=v1,v2 compares parameter values."""
+    output_file(out, "--out", (".nc",))
+    output_file(plot, "--plot", PLOT_SUFFIXES)
+    disturbances = _numbers(disturbance or ["1e-4"], "--disturbance")
+    if speed is not None and not (math.isfinite(speed) and 0.0 < speed <= MAX_SPEED_KMH):
+        raise UserError(f"--speed {speed!r}: must be a speed in (0, {MAX_SPEED_KMH:g}] [km/h]")
+    if not (math.isfinite(duration) and 0.0 < duration <= MAX_DURATION_S):
+        raise UserError(f"--duration {duration!r}: must be a time in (0, {MAX_DURATION_S:g}] [s]")
+    if not RTOL_RANGE[0] <= rtol <= RTOL_RANGE[1]:
+        raise UserError(f"--rtol {rtol!r}: must be between {RTOL_RANGE[0]:g} and {RTOL_RANGE[1]:g}")
     params = load(config, set_)
     from ..analysis.simulation import SimulationSettings, simulate_disturbances, simulate_values
 
-    disturbances = _numbers(disturbance or ["1e-4"], "--disturbance")
-    if speed is not None and not (math.isfinite(speed) and speed > 0.0):
-        raise UserError(f"--speed {speed!r}: must be a positive speed [km/h]")
-    if not (math.isfinite(duration) and duration > 0.0):
-        raise UserError(f"--duration {duration!r}: must be a positive time [s]")
     try:
         settings = SimulationSettings(method=method, rtol=rtol)
     except ValueError as exc:
@@ -104,9 +120,11 @@ def simulate(
 
         get_value(params, key)  # an unknown key is reported before anything runs
     n_runs = len(values) if key else len(disturbances)
+    if n_runs > MAX_RUNS:
+        raise UserError(f"{n_runs} runs: at most {MAX_RUNS} disturbances or sweep values")
     from ..solvers.integrate import IntegrationError
 
-    with progress(f"simulating {duration:g} s", total=n_runs, enabled=not json_) as advance:
+    with progress(f"simulating {duration:g} s", total=n_runs, enabled=not quiet) as advance:
         try:
             if key:
                 result = simulate_values(params, key, values, speed, duration, disturbance=disturbances[0],
@@ -117,15 +135,15 @@ def simulate(
         except IntegrationError as exc:
             raise UserError(str(exc)) from None
     runs = result.runs
-    for run in runs:
-        info(_status(run), quiet=json_)
     single = runs[0] if len(runs) == 1 else None
     if out:
-        (single or result).save(out)
-        info(f"wrote {out}", quiet=json_)
+        write_output(out, (single or result).save, quiet)
     if plot:
         # parameter sweeps compare the final cycles; disturbances show the way there
         tail = settings.window_fraction * duration if key else None
-        write_figure(plot, lambda: (single or result).plot(tail_s=tail)[0].figure, quiet=json_)
+        write_figure(plot, lambda: (single or result).plot(tail_s=tail)[0].figure, quiet)
     if json_:
         emit_json(single.summary() if single else result.summary())
+    else:
+        for run in runs:
+            typer.echo(_status(run))
