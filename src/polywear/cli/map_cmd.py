@@ -2,12 +2,29 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, progress, one_axes, write_figure
+from .common import (
+    PLOT_SUFFIXES,
+    ConfigOpt,
+    JsonOpt,
+    PlotOpt,
+    QuietOpt,
+    SetOpt,
+    UserError,
+    check_speed_range,
+    emit_json,
+    load,
+    one_axes,
+    output_file,
+    progress,
+    write_figure,
+    write_output,
+)
 
 
 def map_(
@@ -30,9 +47,14 @@ def map_(
     json_: JsonOpt = False,
     plot: PlotOpt = None,
     out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write the map (.nc, or JSON otherwise).")] = None,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
+    quiet: QuietOpt = False,
 ) -> None:
     """Stability map: Hopf and fold-of-cycles curves in the (speed, parameter) plane, linear and hard bands."""
+    output_file(out, "--out", (".nc", ".json"))
+    output_file(plot, "--plot", PLOT_SUFFIXES)
+    speed_range = check_speed_range(speed_range)
+    if operating_range is not None:
+        operating_range = check_speed_range(operating_range, "--operating-range")
     params = load(config, set_)
     from ..analysis.sensitivity import nominal_value
     from ..analysis.stability_map import stability_map
@@ -46,18 +68,13 @@ def map_(
             raise UserError(f"{param} = 0: give --range LOW HIGH")
         range_ = tuple(sorted((0.5 * nominal, 1.5 * nominal)))
     lo, hi = range_
-    if not lo < hi:
-        raise UserError(f"--range {lo} {hi}: need low < high")
-    if not 0.0 < speed_range[0] < speed_range[1]:
-        raise UserError(f"--speed-range {speed_range[0]} {speed_range[1]}: need 0 < low < high [km/h]")
-    if operating_range is not None and not 0.0 < operating_range[0] < operating_range[1]:
-        raise UserError(f"--operating-range {operating_range[0]} {operating_range[1]}: need 0 < low < high [km/h]")
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise UserError(f"--range {lo} {hi}: need finite low < high")
     with progress(f"map of {param}: continuation steps", total=None, enabled=not quiet) as advance:
         result = stability_map(params, param, (lo, hi), tuple(speed_range), operating_range, folds=not no_folds,
                                on_step=advance)
     if out:
-        result.save(out)
-        info(f"wrote {out}", quiet)
+        write_output(out, result.save, quiet)
     if plot:
         write_figure(plot, lambda: one_axes(result.plot, (10, 5.5)), quiet)
     summary = result.summary()
