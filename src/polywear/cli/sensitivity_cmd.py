@@ -8,7 +8,26 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, progress, write_figure
+from .common import (
+    PLOT_SUFFIXES,
+    ConfigOpt,
+    JsonOpt,
+    PlotOpt,
+    QuietOpt,
+    SetOpt,
+    UserError,
+    check_speed_range,
+    emit_json,
+    info,
+    load,
+    output_file,
+    progress,
+    write_figure,
+    write_output,
+)
+
+MAX_STEP = 0.5
+"""Largest finite-difference step [relative]: beyond it a difference is no derivative."""
 
 
 class Method(str, Enum):
@@ -37,15 +56,15 @@ def sensitivity(
     json_: JsonOpt = False,
     plot: PlotOpt = None,
     out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write the rows (.csv, or JSON otherwise).")] = None,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
+    quiet: QuietOpt = False,
 ) -> None:
     """Sensitivity of every Hopf speed, fold speed and first/second bifurcation speed to parameters."""
+    output_file(out, "--out", (".csv", ".json"))
+    output_file(plot, "--plot", PLOT_SUFFIXES)
+    lo, hi = check_speed_range(speed_range)
+    if not 0.0 < step <= MAX_STEP:
+        raise UserError(f"--step {step}: must be in (0, {MAX_STEP:g}]")
     params = load(config, set_)
-    lo, hi = speed_range
-    if not 0.0 < lo < hi:
-        raise UserError(f"--speed-range {lo} {hi}: need 0 < low < high [km/h]")
-    if not step > 0.0:
-        raise UserError(f"--step {step}: must be positive")
     from ..analysis.sensitivity import PAPER_PARAMETERS, local_sensitivity, parameter_direction
     from ..models import get_model
     from ..params import study_keys
@@ -66,8 +85,7 @@ def sensitivity(
     if not result.rows:
         info("no bifurcation speed in the speed range: nothing to differentiate", quiet)
     if out:
-        result.save(out)
-        info(f"wrote {out}", quiet)
+        write_output(out, result.save, quiet)
     if plot and result.rows:
         write_figure(plot, result.figure, quiet)
     if json_:
