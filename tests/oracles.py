@@ -1,4 +1,4 @@
-"""Independent closed forms used as test oracles (MODEL.md section 3)."""
+"""Independent closed forms used as test oracles (docs/model.md section 3)."""
 
 import math
 
@@ -7,7 +7,7 @@ from scipy.optimize import brentq
 
 
 def characteristic_polynomial(V, p):
-    """Coefficients (highest power first) of the tread1dof cubic at the equilibrium, MODEL.md section 3."""
+    """Coefficients (highest power first) of the tread1dof cubic at the equilibrium, docs/model.md section 3."""
     m, k, c, n_load, toe, s0, s1, s2, mu_s, mu_c, v_s, delta = p
     v0 = V * math.sin(toe)
     e = math.exp(-abs(v0 / v_s) ** delta)

@@ -1,6 +1,6 @@
 """Model axle4dof: derivation against the paper and an independent kinematics, reduction
 to tread1dof, energy conservation, analytic derivatives, contact loss, equilibria and the
-linear-stability picture of MODEL.md section 7."""
+linear-stability picture of docs/model.md section 7."""
 
 from __future__ import annotations
 
@@ -482,7 +482,7 @@ def test_model_layout():
     assert p[slot("reference")] == 1.0 and pack()[slot("reference")] == 0.0
 
 
-# -- MODEL.md section 7 --------------------------------------------------------------------
+# -- docs/model.md section 7 --------------------------------------------------------------------
 
 
 def _unstable_speeds(p, lo, hi, n):
@@ -504,7 +504,7 @@ def _max_growth(p, kmh, fmin=0.0, fmax=np.inf):
 
 @pytest.mark.slow
 def test_default_linear_band_and_tread_mode_match_model_md():
-    """MODEL.md section 7: roughly 79 to 155 km/h, the tread mode (about 110-145 Hz)."""
+    """docs/model.md section 7: roughly 79 to 155 km/h, the tread mode (about 110-145 Hz)."""
     p = pack()
     tread = lambda kmh: _max_growth(p, kmh, fmin=80.0)  # noqa: E731
     lower = brentq(tread, 60.0, 100.0, xtol=1e-6)
@@ -519,7 +519,7 @@ def test_default_linear_band_and_tread_mode_match_model_md():
 
 @pytest.mark.slow
 def test_bushing_damping_alone_lets_the_toe_mode_self_excite():
-    """MODEL.md section 7: with toe/camber damping 144/83 the toe mode near 25 Hz goes
+    """docs/model.md section 7: with toe/camber damping 144/83 the toe mode near 25 Hz goes
     unstable from about 40 km/h, besides the tread mode."""
     from polywear.analysis.stability import mode_label
 

@@ -44,7 +44,7 @@ def test_default_diagram_matches_model_md(default_diagram):
     (info,) = s["branches"]
     assert info["to_hopf_kmh"] == pytest.approx(s["hopf_points"][1]["speed_kmh"])
     assert info["max_trivial_multiplier_error"] < 1e-7
-    # MODEL.md section 7: ~0.27 mm at 110 km/h; ~0.47-0.50 mm stable above 207.8 km/h
+    # docs/model.md section 7: ~0.27 mm at 110 km/h; ~0.47-0.50 mm stable above 207.8 km/h
     (c110,) = d.cycles_at(110.0)
     assert c110.stable and c110.amplitude[0] == pytest.approx(0.27e-3, rel=0.05)
     small, large = d.cycles_at(230.0)

@@ -21,7 +21,7 @@ def diagram():
 def test_axle_diagram_matches_model_md(diagram):
     s = diagram.summary()
     lo, hi = s["linear_band_kmh"][0]
-    assert abs(lo - 79.0) < 2.0 and abs(hi - 155.0) < 2.0  # MODEL.md section 7: roughly 79 to 155 km/h
+    assert abs(lo - 79.0) < 2.0 and abs(hi - 155.0) < 2.0  # docs/model.md section 7: roughly 79 to 155 km/h
     assert all(h["mode"] == "x" for h in s["hopf_points"])  # the tread mode goes unstable
     assert all(105.0 < h["frequency_hz"] < 150.0 for h in s["hopf_points"])  # "about 110-145 Hz"
     (fold,) = s["folds"]

@@ -254,7 +254,7 @@ def test_falling_branch_bounds_the_negative_slope(f):
 
 
 def test_falling_branch_default_contains_the_operating_sliding_velocity():
-    # default: V sin(toe) = 110/3.6 * sin(0.5 deg) = 0.2666 m/s (MODEL.md sections 3 and 6)
+    # default: V sin(toe) = 110/3.6 * sin(0.5 deg) = 0.2666 m/s (docs/model.md sections 3 and 6)
     lo, hi = falling_branch(Friction())
     assert lo < 110 / 3.6 * math.sin(math.radians(0.5)) < hi
 
@@ -320,7 +320,7 @@ def test_loops_approach_the_frozen_bristle_limit_at_high_frequency():
 
 
 def plain_lugre_rhs(f: Friction, velocity):
-    """An independent NumPy transcription of MODEL.md section 2 (no polywear kernels)."""
+    """An independent NumPy transcription of docs/model.md section 2 (no polywear kernels)."""
 
     def rhs(t, z):
         v = velocity(t)

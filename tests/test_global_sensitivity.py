@@ -99,7 +99,7 @@ def test_fast_band_finds_a_band_narrower_than_its_grid():
 
 @pytest.mark.parametrize("updates", [
     {"model": "axle4dof"},
-    # MODEL.md section 7: with bushing damping alone the toe mode self-excites too
+    # docs/model.md section 7: with bushing damping alone the toe mode self-excites too
     {"model": "axle4dof", "axle.toe_damping_nms_per_rad": 144.0, "axle.camber_damping_nms_per_rad": 83.0},
     {"model": "axle4dof", "axle.reference": "unloaded"},
 ])
@@ -134,7 +134,7 @@ def test_evaluator_statuses():
 
 
 def test_max_stable_amplitude_at_110_kmh_matches_model_md():
-    """MODEL.md section 7: the stable cycle at 110 km/h has an amplitude near 0.27 mm."""
+    """docs/model.md section 7: the stable cycle at 110 km/h has an amplitude near 0.27 mm."""
     diagram = bifurcation_diagram(Params())
     a = max_stable_amplitude(diagram, (109.999, 110.001))
     assert 0.25e-3 < a < 0.29e-3

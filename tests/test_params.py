@@ -1,4 +1,4 @@
-"""Parameter sets: the MODEL.md section 6 table, TOML round trips, validation messages."""
+"""Parameter sets: the docs/model.md section 6 table, TOML round trips, validation messages."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ from polywear.params import (
     with_updates,
 )
 
-# MODEL.md section 6, typed in by hand: the oracle for keys and defaults.
+# docs/model.md section 6, typed in by hand: the oracle for keys and defaults.
 SPEC_DEFAULTS = {
     "model": "tread1dof",
     "operating.speed_kmh": 110.0,
@@ -57,7 +57,7 @@ SPEC_DEFAULTS = {
     "axle.reference": "running",
     "tire.vertical_stiffness_n_per_m": 2.0e5,
     "tire.vertical_damping_ns_per_m": 100.0,
-    # MODEL.md section 9 (wear): the contact patch
+    # docs/model.md section 9 (wear): the contact patch
     "tire.contact_length_m": 0.11,
     "tire.tread_width_m": 0.16,
 }
@@ -75,7 +75,7 @@ STUDY_DEFAULTS = {
     "study.operating_range_kmh": (80.0, 130.0),
     "study.parameters": (),
 }
-# The [wear] table (MODEL.md section 9; tests/test_wear_params.py checks its validation).
+# The [wear] table (docs/model.md section 9; tests/test_wear_params.py checks its validation).
 WEAR_DEFAULTS = {
     "wear.energetic_rate_mm3_per_j": 1.0e-3,
     "wear.initial_roughness_um": 1.0,
@@ -95,7 +95,7 @@ def test_every_spec_key_exists_with_its_default(key):
 
 
 def test_no_key_outside_the_spec_table():
-    """A key that MODEL.md section 6 does not list must be added there (and here) first."""
+    """A key that docs/model.md section 6 does not list must be added there (and here) first."""
     items = {key: value for key, value, _ in flat_items(Params())}
     assert len(items) == len(flat_items(Params()))
     expected = set(SPEC_DEFAULTS) | set(STUDY_DEFAULTS) | set(WEAR_DEFAULTS) | {"wear.cycle"}

@@ -238,6 +238,6 @@ def test_cli_axle4dof_defaults():
     rows = {(r["quantity"], r["param"]): r for r in data["rows"]}
     assert {p for _, p in rows} == set(PAPER_PARAMETERS)
     assert all(r["derivative"] is not None and np.isfinite(r["derivative"]) for r in data["rows"])
-    # MODEL.md section 7: linear band roughly 79 to 155 km/h
+    # docs/model.md section 7: linear band roughly 79 to 155 km/h
     assert rows[("hopf_1", "operating.toe_deg")]["speed_kmh"] == pytest.approx(79.4, abs=1.0)
     assert rows[("hopf_2", "operating.toe_deg")]["speed_kmh"] == pytest.approx(155.2, abs=1.0)

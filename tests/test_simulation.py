@@ -42,7 +42,7 @@ def test_cycle_at_110_kmh_amplitude_frequency_and_polygon_order(run110):
     st = run110.steady
     assert st.outcome == "cycle" and st.steady
     x = run110.model.index("x")
-    assert 0.25e-3 < st.amplitude[x] < 0.29e-3  # MODEL.md section 7: near 0.27 mm
+    assert 0.25e-3 < st.amplitude[x] < 0.29e-3  # docs/model.md section 7: near 0.27 mm
     # amplitude against the plain sample extremes of the last 0.2 s (grid 20 us): the
     # refined value can only be larger, by at most the grid's (omega dt)^2 / 2
     tail = run110.t > 0.8
@@ -114,7 +114,7 @@ def test_equilibrium_and_transient_are_recognized():
 def test_large_disturbance_reaches_the_cycle_above_the_upper_hopf_speed():
     run = simulate(DEFAULTS, 230.0, 1.0, disturbance=1e-3)
     assert run.steady.outcome == "cycle"
-    assert 0.47e-3 <= run.steady.amplitude[model_index("x")] <= 0.50e-3  # MODEL.md section 7
+    assert 0.47e-3 <= run.steady.amplitude[model_index("x")] <= 0.50e-3  # docs/model.md section 7
 
 
 def test_stick_slip_cycle_is_analysed():

@@ -1,4 +1,4 @@
-"""Linear stability of tread1dof against the closed forms of MODEL.md section 3."""
+"""Linear stability of tread1dof against the closed forms of docs/model.md section 3."""
 
 import math
 
@@ -34,7 +34,7 @@ def test_default_hopf_speeds_match_routh_hurwitz_and_model_md():
     speeds = [h.speed for h in result.hopf_points]
     assert len(speeds) == 2
     assert np.allclose(speeds, oracle, rtol=1e-9)
-    # MODEL.md section 7: ~58.1 km/h (soft, ~127 Hz) and ~207.8 km/h (hard, ~147 Hz)
+    # docs/model.md section 7: ~58.1 km/h (soft, ~127 Hz) and ~207.8 km/h (hard, ~147 Hz)
     (h1, h2) = result.hopf_points
     assert abs(h1.speed_kmh - 58.1) < 0.1 and abs(h2.speed_kmh - 207.8) < 0.1
     assert abs(h1.frequency_hz - 127) < 1 and abs(h2.frequency_hz - 147) < 1

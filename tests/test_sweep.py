@@ -40,7 +40,7 @@ def test_every_start_type_and_speed_is_run(result):
 
 
 def test_hard_excitation_above_the_upper_hopf_speed(result):
-    """MODEL.md section 7: at 230 km/h a small disturbance dies out, a large one ends on a
+    """docs/model.md section 7: at 230 km/h a small disturbance dies out, a large one ends on a
     cycle of ~0.47-0.50 mm; past the fold of cycles (~255 km/h) both die out."""
     assert _run(result, "small", 230.0).outcome == "equilibrium"
     large = _run(result, "large", 230.0)
@@ -56,7 +56,7 @@ def test_hard_excitation_above_the_upper_hopf_speed(result):
 def test_at_110_kmh_every_start_ends_on_the_same_cycle(result):
     amps = [_run(result, s, 110.0).amplitude[X] for s in START_TYPES]
     assert all(_run(result, s, 110.0).outcome == "cycle" for s in START_TYPES)
-    assert 0.25e-3 < np.mean(amps) < 0.29e-3  # MODEL.md section 7: near 0.27 mm
+    assert 0.25e-3 < np.mean(amps) < 0.29e-3  # docs/model.md section 7: near 0.27 mm
     assert np.ptp(amps) < 1e-3 * np.mean(amps)
 
 

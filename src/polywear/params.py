@@ -1,6 +1,6 @@
 """Validated, immutable parameter sets; TOML in and out.
 
-Every configuration key of MODEL.md section 6 lives here as a field of a frozen
+Every configuration key of docs/model.md section 6 lives here as a field of a frozen
 pydantic model, with its unit in the name and the docstring. Parameters are changed
 only through :func:`with_updates`, which validates the result again.
 
@@ -72,7 +72,7 @@ class Tread(_Table):
 
 
 class Friction(_Table):
-    """LuGre tread-road friction, normalized by the normal load N (MODEL.md section 2)."""
+    """LuGre tread-road friction, normalized by the normal load N (docs/model.md section 2)."""
 
     sigma0_per_m: float = _f(400.0, "bristle stiffness per unit load sigma0 [1/m]", gt=0.0)
     sigma1_s_per_m: float = _f(0.05, "bristle damping per unit load sigma1 [s/m]", ge=0.0)

@@ -1,4 +1,4 @@
-"""Wear indicators of a self-excited vibration (MODEL.md section 5).
+"""Wear indicators of a self-excited vibration (docs/model.md section 5).
 
 For a limit cycle at speed V:
 

@@ -1,4 +1,4 @@
-"""Model ``axle4dof``: twist-beam trailing arm + lateral tread (MODEL.md section 4).
+"""Model ``axle4dof``: twist-beam trailing arm + lateral tread (docs/model.md section 4).
 
 One trailing arm of the twist beam with its wheel carrier and wheel is a rigid body
 rotating about the bushing centre O, ``R = Rz(toe0 + alpha) Ry(-gamma) Rx(camber0 + beta)``;

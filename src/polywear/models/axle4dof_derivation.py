@@ -1,4 +1,4 @@
-"""Equations of motion of ``axle4dof`` (MODEL.md section 4) and their code generator.
+"""Equations of motion of ``axle4dof`` (docs/model.md section 4) and their code generator.
 
 The equations are derived with :mod:`sympy.physics.mechanics` (Lagrange's method) and
 written out as plain Python source of ``numba.njit(cache=True)`` kernels in

@@ -1,4 +1,4 @@
-"""Model ``tread1dof``: lateral tread on a rigid rim (MODEL.md section 3).
+"""Model ``tread1dof``: lateral tread on a rigid rim (docs/model.md section 3).
 
     m x'' + c x' + k x = F,   v_r = V sin(toe) - x',   F = N (sigma0 z + sigma1 z' + sigma2 v_r)
 

@@ -1,4 +1,4 @@
-"""LuGre tread-road friction, normalized by the normal load (MODEL.md section 2).
+"""LuGre tread-road friction, normalized by the normal load (docs/model.md section 2).
 
 Scalar kernels are ``numba.njit`` functions that accept float or complex arguments
 (complex arguments are used for complex-step derivatives, so the non-analytic

@@ -6,7 +6,7 @@ from source at install time (gfortran and GNU make: ``scripts/ensure-auto07p.sh`
 :func:`model_diagram` runs the same diagram for either model; only the way the
 equations reach AUTO differs (:data:`AUTO_MODELS`):
 
-* ``tread1dof``: the equations are written here again, from MODEL.md section 3,
+* ``tread1dof``: the equations are written here again, from docs/model.md section 3,
   independently of the numba kernels in :mod:`polywear.models.tread1dof` (the tests
   check that both agree), as plain Python that bifpy traces symbolically and compiles
   to a native AUTO-07p executable (``transpile=True``). This checks both the equations
@@ -201,7 +201,7 @@ def auto_rhs(p):
     """AUTO's FUNC for ``tread1dof`` with parameter vector ``p``: ``func(u, par)``.
 
     ``u`` = (x [mm], x' [m/s], z [mm]), ``par[0]`` = V [m/s]; returns du/dT with T in
-    ms (MODEL.md section 3 in these units).
+    ms (docs/model.md section 3 in these units).
     """
     c = _coefficients(p)
 

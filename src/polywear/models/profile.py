@@ -1,0 +1,275 @@
+"""A worn tread profile coupled into the normal load of either model.
+
+The contact patch (length ``2a``) sees the patch average of the worn depth
+``w(phi)`` around the tire at the material angle ``phi_c`` of its centre:
+``w_c = sum_n sinc_n (A_n cos n phi_c + B_n sin n phi_c)`` with
+``sinc_n = sin(n a/R)/(n a/R)`` (the mean depth is left out: uniform wear changes no
+load). A worn spot unloads the tire like a lifted contact point, so the static load
+``N0`` of the model is replaced by the time-varying
+
+    N0 - k_z w_c - c_z dw_c/dt
+
+(``k_z``, ``c_z``: tire vertical stiffness and damping). In ``axle4dof`` the kernel then
+subtracts ``k_z dz_C + c_z z_C'`` of the axle motion and clamps the total at ``N >= 0``;
+in ``tread1dof`` (rim held) this load is the whole normal load and is clamped here.
+The spring preloads of ``axle4dof`` stay those of the nominal ``N0`` (they are set on
+the car, not by the profile): the base vector is always *prepared* at the speed.
+
+The rolling angle ``phi_c`` is one more state, ``phi_c' = V/R``, so the coupled model
+is autonomous like the others and runs through the same integrators. Its parameter
+vector (built by :func:`profile_vector`) is a header, the harmonics, then the base
+model's vector:
+
+    [model flag, index of N0, R, k_z, c_z, K, A'_1..A'_K, B'_1..B'_K, p_base...]
+
+with ``A'_n = sinc_n A_n``, ``B'_n = sinc_n B_n`` [m] (already patch-averaged). With
+every harmonic zero the load is ``N0 + 0.0 = N0`` exactly, so rhs, Jacobian and
+diagnostics of the base states are bit for bit those of the base model.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+from numba import njit
+
+from . import _axle4dof_generated as _axle
+from . import tread1dof as _tread
+from .base import Model
+
+__all__ = ["coupled_model", "profile_vector", "patch_sinc", "harmonics_of", "PHASE_STATE"]
+
+PHASE_STATE = "contact_angle"
+"""Name of the added state: material angle phi_c at the centre of the patch [rad]."""
+
+_FLAG, _IN0, _R, _KZ, _CZ, _NH = range(6)
+_HEAD = 6
+_CSTEP = 1e-20
+"""Complex step [N] for the load derivative of the base rhs (exact to rounding)."""
+_FLAGS = {"tread1dof": 0, "axle4dof": 1}
+
+
+def patch_sinc(orders, contact_length_m: float, radius_m: float) -> np.ndarray:
+    """Patch-average factor ``sinc_n = sin(n a/R)/(n a/R)`` of harmonic order(s) n [-]."""
+    x = np.asarray(orders, dtype=float) * (0.5 * contact_length_m / radius_m)
+    return np.sinc(x / np.pi)
+
+
+def harmonics_of(profile: np.ndarray, max_order: int) -> tuple[np.ndarray, np.ndarray]:
+    """Cosine and sine coefficients ``A_n, B_n`` (n = 1..max_order) of samples of
+    ``w(phi)`` at ``phi_j = 2 pi j / len(profile)`` [profile units]."""
+    m = len(profile)
+    c = np.fft.rfft(profile)[1 : max_order + 1] * (2.0 / m)
+    return c.real.copy(), -c.imag.copy()
+
+
+# -- kernels ------------------------------------------------------------------------------
+@njit(cache=True)
+def _base_rhs(flag, u, V, p, out):
+    if flag == 0:
+        _tread.rhs(u, V, p, out)
+    else:
+        _axle.rhs(u, V, p, out)
+
+
+@njit(cache=True)
+def _base_jac(flag, u, V, p, out):
+    if flag == 0:
+        _tread.jac(u, V, p, out)
+    else:
+        _axle.jac(u, V, p, out)
+
+
+@njit(cache=True)
+def _base_dfdv(flag, u, V, p, out):
+    if flag == 0:
+        _tread.dfdv(u, V, p, out)
+    else:
+        _axle.dfdv(u, V, p, out)
+
+
+@njit(cache=True)
+def _base_aux(flag, u, V, p, out):
+    if flag == 0:
+        _tread.aux(u, V, p, out)
+    else:
+        _axle.aux(u, V, p, out)
+
+
+@njit(cache=True)
+def _profile_load(theta, V, p):
+    """Load change dN [N], d(dN)/dphi_c [N/rad] and d(dN)/dV [N s/m] at angle theta."""
+    k = int(p[_NH].real)
+    omega = V / p[_R]
+    c1 = np.cos(theta)
+    s1 = np.sin(theta)
+    cn, sn = c1, s1
+    w = 0.0 * c1
+    dw = 0.0 * c1  # dw_c/dphi
+    d2w = 0.0 * c1  # d2w_c/dphi2
+    for j in range(k):
+        n = j + 1.0
+        a = p[_HEAD + j]
+        b = p[_HEAD + k + j]
+        w += a * cn + b * sn
+        dw += n * (b * cn - a * sn)
+        d2w -= n * n * (a * cn + b * sn)
+        cn, sn = cn * c1 - sn * s1, sn * c1 + cn * s1
+    dn = -p[_KZ] * w - p[_CZ] * omega * dw
+    dn_dtheta = -p[_KZ] * dw - p[_CZ] * omega * d2w
+    dn_dv = -p[_CZ] * dw / p[_R]
+    return dn, dn_dtheta, dn_dv
+
+
+@njit(cache=True)
+def _loaded(u, V, p):
+    """The base vector with the profile's load, and whether the input was clamped."""
+    n = u.size - 1
+    k = int(p[_NH].real)
+    q = p[_HEAD + 2 * k :].copy()
+    i0 = int(p[_IN0].real)
+    dn, dn_dtheta, dn_dv = _profile_load(u[n], V, p)
+    load = q[i0] + dn
+    clamped = p[_FLAG].real == 0.0 and load.real < 0.0
+    q[i0] = 0.0 * load if clamped else load
+    return q, clamped, dn_dtheta, dn_dv
+
+
+@njit(cache=True)
+def _df_dload(flag, u, V, q, i0, out):
+    """Derivative of the base rhs with respect to the static load q[i0] (complex step)."""
+    n = out.size
+    uc = np.empty(n, dtype=np.complex128)
+    for i in range(n):
+        uc[i] = u[i]
+    qc = q.astype(np.complex128)
+    qc[i0] += 1j * _CSTEP
+    oc = np.empty(n, dtype=np.complex128)
+    _base_rhs(flag, uc, V + 0j, qc, oc)
+    for i in range(n):
+        out[i] = oc[i].imag / _CSTEP
+
+
+@njit(cache=True)
+def rhs(u, V, p, out):
+    """du/dt: the base model's at the profile's load, and phi_c' = V/R."""
+    n = u.size - 1
+    q = _loaded(u, V, p)[0]
+    _base_rhs(int(p[_FLAG].real), u[:n], V, q, out[:n])
+    out[n] = V / p[_R]
+
+
+@njit(cache=True)
+def jac(u, V, p, out):
+    """df/du, with the column of phi_c through the load."""
+    n = u.size - 1
+    q, clamped, dn_dtheta, _ = _loaded(u, V, p)
+    flag = int(p[_FLAG])
+    _base_jac(flag, u[:n], V, q, out[:n, :n])
+    col = np.zeros(n)
+    if not clamped and dn_dtheta != 0.0:
+        _df_dload(flag, u[:n], V, q, int(p[_IN0]), col)
+    for i in range(n):
+        out[i, n] = col[i] * dn_dtheta
+        out[n, i] = 0.0
+    out[n, n] = 0.0
+
+
+@njit(cache=True)
+def dfdv(u, V, p, out):
+    """df/dV [per m/s]: the base model's, the load's (through phi_c' in dw_c/dt), 1/R.
+
+    For ``axle4dof`` the base term differentiates the running preloads at the loaded
+    ``N0 + dN`` instead of the nominal ``N0`` (a relative error of order dN/N0 in that
+    term); the wear analysis runs at fixed speeds and never uses this kernel."""
+    n = u.size - 1
+    q, clamped, _, dn_dv = _loaded(u, V, p)
+    flag = int(p[_FLAG])
+    _base_dfdv(flag, u[:n], V, q, out[:n])
+    if not clamped and dn_dv != 0.0:
+        col = np.zeros(n)
+        _df_dload(flag, u[:n], V, q, int(p[_IN0]), col)
+        for i in range(n):
+            out[i] += col[i] * dn_dv
+    out[n] = 1.0 / p[_R]
+
+
+@njit(cache=True)
+def aux(u, V, p, out):
+    """The base model's diagnostics at the profile's load."""
+    n = u.size - 1
+    q = _loaded(u, V, p)[0]
+    _base_aux(int(p[_FLAG].real), u[:n], V, q, out)
+
+
+# -- the model object ---------------------------------------------------------------------
+def _base_of(model_name: str) -> Model:
+    from . import get_model
+
+    return get_model(model_name.removesuffix("+profile"))
+
+
+def profile_vector(base: Model, params, V: float, a_patch=(), b_patch=()) -> np.ndarray:
+    """Parameter vector of :func:`coupled_model` ``(base)`` at speed ``V`` [m/s].
+
+    ``a_patch``, ``b_patch``: patch-averaged cosine/sine harmonics n = 1..K of the worn
+    depth [m] (``sinc_n`` times the profile's, see :func:`patch_sinc`); empty = no wear.
+    """
+    a = np.asarray(a_patch, dtype=float).ravel()
+    b = np.asarray(b_patch, dtype=float).ravel()
+    if a.shape != b.shape:
+        raise ValueError(f"profile harmonics: {a.size} cosine but {b.size} sine coefficients")
+    p_base = base.prepared(float(V), base.pack(params))
+    head = [
+        float(_FLAGS[base.name]),
+        float(base.param_names.index("N0" if base.name == "axle4dof" else "N")),
+        params.operating.rolling_radius_m,
+        params.tire.vertical_stiffness_n_per_m,
+        params.tire.vertical_damping_ns_per_m,
+        float(a.size),
+    ]
+    return np.concatenate((head, a, b, p_base))
+
+
+def _prepare(V, p):
+    """Re-cache the base model's speed-only quantities for speed ``V`` [m/s]."""
+    k = int(p[_NH])
+    base = _base_of(("tread1dof", "axle4dof")[int(p[_FLAG])])
+    out = np.array(p, dtype=float)
+    out[_HEAD + 2 * k :] = base.prepared(float(V), out[_HEAD + 2 * k :])
+    return out
+
+
+def _equilibrium_factory(base: Model):
+    def equilibrium(V, p):
+        """Steady rolling of the unworn tire (base equilibrium) at phi_c = 0."""
+        k = int(p[_NH])
+        return np.append(base.equilibrium(V, np.asarray(p, dtype=float)[_HEAD + 2 * k :]), 0.0)
+
+    return equilibrium
+
+
+_COUPLED: dict[str, Model] = {}
+
+
+def coupled_model(base: Model) -> Model:
+    """The profile-coupled version of ``base`` (states of ``base`` plus ``contact_angle``).
+
+    Build its parameter vector with :func:`profile_vector` (``Model.pack`` does not apply).
+    """
+    if base.name not in _COUPLED:
+        kernels = SimpleNamespace(
+            rhs=rhs, jac=jac, dfdv=dfdv, aux=aux,
+            equilibrium=_equilibrium_factory(base), prepare=_prepare,
+        )
+        _COUPLED[base.name] = Model(
+            name=f"{base.name}+profile",
+            state_names=base.state_names + (PHASE_STATE,),
+            state_units=base.state_units + ("rad",),
+            aux_names=base.aux_names,
+            slots=(),
+            kernels=kernels,
+            coordinates=base.coordinates,
+        )
+    return _COUPLED[base.name]
