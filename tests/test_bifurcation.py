@@ -35,7 +35,7 @@ def test_default_diagram_matches_model_md(default_diagram):
     assert [round(h["speed_kmh"], 1) for h in s["hopf_points"]] == [58.1, 207.8]
     assert [h["criticality"] for h in s["hopf_points"]] == ["soft", "hard"]
     (fold,) = s["folds"]
-    assert 250.0 < fold["speed_kmh"] < 260.0  # MODEL.md: a fold of cycles near 255 km/h
+    assert 250.0 < fold["speed_kmh"] < 260.0  # docs/model.md section 7: a fold of cycles near 255 km/h
     assert 0.40e-3 < fold["amplitude_x_m"] < 0.55e-3
     assert s["first_bifurcation_speed_kmh"] == pytest.approx(s["hopf_points"][0]["speed_kmh"])
     assert s["second_bifurcation_speed_kmh"] == pytest.approx(fold["speed_kmh"])

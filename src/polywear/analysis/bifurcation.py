@@ -3,7 +3,7 @@
 Pipeline: equilibria and their stability along speed (:mod:`.stability`), Hopf points
 with criticality, cycle branches continued from every Hopf point not already reached
 by an earlier branch (:mod:`polywear.solvers.continuation`), special points (folds
-LP, period doubling PD, torus NS), and from these the speed bands of MODEL.md
+LP, period doubling PD, torus NS), and from these the speed bands of docs/model.md
 section 5:
 
 * linear band: where steady rolling is unstable (between Hopf speeds);
@@ -17,6 +17,7 @@ section 5:
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -27,7 +28,21 @@ from ..params import Params, to_toml
 from ..solvers.continuation import Branch, ContinuationSettings, continue_from_hopf
 from .stability import HopfPoint, StabilityResult, stability_analysis
 
-__all__ = ["BifurcationDiagram", "CyclePoint", "bifurcation_diagram", "sweep_bands"]
+__all__ = [
+    "BifurcationDiagram",
+    "CyclePoint",
+    "bifurcation_diagram",
+    "sweep_bands",
+    "SPEED_FLOOR_KMH",
+    "SPEED_CEILING_KMH",
+]
+
+SPEED_FLOOR_KMH = 1.0
+"""Lowest speed [km/h] the analysed range is extended to when the SEV band runs into its lower end."""
+SPEED_CEILING_KMH = 1000.0
+"""Highest speed [km/h] the analysed range is extended to (the highest operating speed accepted)."""
+OPERATING_MARGIN = 1.1
+"""The analysed range holds the operating speed V with a margin: from V / 1.1 to 1.1 V at least."""
 
 
 @dataclass(frozen=True)
@@ -60,6 +75,11 @@ class BifurcationDiagram:
     special: list[tuple[str, CyclePoint]]
     settings: ContinuationSettings
     speed_range_kmh: tuple[float, float]
+    """The analysed range [km/h] (the requested one, extended where needed)."""
+    requested_range_kmh: tuple[float, float] | None = None
+    """The range [km/h] that was asked for (None: the analysed one)."""
+    range_notes: list[str] = field(default_factory=list)
+    """Why the analysed range differs from the requested one."""
 
     # -- bands ---------------------------------------------------------------------------
     @property
@@ -113,25 +133,64 @@ class BifurcationDiagram:
         clipped = [(max(min(a, b), lo), min(max(a, b), hi)) for a, b in intervals]
         return _union([iv for iv in clipped if iv[1] > iv[0]])
 
+    @cached_property
+    def divergence_kmh(self) -> list[tuple[float, float]]:
+        """Speed intervals [km/h] where steady rolling is unstable through real eigenvalues
+        only (static divergence: the tread drifts to another state, no oscillation grows
+        from it). Part of the linear band, but not SEV by itself."""
+        if not self.stability.real_crossings_kmh:
+            return []
+        model = get_model(self.params.model)
+        p = model.pack(self.params)
+        edges = sorted([h.speed_kmh for h in self.hopf_points] + list(self.stability.real_crossings_kmh))
+        points = [float(self.stability.speeds_kmh[0]), *edges, float(self.stability.speeds_kmh[-1])]
+        out = []
+        for a, b in zip(points[:-1], points[1:]):
+            V = kmh_to_ms(0.5 * (a + b))
+            lam = np.linalg.eigvals(model.jacobian(model.equilibrium(V, p), V, p))
+            grow = lam[lam.real > 0.0]
+            if b > a and grow.size and np.all(grow.imag == 0.0):
+                out.append((a, b))
+        return _union(out)
+
     @property
     def sev_band_kmh(self) -> list[tuple[float, float]]:
-        """Where SEV persists after a large disturbance: stable cycles or unstable rolling."""
-        return _union(self.stable_cycle_intervals_kmh() + self.linear_band_kmh)
+        """Where SEV persists after a large disturbance: stable cycles, or steady rolling
+        unstable through an oscillatory mode (a Hopf pair; static divergence excluded)."""
+        oscillatory = _subtract(self.linear_band_kmh, self.divergence_kmh)
+        return _union(self.stable_cycle_intervals_kmh() + oscillatory)
 
     @property
     def hard_regions_kmh(self) -> list[tuple[float, float]]:
         """SEV band minus linear band: stable rolling and stable SEV coexist."""
         return _subtract(self.sev_band_kmh, self.linear_band_kmh)
 
+    @property
+    def open_edges(self) -> list[str]:
+        """Ends of the analysed range that the SEV band runs into (``"lower"``, ``"upper"``):
+        there the band edge is the range limit, not a bifurcation speed."""
+        sev = self.sev_band_kmh
+        lo, hi = self.speed_range_kmh
+        tol = 1e-9 * hi
+        return [edge for edge, hit in (("lower", sev and sev[0][0] <= lo + tol),
+                                       ("upper", sev and sev[-1][1] >= hi - tol)) if hit]
+
+    def _bounds(self, intervals) -> list[list]:
+        """Intervals for the summary, a bound at a limit of the analysed range as None (a cut, not a bifurcation)."""
+        lo, hi = self.speed_range_kmh
+        tol = 1e-9 * hi
+        return [[None if a <= lo + tol else a, None if b >= hi - tol else b] for a, b in intervals]
+
     def trigger_amplitude(self, state: str = "x") -> list[dict]:
-        """Per hard region: range of the unstable-cycle amplitude (the disturbance that starts SEV)."""
+        """Per hard region: range of the unstable-cycle amplitude (the disturbance that starts SEV),
+        from 0 at a subcritical Hopf point to the amplitude at the fold that ends the region."""
         i = self.state_names.index(state)
         out = []
         for lo, hi in self.hard_regions_kmh:
             amps = [
                 c.amplitude[i]
-                for c in self.cycles
-                if not c.stable and lo - 1e-9 <= ms_to_kmh(c.speed) <= hi + 1e-9
+                for c in [*self.cycles, *self.folds]
+                if (not c.stable or c.label == "LP") and lo - 1e-9 <= ms_to_kmh(c.speed) <= hi + 1e-9
             ]
             if amps:
                 out.append(
@@ -168,10 +227,15 @@ class BifurcationDiagram:
         """The JSON summary of ``polywear bifurcation``."""
         sev = self.sev_band_kmh
         x = self.state_names.index("x")
+        open_at = self.open_edges
         return {
             "model": self.params.model,
             "method": "continuation",
             "speed_range_kmh": list(self.speed_range_kmh),
+            "requested_speed_range_kmh": list(self.requested_range_kmh or self.speed_range_kmh),
+            "range_notes": list(self.range_notes),
+            "open_at": _open_at(open_at),
+            "warnings": [_open_warning(edge, self.speed_range_kmh) for edge in open_at],
             "hopf_points": [h.summary() for h in self.hopf_points],
             "folds": [
                 {
@@ -183,11 +247,13 @@ class BifurcationDiagram:
             ],
             "period_doublings": [ms_to_kmh(p.speed) for label, p in self.special if label == "PD"],
             "torus_bifurcations": [ms_to_kmh(p.speed) for label, p in self.special if label == "NS"],
-            "linear_band_kmh": [list(b) for b in self.linear_band_kmh],
-            "sev_band_kmh": [list(b) for b in sev],
-            "first_bifurcation_speed_kmh": sev[0][0] if sev else None,
-            "second_bifurcation_speed_kmh": sev[-1][1] if sev else None,
-            "hard_regions_kmh": [list(b) for b in self.hard_regions_kmh],
+            "real_eigenvalue_crossings_kmh": list(self.stability.real_crossings_kmh),
+            "linear_band_kmh": self._bounds(self.linear_band_kmh),
+            "divergence_kmh": self._bounds(self.divergence_kmh),
+            "sev_band_kmh": self._bounds(sev),
+            "first_bifurcation_speed_kmh": sev[0][0] if sev and "lower" not in open_at else None,
+            "second_bifurcation_speed_kmh": sev[-1][1] if sev and "upper" not in open_at else None,
+            "hard_regions_kmh": self._bounds(self.hard_regions_kmh),
             "trigger_amplitude": self.trigger_amplitude("x"),
             "branches": self.branch_info,
         }
@@ -340,6 +406,19 @@ class BifurcationDiagram:
 _UNITS = {"x": (1e3, "mm"), "alpha": (1e3, "mrad"), "beta": (1e3, "mrad"), "gamma": (1e3, "mrad")}
 
 
+def _open_at(edges: list[str]) -> str | None:
+    """"lower", "upper", "both" or None."""
+    return {0: None, 1: edges[0] if edges else None, 2: "both"}[len(edges)]
+
+
+def _open_warning(edge: str, speed_range_kmh) -> str:
+    limit = speed_range_kmh[0] if edge == "lower" else speed_range_kmh[1]
+    which = "first" if edge == "lower" else "second"
+    side = "below" if edge == "lower" else "above"
+    return (f"the SEV band runs into the {edge} end of the analysed range ({limit:g} km/h): "
+            f"the {which} bifurcation speed lies {side} it and is not reported")
+
+
 def sweep_bands(result) -> dict:
     """First/second bifurcation speeds and bands as a brute-force sweep sees them.
 
@@ -356,14 +435,19 @@ def sweep_bands(result) -> dict:
         return _runs_of(speeds, on)
 
     sev = band(("large", "up", "down"))
+    # a band that reaches the first or last grid speed is cut there: no bifurcation speed
+    open_at = [e for e, hit in (("lower", sev and sev[0][0] == speeds[0]), ("upper", sev and sev[-1][1] == speeds[-1]))
+               if hit]
     return {
         "model": result.params.model,
         "method": "sweep",
         "speeds_kmh": speeds.tolist(),
+        "open_at": _open_at(open_at),
+        "warnings": [_open_warning(edge, (speeds[0], speeds[-1])) for edge in open_at],
         "linear_band_kmh": [list(b) for b in band(("small",))],
         "sev_band_kmh": [list(b) for b in sev],
-        "first_bifurcation_speed_kmh": sev[0][0] if sev else None,
-        "second_bifurcation_speed_kmh": sev[-1][1] if sev else None,
+        "first_bifurcation_speed_kmh": sev[0][0] if sev and "lower" not in open_at else None,
+        "second_bifurcation_speed_kmh": sev[-1][1] if sev and "upper" not in open_at else None,
         "grid_spacing_kmh": float(np.max(np.diff(speeds))) if len(speeds) > 1 else None,
         "unsettled_runs": sum(not r.steady for runs in result.runs.values() for r in runs),
     }
@@ -466,11 +550,20 @@ def bifurcation_diagram(
     settings: ContinuationSettings = ContinuationSettings(),
     n_speeds: int = 400,
     on_step=None,
+    extend: bool = True,
 ) -> BifurcationDiagram:
     """Continuation of equilibria and of the cycles from every Hopf point in the speed range.
 
     ``on_step(branch_index, speed_kmh)`` is called after every continuation step.
+    With ``extend`` the range is not allowed to decide the answer: it is widened to hold
+    the operating speed (``OPERATING_MARGIN``), and while the SEV band or a cycle branch
+    runs into one of its ends, widened on that side (down to ``SPEED_FLOOR_KMH`` in one
+    step, up by doubling to ``SPEED_CEILING_KMH``) and the diagram computed again, with
+    the stability grid as fine as on the requested range. An end still cut at the limit
+    is reported by ``open_edges``.
     """
+    if extend:
+        return _extended_diagram(params, speed_range_kmh, settings, n_speeds, on_step)
     lo, hi = (float(v) for v in speed_range_kmh)
     stab = stability_analysis(params, (lo, hi), n_speeds=n_speeds)
     model = get_model(params.model)
@@ -520,6 +613,48 @@ def bifurcation_diagram(
         settings=settings,
         speed_range_kmh=(lo, hi),
     )
+
+
+def _extended_diagram(params, speed_range_kmh, settings, n_speeds, on_step) -> BifurcationDiagram:
+    """The diagram on the requested range widened until the range no longer cuts the answer."""
+    requested = tuple(float(v) for v in speed_range_kmh)
+    lo, hi = requested
+    op = params.operating.speed_kmh
+    notes = []
+    lo = min(lo, max(op / OPERATING_MARGIN, SPEED_FLOOR_KMH))
+    hi = max(hi, min(round(op * OPERATING_MARGIN, 6), SPEED_CEILING_KMH))
+    if (lo, hi) != requested:
+        notes.append(f"range widened to {lo:g}-{hi:g} km/h to hold the operating speed {op:g} km/h")
+    spacing = (requested[1] - requested[0]) / max(n_speeds - 1, 1)
+    while True:
+        n = min(max(n_speeds, int(np.ceil((hi - lo) / spacing)) + 1), 4 * n_speeds)
+        diagram = bifurcation_diagram(params, (lo, hi), settings, n, on_step, extend=False)
+        cut = _cut_ends(diagram)
+        new_lo = SPEED_FLOOR_KMH if "lower" in cut and lo > SPEED_FLOOR_KMH else lo
+        new_hi = min(round(2.0 * hi, 6), SPEED_CEILING_KMH) if "upper" in cut and hi < SPEED_CEILING_KMH else hi
+        if (new_lo, new_hi) == (lo, hi):
+            break
+        ends = " and ".join(f"{lo:g}" if e == "lower" else f"{hi:g}" for e in sorted(cut) if
+                            (e == "lower" and new_lo != lo) or (e == "upper" and new_hi != hi))
+        notes.append(f"range widened to {new_lo:g}-{new_hi:g} km/h: the SEV band or a cycle branch ran into {ends} km/h")
+        lo, hi = new_lo, new_hi
+    diagram.requested_range_kmh = requested
+    diagram.range_notes = notes
+    return diagram
+
+
+def _cut_ends(diagram: BifurcationDiagram) -> set[str]:
+    """Ends of the range that cut the answer: the SEV band runs into them, or a cycle branch left the range there."""
+    ends = set(diagram.open_edges)
+    lo, hi = diagram.speed_range_kmh
+    for branch in diagram.branches:
+        if branch.points:
+            v = ms_to_kmh(branch.points[-1].orbit.speed)
+            if v > hi:
+                ends.add("upper")
+            elif v < lo:
+                ends.add("lower")
+    return ends
 
 
 def _hopf_end(branch_index: int, hopf: HopfPoint, neighbour: CyclePoint) -> CyclePoint:

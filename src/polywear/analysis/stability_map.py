@@ -685,7 +685,7 @@ def stability_map(
     fold_curves: list[FoldCurve] = []
 
     def fold_seeds_at(theta):
-        diagram = bifurcation_diagram(perturbed(params, key, theta), (s_lo, s_hi), settings.continuation)
+        diagram = bifurcation_diagram(perturbed(params, key, theta), (s_lo, s_hi), settings.continuation, extend=False)
         seeds = [(pt, b.scales) for b in diagram.branches for label, pt, _ in b.special if label == "LP"]
         return diagram.hopf_points, seeds
 
