@@ -7,7 +7,7 @@ import sys
 import typer
 
 from .. import __version__
-from .common import UserError
+from .common import UserError, add_tir_option
 
 app = typer.Typer(
     name="polywear",
@@ -62,6 +62,7 @@ def _register() -> None:
 
 
 _register()
+add_tir_option(app)
 
 
 def _is_user_error(exc: Exception) -> bool:

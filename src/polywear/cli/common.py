@@ -10,6 +10,7 @@ import json
 import math
 import tempfile
 from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
 from typing import Annotated, Any, Callable, Iterator, Optional
 
@@ -27,6 +28,10 @@ JsonOpt = Annotated[bool, typer.Option("--json", help="Print the summary as JSON
 PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Write a figure (png, pdf, svg).")]
 OutOpt = Annotated[Optional[Path], typer.Option("--out", "-o", help="Write the result (netCDF .nc).")]
 QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="No progress output or notes on stderr.")]
+TirOpt = Annotated[
+    Optional[Path],
+    typer.Option("--tir", help="Tyre property file (.tir, Magic Formula): its values come before --config/--set."),
+]
 
 PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".svgz", ".eps", ".ps", ".jpg", ".jpeg", ".tif", ".tiff", ".webp")
 """File types ``--plot`` writes (matplotlib's Agg, PDF, SVG and PS backends)."""
@@ -40,11 +45,56 @@ class UserError(Exception):
     """Bad input from the user: reported as one line, exit code 2, no traceback."""
 
 
+_TIR_PATH: ContextVar[Path | None] = ContextVar("tir_path", default=None)
+"""The ``--tir`` file of the running command (set by :func:`with_tir_option`)."""
+
+
 def load(config: Path | None, sets: list[str] | None):
-    """Resolved, validated parameters from a file and ``--set`` overrides."""
+    """Resolved, validated parameters: defaults, the ``--tir`` file of the running command
+    (if any), the TOML file, then ``--set`` overrides."""
+    tir = _TIR_PATH.get()
+    if tir is not None:
+        from ..tir import load_with_tir
+
+        return load_with_tir(tir, config, sets or ())[0]
     from ..params import load_params
 
     return load_params(config, sets or ())
+
+
+def with_tir_option(command: Callable) -> Callable:
+    """``command`` with a ``--tir FILE`` option that :func:`load` applies.
+
+    Added to every command that takes ``--config`` (and has no ``tir`` parameter of its
+    own), so the option is defined once, here, not in each command.
+    """
+    import functools
+    import inspect
+
+    sig = inspect.signature(command, eval_str=True)
+    if "config" not in sig.parameters or "tir" in sig.parameters:
+        return command
+
+    @functools.wraps(command)
+    def wrapper(*args: Any, tir: Path | None = None, **kwargs: Any) -> Any:
+        token = _TIR_PATH.set(tir)
+        try:
+            return command(*args, **kwargs)
+        finally:
+            _TIR_PATH.reset(token)
+
+    extra = inspect.Parameter("tir", inspect.Parameter.KEYWORD_ONLY, default=None, annotation=TirOpt)
+    wrapper.__signature__ = sig.replace(parameters=[*sig.parameters.values(), extra])  # type: ignore[attr-defined]
+    wrapper.__annotations__ = {**{n: q.annotation for n, q in sig.parameters.items()}, "tir": TirOpt}
+    return wrapper
+
+
+def add_tir_option(app: typer.Typer) -> None:
+    """Give every command of ``app`` and its sub-applications the ``--tir`` option."""
+    for command in app.registered_commands:
+        command.callback = with_tir_option(command.callback)
+    for group in app.registered_groups:
+        add_tir_option(group.typer_instance)
 
 
 def check_speed_range(pair: tuple[float, float], option: str = "--speed-range") -> tuple[float, float]:

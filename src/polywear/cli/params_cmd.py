@@ -1,13 +1,13 @@
-"""``polywear params``: show the resolved parameter set, write a default file."""
+"""``polywear params``: show the resolved parameter set, write a default file, import a .tir file."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Optional
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, SetOpt, emit_json, info, load
+from .common import ConfigOpt, JsonOpt, QuietOpt, SetOpt, emit_json, info, load, output_file, write_output
 
 app = typer.Typer(help="Show or write parameter sets (TOML).", no_args_is_help=True, rich_markup_mode=None)
 
@@ -37,3 +37,66 @@ def init(
         raise UserError(f"{path}: exists (use --force to overwrite)")
     path.write_text(default_toml())
     info(f"wrote {path}")
+
+
+@app.command("from-tir")
+def from_tir(
+    tir: Annotated[Path, typer.Argument(help="Tyre property file (.tir): MF 5.2 (MF_05, PAC2002), MF 6.1, MF 6.2.")],
+    out: Annotated[
+        Optional[Path], typer.Option("--out", "-o", help="Write the resolved parameter set (TOML).")
+    ] = None,
+    belt_mode: Annotated[
+        bool,
+        typer.Option("--belt-mode", help="Also map the belt's lateral mode (BELT_MASS, FREQ_LAT, DAMP_LAT) onto tread.*."),
+    ] = False,
+    config: ConfigOpt = None,
+    set_: SetOpt = None,
+    json_: JsonOpt = False,
+    quiet: QuietOpt = False,
+) -> None:
+    """Read a .tir file and say, for every key, whether it came from the file (which tir
+    keys, which formula), from --config/--set, or stays a default."""
+    from ..params import flat_items, to_toml
+    from ..tir import load_with_tir, user_keys
+
+    output_file(out, "--out", (".toml",))
+    params, mapping = load_with_tir(tir, config, set_ or (), belt_mode=belt_mode)
+    in_sets = user_keys(None, set_ or ())
+    in_file = user_keys(config)
+    rows = []
+    for key, value, _ in flat_items(params):
+        if isinstance(value, tuple) or key.startswith("study."):
+            continue
+        user = "--set" if key in in_sets else "--config" if key in in_file else None
+        tir_source = mapping.sources.get(key)
+        if user and tir_source:
+            source = f"{user} (overrides the file: {tir_source})"
+        else:
+            source = user or (f"file: {tir_source}" if tir_source else "default")
+        rows.append({"key": key, "value": value, "source": source, "from_file": tir_source is not None and not user})
+    summary = {
+        "file": str(tir),
+        "format": mapping.tir.family,
+        "format_declared": mapping.tir.format_label,
+        "conditions": mapping.conditions,
+        "parameters": rows,
+        "notes": list(mapping.notes),
+    }
+    if out is not None:
+        header = [f"# polywear parameters from {tir} ({mapping.tir.family}); sources:"]
+        header += [f"#   {r['key']} <- {r['source']}" for r in rows if r["source"] != "default"]
+        text = "\n".join(header) + "\n" + to_toml(params)
+        write_output(out, lambda tmp: tmp.write_text(text, encoding="utf-8"), quiet)
+    if json_:
+        emit_json(summary)
+        return
+    typer.echo(f"{tir}: {mapping.tir.family} ({mapping.tir.format_label}); evaluated at "
+               f"Fz = {mapping.conditions['load_n']:g} N, camber {mapping.conditions['camber_deg']:g} deg, "
+               f"{mapping.conditions['speed_kmh']:g} km/h")
+    width = max(len(r["key"]) for r in rows)
+    for r in rows:
+        value = r["value"]
+        shown = f"{value:.6g}" if isinstance(value, float) else str(value)
+        typer.echo(f"{r['key']:<{width}}  {shown:>12}  {r['source']}")
+    for note in mapping.notes:
+        info(f"note: {note}", quiet)

@@ -1,0 +1,528 @@
+"""Tyre property files (``.tir``, TeimOrbit format) in: read them and map what they determine.
+
+A ``.tir`` file holds a Magic Formula (MF) tyre model: MF-Tyre 5.2 (``MF_05``, ``PAC2002``),
+MF-Tyre/MF-Swift 6.1 and 6.2. :func:`read_tir` parses the text as real files are written
+(sections, ``$``/``!`` comments, quoted strings, ``{...}`` tables, CRLF, duplicate keys,
+keys in unexpected sections, any case, Fortran ``D`` exponents, a ``[UNITS]`` section).
+:func:`tir_parameters` evaluates the few quantities polywear's models use at the operating
+point (load, camber, speed) and says where each one came from; everything else stays at
+its default. :func:`load_with_tir` resolves a complete parameter set: defaults, the .tir
+values, the TOML file, ``--set`` overrides, in that order. The mapping and its assumptions
+are written down in ``docs/tir.md``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from .params import ParameterError, load_params, parse_override, study_keys
+
+__all__ = ["TirError", "TirEntry", "TirFile", "TirMapping", "read_tir", "tir_parameters", "user_keys", "load_with_tir"]
+
+
+class TirError(ParameterError):
+    """The file is not a readable tyre property file, or lacks what is needed (one line)."""
+
+
+@dataclass(frozen=True)
+class TirEntry:
+    """One ``KEY = value`` line: value (float or str), section and 1-based line number."""
+
+    key: str
+    value: float | str
+    section: str
+    line: int
+
+
+@dataclass(frozen=True)
+class TirFile:
+    """A parsed tyre property file.
+
+    Attributes
+    ----------
+    path : Path
+    family : str
+        ``"MF 5.2"`` (MF_05, PAC2002, FITTYP 5/6/21), ``"MF 6.1"`` or ``"MF 6.2"``.
+    format_label : str
+        What the file says: ``PROPERTY_FILE_FORMAT`` and/or ``FITTYP``.
+    entries : dict
+        Section -> upper-case key -> :class:`TirEntry` (the last occurrence when a key
+        repeats within a section). Look keys up with :meth:`find`, which also finds a key
+        outside its usual section.
+    tables : dict
+        Section -> (column names, rows) for ``{...}`` tables such as ``[SHAPE]``.
+    notes : list of str
+        What the parser noticed: duplicate keys, keys outside their usual section, skipped lines.
+    """
+
+    path: Path
+    family: str
+    format_label: str
+    entries: dict[str, dict[str, TirEntry]]
+    tables: dict[str, tuple[tuple[str, ...], tuple[tuple[float, ...], ...]]]
+    notes: tuple[str, ...] = ()
+
+    def find(self, key: str) -> TirEntry | None:
+        """The entry of ``key``: in its usual section, else the last one in any other
+        section except ``[UNITS]`` (:func:`read_tir` notes such keys)."""
+        key = key.upper()
+        home = self.entries.get(_HOME.get(key, ""), {})
+        if key in home:
+            return home[key]
+        found = [sec[key] for name, sec in self.entries.items() if key in sec and name != "UNITS"]
+        return max(found, key=lambda e: e.line) if found else None
+
+    def number(self, key: str, default: float | None = None) -> float | None:
+        """The numeric value of ``key`` in SI units (see ``[UNITS]``), or ``default``."""
+        entry = self.find(key)
+        if entry is None:
+            return default
+        if not isinstance(entry.value, float):
+            raise TirError(f"{self.path}: {entry.key} = {entry.value!r} (line {entry.line}): expected a number")
+        return entry.value * self._unit_factor(key.upper())
+
+    def has(self, *keys: str) -> bool:
+        """True when every key is present."""
+        return all(self.find(k) is not None for k in keys)
+
+    def _unit_factor(self, key: str) -> float:
+        length, force, mass, pressure = (self._units.get(q, 1.0) for q in ("LENGTH", "FORCE", "MASS", "PRESSURE"))
+        kind = _UNIT_KIND.get(key)
+        return {
+            None: 1.0,
+            "length": length,
+            "force": force,
+            "mass": mass,
+            "pressure": pressure,
+            "stiffness": force / length,
+            "damping": force / length,  # time is always seconds (checked in read_tir)
+            "speed": length,
+        }[kind]
+
+    @property
+    def _units(self) -> dict[str, float]:
+        return _unit_factors(self)
+
+
+# Where each key is expected, for the "unexpected section" note; the key is found anywhere.
+_HOME = {
+    "FNOMIN": "VERTICAL", "VERTICAL_STIFFNESS": "VERTICAL", "VERTICAL_DAMPING": "VERTICAL",
+    "BREFF": "VERTICAL", "DREFF": "VERTICAL", "FREFF": "VERTICAL", "Q_RE0": "VERTICAL", "Q_V1": "VERTICAL",
+    "PFZ1": "VERTICAL", "UNLOADED_RADIUS": "DIMENSION", "WIDTH": "DIMENSION", "LONGVL": "MODEL",
+    "NOMPRES": "OPERATING_CONDITIONS", "INFLPRES": "OPERATING_CONDITIONS",
+    "PDY1": "LATERAL_COEFFICIENTS", "PDY2": "LATERAL_COEFFICIENTS", "PDY3": "LATERAL_COEFFICIENTS",
+    "PPY3": "LATERAL_COEFFICIENTS", "PPY4": "LATERAL_COEFFICIENTS", "PCY1": "LATERAL_COEFFICIENTS",
+    "LFZO": "SCALING_COEFFICIENTS", "LMUY": "SCALING_COEFFICIENTS", "LGAY": "SCALING_COEFFICIENTS",
+    "LCZ": "SCALING_COEFFICIENTS", "LCY": "SCALING_COEFFICIENTS",
+    "Q_RA1": "CONTACT_PATCH", "Q_RA2": "CONTACT_PATCH", "Q_RB1": "CONTACT_PATCH", "Q_RB2": "CONTACT_PATCH",
+    "Q_A1": "VERTICAL", "Q_A2": "VERTICAL",
+    "LATERAL_STIFFNESS": "STRUCTURAL", "FREQ_LAT": "STRUCTURAL", "DAMP_LAT": "STRUCTURAL",
+    "PCFY1": "STRUCTURAL", "PCFY2": "STRUCTURAL", "PCFY3": "STRUCTURAL", "BELT_MASS": "INERTIA",
+}
+
+_UNIT_KIND = {
+    "FNOMIN": "force", "VERTICAL_STIFFNESS": "stiffness", "VERTICAL_DAMPING": "damping",
+    "UNLOADED_RADIUS": "length", "WIDTH": "length", "LONGVL": "speed",
+    "NOMPRES": "pressure", "INFLPRES": "pressure", "LATERAL_STIFFNESS": "stiffness", "BELT_MASS": "mass",
+}
+
+_UNIT_NAMES = {
+    "LENGTH": {"meter": 1.0, "metre": 1.0, "m": 1.0, "mm": 1e-3, "millimeter": 1e-3, "millimetre": 1e-3,
+               "cm": 1e-2, "centimeter": 1e-2, "km": 1e3, "inch": 0.0254, "in": 0.0254},
+    "FORCE": {"newton": 1.0, "n": 1.0, "kn": 1e3, "kilonewton": 1e3, "kgf": 9.80665, "kg_force": 9.80665},
+    "MASS": {"kg": 1.0, "kilogram": 1.0, "g": 1e-3, "gram": 1e-3, "tonne": 1e3},
+    "TIME": {"second": 1.0, "sec": 1.0, "s": 1.0},
+    "ANGLE": {"radian": 1.0, "radians": 1.0, "rad": 1.0},
+    "PRESSURE": {"pascal": 1.0, "pa": 1.0, "kpa": 1e3, "bar": 1e5, "mpa": 1e6, "psi": 6894.757},
+}
+
+
+def _unit_factors(tir: TirFile) -> dict[str, float]:
+    out = {}
+    for quantity, names in _UNIT_NAMES.items():
+        entry = tir.entries.get("UNITS", {}).get(quantity)
+        if entry is None:
+            continue
+        name = str(entry.value).strip().lower()
+        if name not in names:
+            raise TirError(
+                f"{tir.path}: [UNITS] {quantity} = {entry.value!r} (line {entry.line}) is not supported "
+                f"(known: {', '.join(sorted(names))})"
+            )
+        out[quantity] = names[name]
+    return out
+
+
+_SECTION = re.compile(r"^\[\s*([A-Za-z0-9_]+)\s*\]$")
+_ASSIGN = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.*)$")
+_NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eEdD][+-]?\d+)?$")
+
+
+def _strip_comment(text: str) -> str:
+    """The line without a ``$`` or ``!`` comment (quotes respected)."""
+    quote = None
+    for i, ch in enumerate(text):
+        if quote:
+            if ch == quote:
+                quote = None
+        elif ch in "'\"":
+            quote = ch
+        elif ch in "$!":
+            return text[:i]
+    return text
+
+
+def _value(raw: str) -> float | str:
+    raw = raw.strip()
+    if len(raw) >= 2 and raw[0] == raw[-1] and raw[0] in "'\"":
+        return raw[1:-1]
+    if _NUMBER.match(raw):
+        return float(raw.replace("D", "E").replace("d", "e"))
+    return raw
+
+
+def _family(entries: dict[str, TirEntry], path: Path) -> tuple[str, str]:
+    """MF family from PROPERTY_FILE_FORMAT and FITTYP (FITTYP wins when both say something);
+    ``entries``: every key of the file, any section."""
+    fmt = entries.get("PROPERTY_FILE_FORMAT")
+    fit = entries.get("FITTYP")
+    label = " / ".join(f"{e.key} = {e.value!r}" for e in (fmt, fit) if e is not None)
+    if fit is not None:
+        code = fit.value if isinstance(fit.value, float) else None
+        by_fit = {5.0: "MF 5.2", 6.0: "MF 5.2", 21.0: "MF 5.2", 61.0: "MF 6.1", 62.0: "MF 6.2"}.get(code)
+        if by_fit is None:
+            raise TirError(f"{path}: FITTYP = {fit.value!r} (line {fit.line}) is not a known Magic Formula version "
+                           "(5, 6, 21: MF 5.2; 61: MF 6.1; 62: MF 6.2)")
+        return by_fit, label
+    if fmt is not None:
+        name = re.sub(r"[\s_.\-/]", "", str(fmt.value)).upper()  # "MF-Tyre 5.2" -> "MFTYRE52"
+        version = re.search(r"MF(?:TYRE|SWIFT)*(\d+)", name)
+        family = "MF 5.2" if "PAC2002" in name else None
+        if version is not None:
+            family = {"05": "MF 5.2", "5": "MF 5.2", "52": "MF 5.2", "6": "MF 6.1", "61": "MF 6.1",
+                      "62": "MF 6.2"}.get(version.group(1))
+        if family is not None:
+            return family, label
+        raise TirError(f"{path}: PROPERTY_FILE_FORMAT = {fmt.value!r} (line {fmt.line}) is not a Magic Formula "
+                       "format polywear reads (MF_05, PAC2002, MF 6.1, MF 6.2; or give FITTYP)")
+    # No declaration: pressure-dependence keys appear only from MF 6.1 on.
+    return ("MF 6.1" if "NOMPRES" in entries else "MF 5.2"), "not declared"
+
+
+def read_tir(path: str | Path) -> TirFile:
+    """Parse a TeimOrbit tyre property file.
+
+    Raises :class:`TirError` (one line) when the file cannot be read or is not a tyre
+    property file: it must have ``[SECTION]`` headers and either ``FILE_TYPE = 'tir'``,
+    a ``PROPERTY_FILE_FORMAT``/``FITTYP``, or ``UNLOADED_RADIUS``.
+    """
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise TirError(f"{path}: cannot read tyre property file ({exc.strerror})") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        text = raw.decode("latin-1")
+    if "\x00" in text:
+        raise TirError(f"{path}: not a tyre property file (.tir): binary content")
+    entries: dict[str, dict[str, TirEntry]] = {}
+    tables: dict[str, tuple[tuple[str, ...], list[tuple[float, ...]]]] = {}
+    notes: list[str] = []
+    section = ""
+    n_sections = 0
+    for number, line in enumerate(text.splitlines(), start=1):  # \r\n, \r and \n alike
+        stripped = line.strip()
+        if not stripped or stripped[0] in "$!":
+            continue
+        match = _SECTION.match(_strip_comment(stripped).strip())
+        if match:
+            section = match.group(1).upper()
+            n_sections += 1
+            continue
+        if stripped.startswith("{"):
+            header = stripped.strip("{} \t").split()
+            tables[section] = (tuple(h.lower() for h in header), [])
+            continue
+        body = _strip_comment(stripped).strip()
+        if not body:
+            continue
+        assign = _ASSIGN.match(body)
+        if assign:
+            key = assign.group(1).upper()
+            entry = TirEntry(key, _value(assign.group(2)), section, number)
+            previous = entries.setdefault(section, {}).get(key)
+            if previous is not None:
+                notes.append(f"{key} given twice in [{section}] (lines {previous.line} and {number}): "
+                             f"line {number} used")
+            entries[section][key] = entry
+            continue
+        if section in tables:
+            try:
+                tables[section][1].append(tuple(float(v.replace("D", "E").replace("d", "e")) for v in body.split()))
+                continue
+            except ValueError:
+                pass
+        notes.append(f"line {number} skipped (not KEY = value): {body[:40]!r}")
+    every = {key: e for sec in entries.values() for key, e in sec.items()}
+    looks_like_tir = (
+        n_sections > 0
+        and (str(getattr(every.get("FILE_TYPE"), "value", "")).lower() == "tir"
+             or any(k in every for k in ("PROPERTY_FILE_FORMAT", "FITTYP", "UNLOADED_RADIUS")))
+    )
+    if not looks_like_tir:
+        raise TirError(f"{path}: not a tyre property file (.tir): no [SECTION] with FILE_TYPE = 'tir', "
+                       "PROPERTY_FILE_FORMAT, FITTYP or UNLOADED_RADIUS")
+    family, label = _family(every, path)
+    tir = TirFile(path, family, label, entries, {s: (h, tuple(r)) for s, (h, r) in tables.items()}, tuple(notes))
+    for key, home in _HOME.items():
+        entry = tir.find(key)
+        if entry is not None and entry.section != home:
+            notes.append(f"{key} found in [{entry.section or 'no section'}] (line {entry.line}), usually in [{home}]")
+    _unit_factors(tir)  # unknown units (TIME and ANGLE: SI only) fail here, once
+    return TirFile(path, family, label, entries, tir.tables, tuple(notes))
+
+
+@dataclass(frozen=True)
+class TirMapping:
+    """polywear values determined by a .tir file at one operating point.
+
+    Attributes
+    ----------
+    values : dict
+        ``{"table.key": value}`` in polywear units.
+    sources : dict
+        ``"table.key"`` -> the tir key(s) and formula it came from.
+    conditions : dict
+        Operating point used: load [N], camber [deg], speed [km/h], inflation pressure [Pa].
+    notes : list of str
+        Assumptions and everything the parser noticed.
+    """
+
+    tir: TirFile
+    values: dict[str, float]
+    sources: dict[str, str]
+    conditions: dict[str, float]
+    notes: tuple[str, ...] = field(default=())
+
+
+def _put(values: dict, sources: dict, key: str, value: float, source: str, known: set[str]) -> None:
+    if key in known:
+        values[key] = float(value)
+        sources[key] = source
+
+
+def tir_parameters(
+    tir: TirFile,
+    *,
+    load_n: float | None = None,
+    camber_deg: float = 0.0,
+    speed_kmh: float = 0.0,
+    coulomb_ratio: float | None = None,
+    belt_mode: bool = False,
+) -> TirMapping:
+    """Evaluate what the file determines at the operating point.
+
+    Parameters
+    ----------
+    tir : TirFile
+    load_n : float, optional
+        Vertical load F_z [N]; default the file's ``FNOMIN`` (which also becomes
+        ``operating.vertical_load_n``).
+    camber_deg : float
+        Camber angle [deg] for the camber dependence of the peak friction (``PDY3``).
+    speed_kmh : float
+        Speed [km/h] for the speed term of the free rolling radius (``Q_V1``).
+    coulomb_ratio : float, optional
+        mu_c / mu_s kept from the parameter set without the file; the MF model has no
+        Stribeck velocity law, so only the peak level is determined. None: mu_c not set.
+    belt_mode : bool
+        Also map the belt's lateral mode (``BELT_MASS``, ``FREQ_LAT`` or
+        ``LATERAL_STIFFNESS``, ``DAMP_LAT``) onto the tread oscillator (``tread.*``). Off by
+        default: the rigid-ring belt mode (40-80 Hz) is not the 100-150 Hz tread mode of
+        the models; the values are then only reported in the notes.
+
+    Returns
+    -------
+    TirMapping
+    """
+    known = set(study_keys())
+    values: dict[str, float] = {}
+    sources: dict[str, str] = {}
+    notes = list(tir.notes)
+    num = tir.number
+    mf6 = tir.family != "MF 5.2"
+
+    fz0 = num("FNOMIN")
+    r0 = num("UNLOADED_RADIUS")
+    if fz0 is None or fz0 <= 0.0:
+        raise TirError(f"{tir.path}: FNOMIN (nominal load) missing or not positive: needed for every load-dependent value")
+    fz = fz0 if load_n is None else float(load_n)
+    if load_n is None:
+        _put(values, sources, "operating.vertical_load_n", fz0, "FNOMIN", known)
+    lfzo = num("LFZO", 1.0)
+    fz0s = fz0 * lfzo
+    dfz = (fz - fz0s) / fz0s
+    p0 = num("NOMPRES")
+    pi = num("INFLPRES", p0)
+    dpi = (pi - p0) / p0 if mf6 and p0 else 0.0
+    conditions = {"load_n": fz, "camber_deg": camber_deg, "speed_kmh": speed_kmh, "pressure_pa": pi or math.nan}
+
+    cz0 = num("VERTICAL_STIFFNESS")
+    cz = None
+    if cz0 is not None:
+        cz = cz0 * num("LCZ", 1.0) * (1.0 + num("PFZ1", 0.0) * dpi)
+        _put(values, sources, "tire.vertical_stiffness_n_per_m", cz,
+             "VERTICAL_STIFFNESS" + (" * LCZ * (1 + PFZ1 dpi)" if mf6 else " * LCZ"), known)
+        if num("Q_FZ2", 0.0):
+            notes.append("Q_FZ2 (progressive vertical stiffness) ignored: the linear VERTICAL_STIFFNESS is used")
+    cz_damp = num("VERTICAL_DAMPING")
+    if cz_damp is not None:
+        _put(values, sources, "tire.vertical_damping_ns_per_m", cz_damp, "VERTICAL_DAMPING", known)
+
+    if r0 is not None and cz is not None and tir.has("BREFF", "DREFF", "FREFF"):
+        v0 = num("LONGVL", 16.7)
+        v = speed_kmh / 3.6
+        omega_r0_v0 = v / v0  # Omega R0 / V0 with Omega ~ V / R0
+        r_omega = r0 * (num("Q_RE0", 1.0) + num("Q_V1", 0.0) * omega_r0_v0**2)
+        rho = fz / fz0
+        re = r_omega - fz0 / cz * (num("DREFF") * math.atan(num("BREFF") * rho) + num("FREFF") * rho)
+        _put(values, sources, "operating.rolling_radius_m", re,
+             "UNLOADED_RADIUS, Q_RE0, Q_V1, BREFF, DREFF, FREFF, FNOMIN, VERTICAL_STIFFNESS", known)
+    elif r0 is not None:
+        notes.append("no BREFF/DREFF/FREFF: operating.rolling_radius_m not set (UNLOADED_RADIUS is the free radius, "
+                     "not the effective rolling radius)")
+
+    if tir.has("PDY1"):
+        gamma = math.radians(camber_deg)
+        lmuy = num("LMUY", 1.0)
+        if mf6:
+            camber_term = 1.0 - num("PDY3", 0.0) * math.sin(gamma) ** 2
+            pressure_term = 1.0 + num("PPY3", 0.0) * dpi + num("PPY4", 0.0) * dpi**2
+            formula = "|PDY1 + PDY2 dfz| (1 + PPY3 dpi + PPY4 dpi^2) (1 - PDY3 sin^2 gamma) LMUY"
+        else:
+            camber_term = 1.0 - num("PDY3", 0.0) * (gamma * num("LGAY", 1.0)) ** 2
+            pressure_term = 1.0
+            formula = "|PDY1 + PDY2 dfz| (1 - PDY3 (gamma LGAY)^2) LMUY"
+        level = num("PDY1") + num("PDY2", 0.0) * dfz
+        if num("PDY1") < 0.0:
+            notes.append("PDY1 < 0 (this file's sign convention for Fy): the magnitude is the friction level")
+        mu = abs(level) * pressure_term * camber_term * lmuy
+        if not mu > 0.0:
+            raise TirError(f"{tir.path}: peak lateral friction at {fz:g} N evaluates to {mu:g} (PDY1, PDY2, LMUY)")
+        _put(values, sources, "friction.mu_static", mu, formula + ", dfz = (Fz - LFZO FNOMIN)/(LFZO FNOMIN)", known)
+        if coulomb_ratio is not None:
+            _put(values, sources, "friction.mu_coulomb", coulomb_ratio * mu,
+                 f"mu_static * {coulomb_ratio:.4g} (ratio mu_c/mu_s of the set without the file)", known)
+        if tir.has("PCY1"):
+            c = num("PCY1") * num("LCY", 1.0)
+            notes.append(f"MF large-slip level sin(PCY1 LCY pi/2) = {math.sin(c * math.pi / 2):.3f} of the peak "
+                         "(information only: not the LuGre Coulomb level)")
+
+    _map_structure(tir, values, sources, notes, known if belt_mode else set(), dfz, dpi)
+    _map_contact(tir, values, sources, notes, known, fz, fz0, cz, r0, mf6)
+    return TirMapping(tir, values, sources, conditions, tuple(notes))
+
+
+def _map_structure(tir, values, sources, notes, known, dfz, dpi) -> None:
+    """Belt lateral mode -> the lateral tread oscillator (mass, stiffness, damping)."""
+    num = tir.number
+    mass = num("BELT_MASS")
+    if mass is None:
+        if tir.has("FREQ_LAT") or tir.has("LATERAL_STIFFNESS"):
+            notes.append("lateral structure keys without BELT_MASS: tread.* not set")
+        return
+    if tir.has("FREQ_LAT"):
+        k = mass * (2.0 * math.pi * num("FREQ_LAT")) ** 2
+        k_source = "BELT_MASS (2 pi FREQ_LAT)^2"
+    elif tir.has("LATERAL_STIFFNESS"):
+        k = num("LATERAL_STIFFNESS") * (1.0 + num("PCFY1", 0.0) * dfz + num("PCFY2", 0.0) * dfz**2) * (
+            1.0 + num("PCFY3", 0.0) * dpi)
+        k_source = "LATERAL_STIFFNESS (1 + PCFY1 dfz + PCFY2 dfz^2)(1 + PCFY3 dpi)"
+    else:
+        notes.append("BELT_MASS without FREQ_LAT or LATERAL_STIFFNESS: tread.* not set")
+        return
+    c = 2.0 * num("DAMP_LAT", 0.0) * math.sqrt(k * mass)
+    if not known:
+        notes.append(f"belt lateral mode in the file (m = {mass:.4g} kg, k = {k:.4g} N/m, c = {c:.4g} N s/m, "
+                     f"{math.sqrt(k / mass) / (2 * math.pi):.1f} Hz): not applied to tread.* (belt mode option)")
+        return
+    _put(values, sources, "tread.mass_kg", mass, "BELT_MASS", known)
+    _put(values, sources, "tread.lateral_stiffness_n_per_m", k, k_source, known)
+    if tir.has("DAMP_LAT"):
+        _put(values, sources, "tread.lateral_damping_ns_per_m", c, "2 DAMP_LAT sqrt(k m)", known)
+    notes.append("tread.* from the belt's lateral mode (MF-Swift rigid ring): an assumption, see docs/tir.md")
+
+
+def _map_contact(tir, values, sources, notes, known, fz, fz0, cz, r0, mf6) -> None:
+    """Contact patch length 2a and width 2b where the file gives their coefficients."""
+    num = tir.number
+    wanted = [k for k in ("tire.contact_length_m", "tire.tread_width_m") if k not in known]
+    if mf6 and r0 is not None and cz is not None and tir.has("Q_RA1", "Q_RA2"):
+        rho = fz / (cz * r0)
+        half_length = r0 * (num("Q_RA2") * rho + num("Q_RA1") * math.sqrt(rho))
+        _put(values, sources, "tire.contact_length_m", 2.0 * half_length,
+             "2 R0 (Q_RA2 rho + Q_RA1 sqrt(rho)), rho = Fz/(Cz R0)", known)
+        if tir.has("Q_RB1", "Q_RB2", "WIDTH"):
+            half_width = num("WIDTH") * (num("Q_RB2") * rho + num("Q_RB1") * rho ** (1.0 / 3.0))
+            _put(values, sources, "tire.tread_width_m", 2.0 * half_width,
+                 "2 WIDTH (Q_RB2 rho + Q_RB1 rho^(1/3))", known)
+    elif not mf6 and r0 is not None and tir.has("Q_A1", "Q_A2"):
+        half_length = r0 * (num("Q_A2") * fz / fz0 + num("Q_A1") * math.sqrt(fz / fz0))
+        _put(values, sources, "tire.contact_length_m", 2.0 * half_length,
+             "2 R0 (Q_A2 Fz/FNOMIN + Q_A1 sqrt(Fz/FNOMIN))", known)
+    if wanted and any(tir.has(k) for k in ("Q_RA1", "Q_A1")):
+        notes.append(f"contact patch in the file, but this polywear has no key {', '.join(wanted)}")
+
+
+def _condition(params: Any) -> dict[str, float]:
+    """The operating point of a parameter set that the .tir values depend on."""
+    return {"camber_deg": params.operating.camber_deg, "speed_kmh": params.operating.speed_kmh,
+            "coulomb_ratio": params.friction.mu_coulomb / params.friction.mu_static}
+
+
+def user_keys(config: str | Path | None, sets: list[str] | tuple[str, ...] = ()) -> set[str]:
+    """``"table.key"`` of every value the TOML file and ``--set`` give (the file is read
+    and checked by :func:`~polywear.params.load_params` first)."""
+    import tomllib
+
+    keys: set[str] = set()
+    if config is not None:
+        for table, body in tomllib.loads(Path(config).read_text(encoding="utf-8")).items():
+            keys |= {f"{table}.{key}" for key in body} if isinstance(body, dict) else {table}
+    return keys | {parse_override(item)[0] for item in sets}
+
+
+def load_with_tir(
+    tir_path: str | Path,
+    config: str | Path | None = None,
+    sets: list[str] | tuple[str, ...] = (),
+    belt_mode: bool = False,
+) -> tuple[Any, TirMapping]:
+    """Defaults, then the .tir values, then the TOML file, then ``--set`` overrides.
+
+    The file's values are evaluated at the resolved operating point: the user's load if
+    the TOML file or ``--set`` gives one (else ``FNOMIN``), camber and speed. Where the
+    user gives ``friction.mu_static``, the file does not set ``friction.mu_coulomb``
+    either (the user's ratio stands).
+
+    Returns
+    -------
+    (Params, TirMapping)
+    """
+    tir = read_tir(tir_path)
+    plain = load_params(config, sets)
+    given = user_keys(config, sets)
+    load_n = plain.operating.vertical_load_n if "operating.vertical_load_n" in given else None
+    mapping = tir_parameters(tir, load_n=load_n, belt_mode=belt_mode, **_condition(plain))
+    if "friction.mu_static" in given:
+        drop = "friction.mu_coulomb"
+        mapping = replace(mapping, values={k: v for k, v in mapping.values.items() if k != drop},
+                          sources={k: v for k, v in mapping.sources.items() if k != drop})
+    base = {key: value for key, value in mapping.values.items() if key not in given}
+    return load_params(config, sets, base=base), mapping
