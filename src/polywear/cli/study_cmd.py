@@ -8,7 +8,22 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, progress, write_figure
+from .common import (
+    PLOT_SUFFIXES,
+    ConfigOpt,
+    JsonOpt,
+    PlotOpt,
+    QuietOpt,
+    SetOpt,
+    UserError,
+    emit_json,
+    info,
+    load,
+    output_file,
+    progress,
+    write_figure,
+    write_output,
+)
 
 
 class Backend(str, Enum):
@@ -39,15 +54,24 @@ def study(
         Optional[Path],
         typer.Option("--out", "-o", help="Write the result: .nc (samples, outputs, indices), .csv (indices) or .json."),
     ] = None,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
+    connect_timeout: Annotated[
+        float, typer.Option("--connect-timeout", help="Seconds to wait for the Dask scheduler to answer.")
+    ] = 5.0,
+    quiet: QuietOpt = False,
 ) -> None:
     """Global sensitivity of the SEV band over the ranges given in the study table (docs/sensitivity.md)."""
+    output_file(out, "--out", (".nc", ".csv", ".json"))
+    output_file(plot, "--plot", PLOT_SUFFIXES)
+    if not 0.0 < connect_timeout <= 3600.0:
+        raise UserError(f"--connect-timeout {connect_timeout}: must be in (0, 3600] [s]")
     params = load(config, set_)
     chosen = backend.value if backend else ("dask" if scheduler else "processes")
     if chosen == "dask" and not scheduler:
         raise UserError("--backend dask: give --scheduler tcp://host:port")
     if scheduler and chosen != "dask":
         raise UserError(f"--scheduler needs the dask backend, not {chosen}")
+    if chosen == "dask":
+        _probe_scheduler(scheduler, connect_timeout)
     from ..analysis.global_sensitivity import global_sensitivity, study_parameters
 
     study_ = params.study
@@ -58,15 +82,16 @@ def study(
         n_runs = study_.n_base * (D + 1)
     where = scheduler if chosen == "dask" else f"{workers or 'all'} local workers" if chosen == "processes" else "serial"
     info(f"{study_.method} study of {params.model}: {D} parameters, {n_runs} runs ({study_.outputs}) on {where}", quiet)
-    with progress(f"{study_.method} study", total=n_runs, enabled=not quiet) as advance:
+    with progress(f"{study_.method} study", total=n_runs, enabled=not quiet) as advance, _connect_timeout(
+        connect_timeout if chosen == "dask" else None
+    ):
         try:
             result = global_sensitivity(params, backend=chosen, workers=workers, scheduler=scheduler,
                                         batch_size=batch_size, on_progress=advance)
         except OSError as exc:  # includes connection failures and timeouts of the Dask client
-            raise UserError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
+            raise UserError(f"cannot reach the Dask scheduler {scheduler} within {connect_timeout:g} s: {exc}") from None
     if out:
-        result.save(out)
-        info(f"wrote {out}", quiet)
+        write_output(out, result.save, quiet)
     if plot:
         write_figure(plot, result.figure, quiet)
     summary = result.summary()
@@ -74,6 +99,28 @@ def study(
         emit_json(summary)
     else:
         _print_summary(result)
+
+
+def _probe_scheduler(address: str, seconds: float) -> None:
+    """Connect to the Dask scheduler once before any work: a wrong address fails in ``seconds``."""
+    from distributed import Client
+
+    try:
+        with Client(address, timeout=f"{seconds}s"):
+            pass
+    except (OSError, ValueError, TypeError) as exc:  # unreachable, timed out, malformed address
+        raise UserError(f"cannot reach the Dask scheduler {address} within {seconds:g} s: {exc}") from None
+
+
+def _connect_timeout(seconds: float | None):
+    """Dask's connect timeout set to ``seconds`` for the block (nothing when None)."""
+    from contextlib import nullcontext
+
+    if seconds is None:
+        return nullcontext()
+    import dask
+
+    return dask.config.set({"distributed.comm.timeouts.connect": f"{seconds}s"})
 
 
 def _print_summary(result) -> None:
