@@ -31,12 +31,12 @@ def init(
 ) -> None:
     """Write a commented TOML file with every key at its default."""
     from ..params import default_toml
-    from .common import UserError
+    from .common import UserError, output_file, write_output
 
+    output_file(path, "params init", (".toml",))
     if path.exists() and not force:
         raise UserError(f"{path}: exists (use --force to overwrite)")
-    path.write_text(default_toml())
-    info(f"wrote {path}")
+    write_output(path, lambda tmp: tmp.write_text(default_toml(), encoding="utf-8"))
 
 
 @app.command("from-tir")
