@@ -9,19 +9,28 @@ from typing import Annotated, Optional
 import typer
 
 from .common import (
+    PLOT_SUFFIXES,
     ConfigOpt,
     JsonOpt,
     OutOpt,
     PlotOpt,
+    QuietOpt,
     SetOpt,
     UserError,
+    check_count,
     emit_json,
-    info,
     load,
-    progress,
     one_axes,
+    output_file,
+    progress,
     write_figure,
+    write_output,
 )
+
+MAX_POINTS = 100_000
+"""Most samples of a curve or per loop."""
+MAX_VELOCITY_M_PER_S = 1000.0
+"""Largest sliding velocity accepted [m/s] (far beyond any tire)."""
 
 app = typer.Typer(help="LuGre friction: static curve, hysteresis loops, fits to measured mu(v) and loops.",
                   no_args_is_help=True, rich_markup_mode=None)
@@ -39,22 +48,24 @@ def _operating_sliding_velocity(params) -> float:
     return float(aux[model.aux_names.index("sliding_velocity")])
 
 
-def _write_plot(result, path: Path, extra=None) -> None:
+def _write_plot(result, path: Path, extra=None, quiet: bool = False) -> None:
     def draw(ax):
         result.plot(ax=ax)
         if extra is not None:
             extra(ax)
 
-    write_figure(path, lambda: one_axes(draw, (6.4, 4.4)))
+    write_figure(path, lambda: one_axes(draw, (6.4, 4.4)), quiet)
 
 
-def _save(result, out: Path | None) -> None:
-    if out is None:
-        return
-    if out.suffix != ".nc":
-        raise UserError(f"--out {out}: expected a .nc (netCDF) file name")
-    result.save(out)
-    info(f"wrote {out}")
+def _save(result, out: Path | None, quiet: bool = False) -> None:
+    if out is not None:
+        write_output(out, result.save, quiet)
+
+
+def _velocity(value: float, option: str) -> float:
+    if not (math.isfinite(value) and abs(value) <= MAX_VELOCITY_M_PER_S):
+        raise UserError(f"{option} {value}: must be finite, at most {MAX_VELOCITY_M_PER_S:g} in size [m/s]")
+    return value
 
 
 @app.command("curve")
@@ -66,6 +77,7 @@ def curve(
     json_: JsonOpt = False,
     plot: PlotOpt = None,
     out: OutOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Static (Stribeck) friction curve mu_ss(v), its falling branch and the operating point."""
     import numpy as np
@@ -73,6 +85,10 @@ def curve(
     from ..analysis.friction import steady_curve
     from ..physics.lugre import steady_friction, steady_friction_slope
 
+    output_file(out, "--out", (".nc",))
+    output_file(plot, "--plot", PLOT_SUFFIXES)
+    _velocity(v_max, "--v-max")
+    check_count(points, "--points", 3, MAX_POINTS)
     params = load(config, set_)
     f = params.friction
     result = steady_curve(f, np.linspace(-v_max, v_max, points))
@@ -80,14 +96,14 @@ def curve(
     args = (f.sigma2_s_per_m, f.mu_static, f.mu_coulomb, f.stribeck_velocity_m_per_s, f.stribeck_exponent)
     mu_op = float(steady_friction(v_op, *args))
     slope_op = float(steady_friction_slope(v_op, *args)) if v_op != 0.0 else None
-    _save(result, out)
+    _save(result, out, quiet)
     if plot:
 
         def mark_operating_point(ax):
             ax.plot([v_op], [mu_op], "o", color="C3", label=f"operating point, $v_r$ = {v_op:.3g} m/s")
             ax.legend(fontsize="small")
 
-        _write_plot(result, plot, mark_operating_point)
+        _write_plot(result, plot, mark_operating_point, quiet)
     summary = {
         **result.summary(),
         "operating_sliding_velocity_m_per_s": v_op,
@@ -115,6 +131,8 @@ def _parse_frequencies(text: str) -> list[float]:
         raise UserError(f"--frequencies {text!r}: expected comma-separated numbers, e.g. 0.5,5,50") from None
     if not values or any(not math.isfinite(x) or x <= 0.0 for x in values):
         raise UserError(f"--frequencies {text!r}: need one or more finite frequencies > 0 [Hz]")
+    if len(values) > 100:
+        raise UserError(f"--frequencies: {len(values)} given, at most 100")
     return values
 
 
@@ -137,22 +155,27 @@ def loops(
     json_: JsonOpt = False,
     plot: PlotOpt = None,
     out: OutOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Friction hysteresis loops for v_r = v_mean + v_amplitude sin(2 pi f t) (paper Fig. 1)."""
     from ..analysis.friction import hysteresis_loops
 
-    params = load(config, set_)
+    output_file(out, "--out", (".nc",))
+    output_file(plot, "--plot", PLOT_SUFFIXES)
     freqs = _parse_frequencies(frequencies)
+    _velocity(v_amplitude, "--v-amplitude")
+    check_count(points, "--points", 8, MAX_POINTS)
+    if v_mean is not None:
+        _velocity(v_mean, "--v-mean")
+    params = load(config, set_)
     if v_mean is None:
         v_mean = _operating_sliding_velocity(params)
-    elif not math.isfinite(v_mean):
-        raise UserError(f"--v-mean {v_mean}: must be finite")
-    with progress("loops", total=len(freqs), enabled=not json_) as advance:
+    with progress("loops", total=len(freqs), enabled=not quiet) as advance:
         result = hysteresis_loops(params.friction, v_mean, v_amplitude, freqs, points_per_period=points,
                                   progress=advance)
-    _save(result, out)
+    _save(result, out, quiet)
     if plot:
-        _write_plot(result, plot)
+        _write_plot(result, plot, quiet=quiet)
     summary = result.summary()
     if json_:
         emit_json(summary)
@@ -182,22 +205,23 @@ def _data_path(file: Path | None, sample: bool, kind: str) -> Path:
     return sample_path(kind) if sample else file
 
 
-def _check_out(out: Path | None) -> None:
-    if out is not None and out.suffix not in (".toml", ".nc"):
-        raise UserError(f"--out {out}: expected a .toml (parameter file) or .nc (fit result) file name")
+def _check_outputs(out: Path | None, plot: Path | None) -> None:
+    output_file(out, "--out", (".toml", ".nc"))
+    output_file(plot, "--plot", PLOT_SUFFIXES)
 
 
-def _report_fit(result, params, path: Path, out: Path | None, plot: Path | None, json_: bool) -> None:
+def _report_fit(result, params, path: Path, out: Path | None, plot: Path | None, json_: bool,
+                quiet: bool = False) -> None:
     """Write --out/--plot, then the summary: JSON, or a table and the [friction] snippet."""
     if out is not None and out.suffix == ".toml":
         from ..params import to_toml
 
-        out.write_text(to_toml(result.updated_params(params), comments=True))
-        info(f"wrote {out}")
+        text = to_toml(result.updated_params(params), comments=True)
+        write_output(out, lambda tmp: tmp.write_text(text, encoding="utf-8"), quiet)
     else:
-        _save(result, out)
+        _save(result, out, quiet)
     if plot:
-        _write_plot(result, plot)
+        _write_plot(result, plot, quiet=quiet)
     summary = result.summary()
     if json_:
         emit_json(summary)
@@ -239,12 +263,13 @@ def fit(
     json_: JsonOpt = False,
     plot: PlotOpt = None,
     out: FitOutOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Fit mu_s, mu_c, v_s, delta, sigma2 of the static curve to measured steady mu(v) points."""
     from ..analysis.friction import STEADY_PARAMETERS, FrictionDataError, fit_steady_curve, read_steady_csv
 
     path = _data_path(file, sample, "steady")
-    _check_out(out)
+    _check_outputs(out, plot)
     params = load(config, set_)
     unknown = sorted(set(fix or ()) - set(STEADY_PARAMETERS))
     if unknown:
@@ -257,7 +282,7 @@ def fit(
         result = fit_steady_curve(velocity, mu, params.friction, fit=free, confidence=confidence, source=str(path))
     except FrictionDataError as exc:
         raise UserError(str(exc)) from None
-    _report_fit(result, params, path, out, plot, json_)
+    _report_fit(result, params, path, out, plot, json_, quiet)
 
 
 @app.command("fit-loops")
@@ -277,19 +302,20 @@ def fit_loops(
     json_: JsonOpt = False,
     plot: PlotOpt = None,
     out: FitOutOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Fit sigma0 and sigma1 to measured periodic loops (static-curve keys from -c/--set)."""
     from ..analysis.friction import FrictionDataError, read_loops_csv
     from ..analysis.friction import fit_loops as fit_measured_loops
 
     path = _data_path(file, sample, "loops")
-    _check_out(out)
+    _check_outputs(out, plot)
     params = load(config, set_)
     try:
         data = read_loops_csv(path)
-        with progress("fitting loops", total=None, enabled=not json_) as advance:
+        with progress("fitting loops", total=None, enabled=not quiet) as advance:
             result = fit_measured_loops(*data, params.friction, harmonics=harmonics, confidence=confidence,
                                         progress=advance, source=str(path))
     except FrictionDataError as exc:
         raise UserError(str(exc)) from None
-    _report_fit(result, params, path, out, plot, json_)
+    _report_fit(result, params, path, out, plot, json_, quiet)
