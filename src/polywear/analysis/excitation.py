@@ -10,6 +10,7 @@ steady rolling and starts outside it grow to the stable cycle.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Callable
 
 import numpy as np
 
@@ -106,11 +107,13 @@ def settling_time(diagram: BifurcationDiagram, speed_kmh: float, cycles, factor:
     return float(np.clip(factor / min(rates), *bounds))
 
 
-def excitation_portraits(diagram: BifurcationDiagram, speeds_kmh, duration_s: float | None = None) -> list[ExcitationPortrait]:
+def excitation_portraits(diagram: BifurcationDiagram, speeds_kmh, duration_s: float | None = None,
+                         on_run: Callable[[], None] | None = None) -> list[ExcitationPortrait]:
     """Cycles from the diagram and trajectories from inside/outside each cycle at every speed.
 
     ``duration_s`` [s] per start; by default long enough for the slowest attractor there
-    to settle (:func:`settling_time`)."""
+    to settle (:func:`settling_time`). ``on_run()`` is called after each simulation
+    (progress)."""
     params = diagram.params
     model = get_model(params.model)
     p = model.pack(params)
@@ -139,6 +142,8 @@ def excitation_portraits(diagram: BifurcationDiagram, speeds_kmh, duration_s: fl
         runs = []
         for label, initial in starts.items():
             runs.append(replace(simulate(params, speed, duration, initial=initial), label=label))
+            if on_run is not None:
+                on_run()
         out.append(ExcitationPortrait(speed, regime, cycles, runs))
     return out
 

@@ -6,7 +6,23 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, write_figure
+from .common import (
+    MAX_SPEED_KMH,
+    PLOT_SUFFIXES,
+    ConfigOpt,
+    JsonOpt,
+    PlotOpt,
+    QuietOpt,
+    SetOpt,
+    UserError,
+    emit_json,
+    info,
+    load,
+    output_file,
+    progress,
+    write_figure,
+)
+from .simulate_cmd import MAX_DURATION_S
 
 
 def excitation(
@@ -24,26 +40,35 @@ def excitation(
     ] = None,
     json_: JsonOpt = False,
     plot: PlotOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Soft and hard self-excitation in the phase plane (paper Fig. 2).
 
     Cycles from the continuation (stable solid, unstable dashed) and trajectories started
     inside and outside each of them, at soft and hard speeds."""
+    output_file(plot, "--plot", PLOT_SUFFIXES)
+    if speed and not all(0.0 < v <= MAX_SPEED_KMH for v in speed):
+        raise UserError(f"--speed {speed}: speeds must be in (0, {MAX_SPEED_KMH:g}] [km/h]")
+    if speed and len(speed) > 10:
+        raise UserError(f"--speed: {len(speed)} speeds given, at most 10 (one portrait each)")
+    if duration is not None and not duration <= MAX_DURATION_S:
+        raise UserError(f"--duration {duration}: must be at most {MAX_DURATION_S:g} [s]")
     params = load(config, set_)
     from ..analysis.bifurcation import bifurcation_diagram
     from ..analysis.excitation import default_speeds, excitation_portraits, portraits_figure
 
-    if speed and any(v <= 0 for v in speed):
-        raise UserError(f"--speed {speed}: speeds must be positive [km/h]")
-    info("excitation: bifurcation diagram ...")
-    diagram = bifurcation_diagram(params, (min([20.0, *(speed or [])]) * 0.5, max([300.0, *(speed or [])]) * 1.1))
+    info("excitation: bifurcation diagram ...", quiet)
+    with progress("continuation steps", total=None, enabled=not quiet) as advance:
+        diagram = bifurcation_diagram(params, (min([20.0, *(speed or [])]) * 0.5, max([300.0, *(speed or [])]) * 1.1),
+                                      on_step=lambda b, v: advance(1))
     speeds = speed or default_speeds(diagram, params.operating.speed_kmh)
     if not speeds:
         raise UserError("no self-excited vibration in 10-330 km/h: give --speed")
-    info(f"excitation: simulating at {', '.join(f'{v:.1f}' for v in speeds)} km/h ...")
-    portraits = excitation_portraits(diagram, speeds, duration)
+    info(f"excitation: simulating at {', '.join(f'{v:.1f}' for v in speeds)} km/h ...", quiet)
+    with progress("excitation: simulations", total=None, enabled=not quiet) as advance:
+        portraits = excitation_portraits(diagram, speeds, duration, on_run=advance)
     if plot:
-        write_figure(plot, lambda: portraits_figure(portraits))
+        write_figure(plot, lambda: portraits_figure(portraits), quiet)
     summary = {"model": params.model, "portraits": [p.summary() for p in portraits]}
     if json_:
         emit_json(summary)
