@@ -6,7 +6,22 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, PlotOpt, SetOpt, UserError, emit_json, info, load, one_axes, write_figure
+from .common import (
+    PLOT_SUFFIXES,
+    ConfigOpt,
+    JsonOpt,
+    PlotOpt,
+    QuietOpt,
+    SetOpt,
+    UserError,
+    check_speed_range,
+    emit_json,
+    info,
+    load,
+    one_axes,
+    output_file,
+    write_figure,
+)
 
 DEFAULT_KEYS = ("operating.toe_deg", "adhesion_scale", "friction.mu_static", "tread.lateral_damping_ns_per_m")
 
@@ -31,12 +46,18 @@ def design(
     ] = (20.0, 300.0),
     json_: JsonOpt = False,
     plot: PlotOpt = None,
+    quiet: QuietOpt = False,
 ) -> None:
     """Least change of each parameter (or a combination) that clears the operating range of SEV.
 
     Each candidate is verified by a full bifurcation diagram (paper section 6, Figs. 10-12).
     Keys: any configuration key, or adhesion_scale (mu_s and mu_c scaled together).
     """
+    output_file(plot, "--plot", PLOT_SUFFIXES)
+    operating_range = check_speed_range(operating_range, "--operating-range")
+    speed_range = check_speed_range(speed_range)
+    if not max_change <= 10.0:
+        raise UserError(f"--max-change {max_change}: must be at most 10 (a relative change)")
     params = load(config, set_)
     from ..analysis.design import clear_operating_range
     from ..analysis.sensitivity import parameter_direction
@@ -46,7 +67,7 @@ def design(
     model = get_model(params.model)
     for key in (*keys, *(combine or ())):
         parameter_direction(model, params, key)  # unknown keys -> ParameterError (exit 2)
-    info(f"design: up to {len(keys) + bool(combine)} options, each a few bifurcation diagrams ...")
+    info(f"design: up to {len(keys) + bool(combine)} options, each a few bifurcation diagrams ...", quiet)
     try:
         result = clear_operating_range(
             params, tuple(operating_range), keys=keys, combine=tuple(combine or ()),
@@ -55,7 +76,7 @@ def design(
     except ValueError as exc:
         raise UserError(str(exc)) from None
     if plot:
-        write_figure(plot, lambda: one_axes(result.plot))
+        write_figure(plot, lambda: one_axes(result.plot), quiet)
     summary = result.summary()
     if json_:
         emit_json(summary)
