@@ -29,49 +29,91 @@ class Report:
 
 
 def operating_verdict(diagram, params: Params, speed_kmh: float) -> dict:
-    """What happens at one speed: SEV or not, amplitude, trigger, wear indicators."""
+    """What happens at one speed: the regime, amplitude and frequency, trigger, wear indicators.
+
+    Regimes: ``"no SEV"``, ``"unstable rolling (soft SEV)"``, ``"hard SEV region"`` (a
+    stable cycle of the continuation there), and, where steady rolling is unstable or the
+    speed lies in the SEV band but no continued cycle is stable, the motion a simulation
+    reaches (:func:`polywear.analysis.attractor.reached_attractor`): period-doubled
+    (stick-slip), quasi-periodic or chaotic, a cycle off the continued branches, or
+    static divergence (a real eigenvalue: the tread drifts, it does not vibrate).
+    """
+    import numpy as np
+
+    from .analysis.attractor import reached_attractor
+    from .analysis.bifurcation import statically_divergent
     from .analysis.wear import wear_indicators
     from .models import get_model
+    from .models.base import kmh_to_ms
 
     model = get_model(params.model)
     p = model.pack(params)
     x = diagram.state_names.index("x")
-    in_linear = any(a <= speed_kmh <= b for a, b in diagram.linear_band_kmh)
+    V = kmh_to_ms(speed_kmh)
+    lam = np.linalg.eigvals(model.jacobian(model.equilibrium(V, p), V, p))
+    rolling_stable = not np.any(lam.real > 0.0)
+    divergent = statically_divergent(lam)
     in_sev = any(a <= speed_kmh <= b for a, b in diagram.sev_band_kmh)
-    cycles = diagram.cycles_at(speed_kmh) if in_sev else []
+    cycles = diagram.cycles_at(speed_kmh) if (in_sev or not rolling_stable) else []
     stable = [c for c in cycles if c.stable]
     unstable = [c for c in cycles if not c.stable]
     verdict = {
         "speed_kmh": speed_kmh,
-        "steady_rolling_stable": not in_linear,
+        "steady_rolling_stable": rolling_stable,
         "in_sev_band": in_sev,
-        "regime": "unstable rolling (soft SEV)" if in_linear else ("hard SEV region" if in_sev else "no SEV"),
     }
+    if divergent:
+        verdict["divergence"] = True
     if stable:
         big = stable[-1]
+        verdict["regime"] = "hard SEV region" if rolling_stable else "unstable rolling (soft SEV)"
         verdict["sev_amplitude_x_m"] = float(big.amplitude[x])
+        verdict["frequency_hz"] = 1.0 / big.period
         verdict["wear"] = wear_indicators(model, p, big.orbit, params.operating.rolling_radius_m).summary()
-    if unstable and not in_linear:
+    elif in_sev or not rolling_stable:
+        found = reached_attractor(diagram, speed_kmh)
+        verdict["regime"] = found.regime
+        verdict["attractor"] = found.summary()
+        if found.oscillating:
+            verdict["sev_amplitude_x_m"] = float(found.amplitude[x])
+            verdict["frequency_hz"] = found.dominant_frequency_hz
+    else:
+        verdict["regime"] = "no SEV"
+    if unstable and rolling_stable and "sev_amplitude_x_m" in verdict:
         verdict["trigger_amplitude_x_m"] = float(min(c.amplitude[x] for c in unstable))
     sev = diagram.sev_band_kmh
+    open_at = diagram.open_edges
     if sev:
-        verdict["margin_to_first_bifurcation_kmh"] = sev[0][0] - speed_kmh
-        verdict["margin_to_second_bifurcation_kmh"] = sev[-1][1] - speed_kmh
+        verdict["margin_to_first_bifurcation_kmh"] = None if "lower" in open_at else sev[0][0] - speed_kmh
+        verdict["margin_to_second_bifurcation_kmh"] = None if "upper" in open_at else sev[-1][1] - speed_kmh
     return verdict
 
 
 def _sentence(v: dict) -> str:
     s = f"At {v['speed_kmh']:.0f} km/h: "
-    if v["regime"] == "no SEV":
+    regime = v["regime"]
+    if regime == "no SEV" and "attractor" not in v:
         return s + "no self-excited vibration; steady rolling is stable and no stable limit cycle exists."
-    if "sev_amplitude_x_m" in v:
-        w = v["wear"]
-        s += (
-            f"self-excited vibration of {v['sev_amplitude_x_m'] * 1e3:.3f} mm at {w['frequency_hz']:.1f} Hz "
-            f"(polygon order {w['polygon_order']:.2f}, RMS tread acceleration {w['rms_acceleration']:.0f} m/s^2, "
-            f"uneven-wear index {w['uneven_wear_index']:.3f})"
-        )
-    if v["regime"].startswith("hard"):
+    if "attractor" in v:
+        a = v["attractor"]
+        rolling = ("steady rolling is unstable (static divergence: a real eigenvalue)" if v.get("divergence")
+                   else "steady rolling is unstable" if not v["steady_rolling_stable"]
+                   else "steady rolling is stable")
+        s += f"{rolling} and no continued period-1 cycle is stable; a {a['simulated_s']:g} s simulation from {a['start']} "
+        if regime == "static divergence":
+            return s + f"comes to rest {a['offset_x_m'] * 1e3:+.3f} mm away from steady rolling: static divergence, not SEV."
+        if regime == "no SEV":
+            return s + "returns to steady rolling: no self-excited vibration."
+        mpp = f", {a['maxima_per_period']} maxima of x per period" if a["maxima_per_period"] > 1 else ""
+        return s + (f"ends in {regime}: {a['amplitude_x_m'] * 1e3:.3f} mm at a dominant frequency of "
+                    f"{a['dominant_frequency_hz']:.1f} Hz{mpp}.")
+    w = v["wear"]
+    s += (
+        f"self-excited vibration of {v['sev_amplitude_x_m'] * 1e3:.3f} mm at {w['frequency_hz']:.1f} Hz "
+        f"(polygon order {w['polygon_order']:.2f}, RMS tread acceleration {w['rms_acceleration']:.0f} m/s^2, "
+        f"uneven-wear index {w['uneven_wear_index']:.3f})"
+    )
+    if regime.startswith("hard"):
         s += (
             f"; steady rolling is stable, but a disturbance of the tread above "
             f"{v.get('trigger_amplitude_x_m', float('nan')) * 1e3:.3f} mm starts it (hard excitation)."
@@ -108,6 +150,8 @@ def run_report(
     files: dict[str, str] = {}
     speed = params.operating.speed_kmh
     operating_range = operating_range_kmh or (max(speed - 30.0, 1.0), speed + 20.0)
+    # the analysed range holds the operating range (the diagram widens it further where needed)
+    speed_range_kmh = (min(speed_range_kmh[0], operating_range[0]), max(speed_range_kmh[1], operating_range[1]))
 
     def save(fig, name, caption):
         fig.savefig(out_dir / name, dpi=120, bbox_inches="tight")
@@ -143,7 +187,8 @@ def run_report(
     sens = local_sensitivity(params, diagram=diagram)
     sens.save(out_dir / "sensitivity.csv")
     files["sensitivity.csv"] = "sensitivity rows (CSV)"
-    save(sens.figure(), "sensitivity.png", "Normalized sensitivities S = (p/V) dV/dp of every bifurcation speed (paper Fig. 9)")
+    if sens.rows:
+        save(sens.figure(), "sensitivity.png", "Normalized sensitivities S = (p/V) dV/dp of every bifurcation speed (paper Fig. 9)")
 
     say("design options for the operating range")
     design = clear_operating_range(
@@ -176,8 +221,13 @@ def _html(params: Params, summary: dict, verdict: dict, files: dict) -> str:
     b = summary["bifurcation"]
     e = html.escape
 
+    range_lo, range_hi = b["speed_range_kmh"]
+
+    def edge(v, limit, word):  # None: the band is open at that end of the analysed range
+        return f"{v:.1f}" if v is not None else f"{word} {limit:g}"
+
     def band(bands):
-        return ", ".join(f"{lo:.1f}-{hi:.1f} km/h" for lo, hi in bands) or "none"
+        return ", ".join(f"{edge(lo, range_lo, 'below')}-{edge(hi, range_hi, 'above')} km/h" for lo, hi in bands) or "none"
 
     rows = "".join(
         f"<tr><td>Hopf</td><td>{h['speed_kmh']:.2f}</td><td>{h['frequency_hz']:.1f}</td><td>{e(h['criticality'])}, mode {e(h['mode'])}</td></tr>"
@@ -185,12 +235,26 @@ def _html(params: Params, summary: dict, verdict: dict, files: dict) -> str:
     ) + "".join(
         f"<tr><td>fold of cycles</td><td>{f['speed_kmh']:.2f}</td><td>{f['frequency_hz']:.1f}</td><td>amplitude {f['amplitude_x_m'] * 1e3:.3f} mm</td></tr>"
         for f in b["folds"]
+    ) + "".join(
+        f"<tr><td>{label}</td><td>{v:.2f}</td><td></td><td>{note}</td></tr>"
+        for label, key, note in (
+            ("period doubling", "period_doublings", "a Floquet multiplier crosses -1: the period-1 cycle hands over to a doubled one"),
+            ("torus (Neimark-Sacker)", "torus_bifurcations", "a complex pair of multipliers leaves the unit circle"),
+            ("static divergence", "real_eigenvalue_crossings_kmh", "a real eigenvalue of steady rolling crosses zero (no oscillation)"),
+        )
+        for v in b.get(key, [])
     )
+    notes = "".join(f"<li>{e(n)}</li>" for n in [*b.get("range_notes", []), *b.get("warnings", [])])
+    sens_notes = "".join(f"<li>{e(n)}</li>" for n in summary["sensitivity"].get("notes", []))
     design_rows = "".join(
         f"<tr><td>{e(' + '.join(o['labels']))}</td><td>{', '.join(f'{n:g} &rarr; {v:.4g}' for n, v in zip(o['nominal'], o['values']))}</td>"
         f"<td>{o['relative_change']:.0%}</td><td>{'yes' if o['achieved'] else 'no'}</td><td>{band(o['sev_band_kmh'])}</td></tr>"
         for o in summary["design"]["options"]
     )
+    if not summary["design"]["options"]:
+        lo, hi = summary["design"]["operating_range_kmh"]
+        reason = summary["design"].get("reason") or f"the SEV band does not reach the operating range {lo:.0f}-{hi:.0f} km/h"
+        design_rows = f"<tr><td colspan='5'>no design option: {e(reason)}</td></tr>"
     figures = "".join(
         f"<figure><img src='{e(name)}' alt='{e(caption)}'><figcaption>{e(caption)}</figcaption></figure>"
         for name, caption in files.items()
@@ -209,7 +273,9 @@ figure{{margin:1.5em 0}}img{{max-width:100%}}.verdict{{background:#fff4e0;paddin
 <ul><li>steady rolling unstable (linear band): {band(b['linear_band_kmh'])}</li>
 <li>SEV after a large disturbance (first to second bifurcation speed): {band(b['sev_band_kmh'])}</li>
 <li>hard excitation (stable rolling and stable SEV coexist): {band(b['hard_regions_kmh'])}</li></ul>
-<table><tr><th>point</th><th>speed [km/h]</th><th>frequency [Hz]</th><th></th></tr>{rows}</table>
+<p>Analysed speed range {range_lo:g}-{range_hi:g} km/h.</p><ul>{notes}</ul>
+<table><tr><th>point</th><th>speed [km/h]</th><th>frequency [Hz]</th><th></th></tr>{rows or "<tr><td colspan='4'>no Hopf point, fold or other bifurcation in the analysed range</td></tr>"}</table>
+<h2>Sensitivities</h2><ul>{sens_notes or "<li>see sensitivity.png and sensitivity.csv</li>"}</ul>
 <h2>Design options for {summary['design']['operating_range_kmh'][0]:.0f}-{summary['design']['operating_range_kmh'][1]:.0f} km/h</h2>
 <table><tr><th>change</th><th>values</th><th>relative change</th><th>range cleared</th><th>SEV band after</th></tr>{design_rows}</table>
 {figures}

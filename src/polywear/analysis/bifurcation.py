@@ -25,7 +25,7 @@ from .. import __version__
 from ..models import get_model
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, to_toml
-from ..solvers.continuation import Branch, ContinuationSettings, continue_from_hopf
+from ..solvers.continuation import Branch, BranchEnd, ContinuationSettings, continue_from_hopf
 from .stability import HopfPoint, StabilityResult, stability_analysis
 
 __all__ = [
@@ -148,8 +148,7 @@ class BifurcationDiagram:
         for a, b in zip(points[:-1], points[1:]):
             V = kmh_to_ms(0.5 * (a + b))
             lam = np.linalg.eigvals(model.jacobian(model.equilibrium(V, p), V, p))
-            grow = lam[lam.real > 0.0]
-            if b > a and grow.size and np.all(grow.imag == 0.0):
+            if b > a and statically_divergent(lam):
                 out.append((a, b))
         return _union(out)
 
@@ -406,6 +405,15 @@ class BifurcationDiagram:
 _UNITS = {"x": (1e3, "mm"), "alpha": (1e3, "mrad"), "beta": (1e3, "mrad"), "gamma": (1e3, "mrad")}
 
 
+def statically_divergent(eigenvalues: np.ndarray) -> bool:
+    """True if steady rolling is unstable through a real eigenvalue that crossed zero, not
+    through an oscillatory (Hopf) pair: an odd number of real positive eigenvalues (det J
+    changed sign) and no growing complex pair. A Hopf pair that split into two real
+    positive eigenvalues (strong negative damping) is oscillatory, not divergence."""
+    grow = eigenvalues[eigenvalues.real > 0.0]
+    return bool(grow.size) and bool(np.all(grow.imag == 0.0)) and grow.size % 2 == 1
+
+
 def _open_at(edges: list[str]) -> str | None:
     """"lower", "upper", "both" or None."""
     return {0: None, 1: edges[0] if edges else None, 2: "both"}[len(edges)]
@@ -582,7 +590,7 @@ def bifurcation_diagram(
         branch = continue_from_hopf(model, p, hopf, bounds, settings, on_step=callback)
         branches.append(branch)
         end_hopf = None
-        if branch.end_reason.startswith("returned") and branch.points:
+        if branch.end is BranchEnd.HOPF_REACHED and branch.points:
             end_hopf = _nearest_hopf(stab.hopf_points, branch.points[-1], exclude=k)
             if end_hopf is not None:
                 reached.add(end_hopf)
@@ -591,7 +599,11 @@ def bifurcation_diagram(
                 "branch": b,
                 "from_hopf_kmh": hopf.speed_kmh,
                 "to_hopf_kmh": stab.hopf_points[end_hopf].speed_kmh if end_hopf is not None else None,
+                "ended": branch.end.value,
+                "failed": branch.failed,
+                "at_speed_kmh": ms_to_kmh(branch.end_speed),
                 "end_reason": branch.end_reason,
+                "recoveries": list(branch.recoveries),
                 "n_points": len(branch.points),
                 "max_trivial_multiplier_error": max((pt.trivial_multiplier_error for pt in branch.points), default=0.0),
             }

@@ -153,9 +153,11 @@ class SensitivityResult:
     method: str
     rows: list[dict]
     settings: dict = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    """Why a quantity has no row (no bifurcation speed in the range, a band edge open at a range end)."""
 
     def summary(self) -> dict:
-        return {"model": self.params.model, "method": self.method, "rows": self.rows}
+        return {"model": self.params.model, "method": self.method, "rows": self.rows, "notes": self.notes}
 
     def table(self):
         """pandas DataFrame of the rows."""
@@ -218,8 +220,11 @@ def _quantities(diagram: BifurcationDiagram) -> dict[str, tuple[str, object]]:
     for k, f in enumerate(fold_points, 1):
         out[f"fold_{k}"] = ("fold", f)
     sev = diagram.sev_band_kmh
+    open_at = diagram.open_edges
     if sev:
-        for name, speed in (("first_bifurcation", sev[0][0]), ("second_bifurcation", sev[-1][1])):
+        for name, speed, edge in (("first_bifurcation", sev[0][0], "lower"), ("second_bifurcation", sev[-1][1], "upper")):
+            if edge in open_at:  # the range limit, not a bifurcation speed
+                continue
             match = min(out.items(), key=lambda kv: abs(_speed_kmh(kv[1]) - speed), default=None)
             if match is not None and abs(_speed_kmh(match[1]) - speed) < 1e-6 * max(speed, 1.0):
                 out[name] = match[1]
@@ -285,7 +290,22 @@ def local_sensitivity(
         method=method,
         rows=rows,
         settings={"step": step, "speed_range_kmh": list(speed_range_kmh), "keys": list(keys)},
+        notes=_notes(diagram, nominal_q),
     )
+
+
+def _notes(diagram: BifurcationDiagram, quantities: dict) -> list[str]:
+    """Why the first/second bifurcation speed (or everything) has no sensitivity."""
+    lo, hi = diagram.speed_range_kmh
+    if not quantities:
+        return [f"no Hopf point and no fold of cycles in the analysed range {lo:g}-{hi:g} km/h: "
+                "no bifurcation speed to differentiate"]
+    notes = []
+    for name, edge, limit in (("first_bifurcation", "lower", lo), ("second_bifurcation", "upper", hi)):
+        if edge in diagram.open_edges:
+            notes.append(f"{name}: the SEV band runs into the {edge} end of the analysed range ({limit:g} km/h); "
+                         "there is no bifurcation speed to differentiate")
+    return notes
 
 
 def _finite_difference(params, key, p0, method, step, speed_range_kmh, nominal_q, diagram_options):

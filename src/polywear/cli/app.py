@@ -72,11 +72,17 @@ def _is_user_error(exc: Exception) -> bool:
     return isinstance(exc, UserError) or (params is not None and isinstance(exc, params.ParameterError))
 
 
-def _interrupted(exc: BaseException) -> bool:
-    """Ctrl-C: a KeyboardInterrupt, or click's Abort raised from one."""
-    return isinstance(exc, KeyboardInterrupt) or (
-        isinstance(exc, typer.Abort) and isinstance(exc.__cause__ or exc.__context__, KeyboardInterrupt)
-    )
+def _interrupted(exc: BaseException | None) -> bool:
+    """Ctrl-C: a KeyboardInterrupt anywhere in the exception's chain (click's Abort raised
+    from one; a SystemError of a compiled numba function that returned while the
+    interrupt was pending)."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
 
 
 def main() -> None:
@@ -96,6 +102,9 @@ def main() -> None:
         typer.echo("interrupted", err=True)
         sys.exit(130)
     except Exception as exc:
+        if _interrupted(exc):
+            typer.echo("interrupted", err=True)
+            sys.exit(130)
         if _is_user_error(exc):
             typer.echo(f"error: {exc}", err=True)
             sys.exit(2)

@@ -110,22 +110,35 @@ def _sweep(params, speed_range, n_speeds, quiet):
 
 
 def _print_summary(s: dict) -> None:
+    """The summary as text on stdout; range notes and open-band warnings on stderr."""
+    for note in s.get("range_notes", []):
+        typer.echo(f"note: {note}", err=True)
+    for warning in s.get("warnings", []):
+        typer.echo(f"warning: {warning}", err=True)
     typer.echo(f"model {s['model']} ({s['method']})")
+    if "speed_range_kmh" in s:
+        typer.echo(f"  analysed speed range {s['speed_range_kmh'][0]:g} .. {s['speed_range_kmh'][1]:g} km/h")
     for h in s.get("hopf_points", []):
         typer.echo(f"  Hopf   {h['speed_kmh']:9.3f} km/h  {h['frequency_hz']:7.2f} Hz  {h['criticality']}")
     for f in s.get("folds", []):
         typer.echo(
             f"  fold   {f['speed_kmh']:9.3f} km/h  {f['frequency_hz']:7.2f} Hz  amplitude {f['amplitude_x_m'] * 1e3:.4f} mm"
         )
+    for v in s.get("period_doublings", []):
+        typer.echo(f"  PD     {v:9.3f} km/h  period doubling (a multiplier crosses -1)")
+    for v in s.get("torus_bifurcations", []):
+        typer.echo(f"  NS     {v:9.3f} km/h  torus bifurcation (a complex multiplier pair leaves the unit circle)")
+    for v in s.get("real_eigenvalue_crossings_kmh", []):
+        typer.echo(f"  DIV    {v:9.3f} km/h  static divergence (a real eigenvalue of steady rolling crosses 0)")
     for lo, hi in s.get("linear_band_kmh", []):
-        typer.echo(f"  steady rolling unstable      {lo:9.3f} .. {hi:9.3f} km/h")
+        typer.echo(f"  steady rolling unstable      {_bound(lo)} .. {_bound(hi)} km/h")
+    for lo, hi in s.get("divergence_kmh", []):
+        typer.echo(f"  of which static divergence   {_bound(lo)} .. {_bound(hi)} km/h")
     for lo, hi in s.get("sev_band_kmh", []):
-        typer.echo(f"  SEV after large disturbance  {lo:9.3f} .. {hi:9.3f} km/h")
-    if s.get("first_bifurcation_speed_kmh") is not None:
-        typer.echo(
-            f"  first / second bifurcation speed: {s['first_bifurcation_speed_kmh']:.3f} / "
-            f"{s['second_bifurcation_speed_kmh']:.3f} km/h"
-        )
+        typer.echo(f"  SEV after large disturbance  {_bound(lo)} .. {_bound(hi)} km/h")
+    first, second = s.get("first_bifurcation_speed_kmh"), s.get("second_bifurcation_speed_kmh")
+    if s.get("sev_band_kmh"):
+        typer.echo(f"  first / second bifurcation speed: {_bound(first).strip()} / {_bound(second).strip()} km/h")
     else:
         typer.echo("  no self-excited vibration in the speed range")
     for t in s.get("trigger_amplitude", []):
@@ -134,3 +147,8 @@ def _print_summary(s: dict) -> None:
             f"  hard excitation {lo:.3f} .. {hi:.3f} km/h: a disturbance of x above "
             f"{t['min_x'] * 1e3:.4f} .. {t['max_x'] * 1e3:.4f} mm starts SEV"
         )
+
+
+def _bound(v) -> str:
+    """A band bound [km/h], or "open" where the band runs into an end of the analysed range."""
+    return f"{v:9.3f}" if v is not None else f"{'open':>9}"
