@@ -85,14 +85,40 @@ def _interrupted(exc: BaseException | None) -> bool:
     return False
 
 
+class _CtrlC:
+    """SIGINT handler of the command line: the first Ctrl-C raises KeyboardInterrupt (the
+    command unwinds, temporary files are removed) and is remembered, so that it ends the
+    command with 130 even where a library swallowed the exception; a second one exits at once."""
+
+    def __init__(self) -> None:
+        self.pressed = False
+
+    def __call__(self, signum, frame) -> None:
+        if self.pressed:
+            import os
+
+            os.write(2, b"\ninterrupted\n")
+            os._exit(130)
+        self.pressed = True
+        raise KeyboardInterrupt
+
+
 def main() -> None:
     """Console entry point: exit 0 on success, 2 with one line on bad input, 130 on Ctrl-C.
 
     Bad input is a UserError, a ParameterError or a usage error found by click (unknown
     option, a value of the wrong type); none of them prints a traceback.
     """
+    import signal
+    import threading
+
+    ctrl_c = _CtrlC()
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, ctrl_c) if main_thread else None
     try:
         app(standalone_mode=False)
+        if ctrl_c.pressed:
+            raise KeyboardInterrupt
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
     except (KeyboardInterrupt, typer.Abort) as exc:
@@ -114,3 +140,6 @@ def main() -> None:
             typer.echo(f"error: {exc.format_message()} (see {command} --help)", err=True)
             sys.exit(exc.exit_code)
         raise
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGINT, previous)
