@@ -1,0 +1,53 @@
+"""The documentation: it stands alone, covers every entry point, and builds in strict mode."""
+
+from __future__ import annotations
+
+import importlib.util
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from .test_api import EXPECTED
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_docs_stand_alone():
+    """No file points the reader to a specification outside the repository."""
+    outside = re.compile("|".join(re.escape(name) for name in ("MODEL" + ".md", "DESIGN" + ".md", "../" + "shared")))
+    files = [ROOT / "README.md", *(ROOT / "docs").rglob("*.md"), *(ROOT / "examples").rglob("*.py")]
+    for folder in ("src", "tests", "benchmarks", "scripts"):
+        files += [p for p in (ROOT / folder).rglob("*") if p.suffix in (".py", ".md", ".sh", ".toml")]
+    hits = [f"{p.relative_to(ROOT)}:{n}" for p in files for n, line in enumerate(p.read_text().splitlines(), 1)
+            if outside.search(line)]
+    assert not hits, hits
+
+
+def test_api_reference_lists_every_entry_point():
+    """Each ``pw.<name>`` function or class has its own entry in docs/api.md."""
+    api = (ROOT / "docs" / "api.md").read_text()
+    for name, target in EXPECTED.items():
+        module, _, attribute = target.partition(":")
+        assert f"::: {module}.{attribute}" in api if attribute else f"::: {module}" in api, name
+
+
+def test_every_page_is_in_the_navigation():
+    config = (ROOT / "mkdocs.yml").read_text()
+    for page in (ROOT / "docs").glob("*.md"):
+        assert f": {page.name}" in config, f"{page.name} is not in mkdocs.yml nav"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(importlib.util.find_spec("mkdocs") is None, reason="mkdocs not installed (pip install -e '.[docs]')")
+def test_mkdocs_build_strict(tmp_path):
+    """Guide, model pages and the API reference (mkdocstrings) build with warnings as errors."""
+    done = subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "-f", str(ROOT / "mkdocs.yml"), "-d", str(tmp_path)],
+        capture_output=True, text=True, cwd=ROOT, timeout=300,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    api = (tmp_path / "api" / "index.html").read_text()
+    assert "stability_analysis" in api and "bifurcation_diagram" in api
