@@ -30,7 +30,7 @@ from ..models import get_model
 from ..models.base import kmh_to_ms
 from ..models.profile import patch_sinc
 from ..params import Params, to_toml
-from .stability import mode_label
+from .stability import mode_label, stability_analysis
 from .wear import rolling_frequency
 from .wear_law import energetic_rate
 
@@ -97,6 +97,9 @@ class WearMap:
     """(S,) damped frequency of the tread mode at each speed [Hz]"""
     mean_wear_mm_per_1000km: np.ndarray
     """(S,) uniform wear of steady rolling [mm per 1000 km]"""
+    linear_band_kmh: list[tuple[float, float]]
+    """Speed intervals where steady rolling is unstable [km/h], bounded by the located
+    Hopf speeds (``analysis.stability``) within the speeds of the map"""
     settings: dict = field(default_factory=dict)
 
     # -- derived quantities ---------------------------------------------------------------
@@ -133,21 +136,6 @@ class WearMap:
         """n times the rotation frequency [Hz] (S, K)."""
         f_rot = rolling_frequency(kmh_to_ms(self.speeds_kmh), self.params.operating.rolling_radius_m)
         return np.outer(f_rot, self.orders)
-
-    @property
-    def linear_band_kmh(self) -> list[tuple[float, float]]:
-        """Runs of grid speeds where steady rolling is unstable [km/h] (grid resolution)."""
-        bands, start = [], None
-        for v, stable in zip(self.speeds_kmh, self.rolling_stable):
-            if not stable and start is None:
-                start = v
-            if stable and start is not None:
-                bands.append((float(start), float(prev)))
-                start = None
-            prev = v
-        if start is not None:
-            bands.append((float(start), float(self.speeds_kmh[-1])))
-        return bands
 
     def most_unstable(self) -> np.ndarray:
         """Index of the fastest-growing order per speed (-1 where rolling is unstable)."""
@@ -229,22 +217,30 @@ class WearMap:
         finite = g[np.isfinite(g)]
         lim = float(np.max(np.abs(finite))) if finite.size else 1.0
         freq = self.frequency_hz
-        speeds = np.repeat(self.speeds_kmh[:, None], len(self.orders), axis=1)
-        artists = [ax.scatter(speeds.ravel(), freq.ravel(), c=g.ravel(), s=6, marker="s", cmap="RdBu_r",
-                              norm=TwoSlopeNorm(0.0, -lim, lim) if lim > 0 else None, linewidths=0)]
-        cbar = ax.figure.colorbar(artists[0], ax=ax)
+        # cell corners: speeds half-way between grid speeds, orders n -+ 1/2 along each column
+        v = self.speeds_kmh
+        v_edges = np.concatenate(([v[0]], 0.5 * (v[1:] + v[:-1]), [v[-1]])) if v.size > 1 else np.array([v[0] - 0.5, v[0] + 0.5])
+        f_rot_edges = rolling_frequency(kmh_to_ms(v_edges), self.params.operating.rolling_radius_m)
+        order_edges = np.concatenate((self.orders - 0.5, [self.orders[-1] + 0.5]))
+        X = np.repeat(v_edges[:, None], order_edges.size, axis=1)
+        Y = np.outer(f_rot_edges, order_edges)
+        mesh = ax.pcolormesh(X, Y, g, cmap="RdBu_r", norm=TwoSlopeNorm(0.0, -lim, lim) if lim > 0 else None,
+                             shading="flat")
+        artists = [mesh]
+        cbar = ax.figure.colorbar(mesh, ax=ax)
         cbar.set_label("growth [e-folds per 1000 km] (scales as k_e)")
         for lo, hi in self.linear_band_kmh:
-            artists.append(ax.axvspan(lo, hi, color="0.6", alpha=0.35, label="linear band (vibrating)"))
+            artists.append(ax.axvspan(lo, hi, color="0.6", alpha=0.45, label="linear band: vibrating, see evolution"))
         if sev_band_kmh is not None:
-            artists.append(ax.axvspan(*sev_band_kmh, color="tab:orange", alpha=0.12, label="SEV band"))
-        top = float(np.nanmax(freq))
+            artists.append(ax.axvspan(*sev_band_kmh, fill=False, hatch="//", edgecolor="tab:orange", lw=0.0,
+                                      label="SEV band"))
+        top = min(float(np.nanmax(freq)), 1.6 * float(np.nanmax(self.mode_frequency_hz)))
         for n in rays:
             if n <= self.orders[-1]:
-                artists += ax.plot(self.speeds_kmh, freq[:, n - 1], color="0.3", lw=0.6)
-                j = int(np.searchsorted(freq[:, n - 1], 0.92 * top))
-                j = min(j, len(self.speeds_kmh) - 1)
-                artists.append(ax.annotate(f"n={n}", (self.speeds_kmh[j], freq[j, n - 1]), fontsize=7, color="0.2"))
+                artists += ax.plot(v, freq[:, n - 1], color="0.25", lw=0.6)
+                j = min(int(np.searchsorted(freq[:, n - 1], 0.97 * top)), v.size - 1)
+                artists.append(ax.annotate(f"n={n}", (v[j], min(freq[j, n - 1], 0.97 * top)), fontsize=7,
+                                           color="0.15", ha="right"))
         artists += ax.plot(self.speeds_kmh, self.mode_frequency_hz, color="k", lw=1.6, ls="--", label="tread mode")
         best = self.most_unstable()
         ok = best >= 0
@@ -252,7 +248,7 @@ class WearMap:
                            label="most unstable order")
         ax.set_xlabel("speed [km/h]")
         ax.set_ylabel("frequency n f_rot [Hz]  (rays: polygon order n)")
-        ax.set_ylim(0.0, min(top, 2.0 * float(np.nanmax(self.mode_frequency_hz))))
+        ax.set_ylim(0.0, top)
         ax.set_title(f"{self.params.model}: wear-stability map (red grows, blue heals)")
         handles, labels = ax.get_legend_handles_labels()
         unique = dict(zip(labels, handles))
@@ -300,6 +296,9 @@ def wear_map(params: Params, speeds_kmh, max_order: int | None = None) -> WearMa
         X = np.linalg.solve(s[:, None, None] * eye - A, np.broadcast_to(B, (K, model.n))[..., None])[..., 0]
         H = X @ C + D
         change[i] = -(k_e / (V * b_w)) * sinc2 * (k_z + s * c_z) * H
+    lo, hi = float(speeds_kmh.min()), float(speeds_kmh.max())
+    bands = stability_analysis(params, (lo, hi)).unstable_intervals_kmh if hi > lo else (
+        [] if stable[0] else [(lo, hi)])
     return WearMap(params=params, speeds_kmh=speeds_kmh, orders=orders, relative_change=change,
                    rolling_stable=stable, mode_frequency_hz=mode_f, mean_wear_mm_per_1000km=mean_wear,
-                   settings={"max_order": K})
+                   linear_band_kmh=[(float(a), float(b)) for a, b in bands], settings={"max_order": K})

@@ -1,0 +1,54 @@
+"""``polywear wear``: JSON format, files, and one-line errors for bad input."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from .cli_runner import run_main
+
+ROW_KEYS = {"speed_kmh", "order", "frequency_hz", "growth_per_1000km", "efold_km", "drift_deg_per_rev",
+            "rolling_stable", "note"}
+
+
+def test_wear_map_json_one_row_per_speed():
+    code, out, _ = run_main(["wear", "map", "--speeds", "40,110,210", "--json", "-q"])
+    assert code == 0
+    summary = json.loads(out)
+    assert summary["model"] == "tread1dof" and len(summary["rows"]) == 3
+    assert all(set(row) == ROW_KEYS for row in summary["rows"])
+    slow, vibrating, fast = summary["rows"]
+    assert slow["rolling_stable"] and slow["efold_km"] > 0 and 100 < slow["frequency_hz"] < 200
+    assert not vibrating["rolling_stable"] and vibrating["note"] == "vibrating: see evolution"
+    assert vibrating["efold_km"] is None and vibrating["order"] is None
+    assert fast["order"] < slow["order"]
+    lo, hi = summary["linear_band_kmh"][0]
+    assert lo < 110 < hi
+
+
+def test_wear_map_all_orders_and_files(tmp_path):
+    nc, csv, png = tmp_path / "m.nc", tmp_path / "m.csv", tmp_path / "m.png"
+    code, out, err = run_main(["wear", "map", "--speeds", "45,230", "--max-order", "30", "--all-orders", "--json",
+                               "-o", str(nc), "--plot", str(png)])
+    assert code == 0, err
+    assert len(json.loads(out)["rows"]) == 60
+    assert nc.stat().st_size > 0 and png.stat().st_size > 0
+    code, _, err = run_main(["wear", "map", "--speeds", "45", "-o", str(csv), "-q"])
+    assert code == 0, err
+    assert csv.read_text().splitlines()[0].startswith("speed_kmh,order,")
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["--speeds", "40,abc"], "--speeds"),
+    (["--speeds", "0,40"], "speed 0"),
+    (["--speeds", ""], "no speed"),
+    (["--max-order", "0"], "--max-order"),
+    (["--out", "x.txt"], "--out"),
+    (["--set", "wear.max_order=-3"], "wear.max_order"),
+])
+def test_wear_map_bad_input_is_one_line_exit_2(args, fragment):
+    code, out, err = run_main(["wear", "map", *args])
+    assert code == 2 and out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and fragment in lines[0], err
