@@ -36,6 +36,7 @@ def _root(
 def _register() -> None:
     from . import (
         bifurcation_cmd,
+        calibrate_cmd,
         design_cmd,
         excitation_cmd,
         friction_cmd,
@@ -61,6 +62,7 @@ def _register() -> None:
     app.command("design")(design_cmd.design)
     app.command("report")(report_cmd.report)
     app.add_typer(wear_cmd.app, name="wear")
+    app.command("calibrate")(calibrate_cmd.calibrate)
 
 
 _register()
@@ -74,11 +76,35 @@ def _is_user_error(exc: Exception) -> bool:
     return isinstance(exc, UserError) or (params is not None and isinstance(exc, params.ParameterError))
 
 
-def _interrupted(exc: BaseException) -> bool:
-    """Ctrl-C: a KeyboardInterrupt, or click's Abort raised from one."""
-    return isinstance(exc, KeyboardInterrupt) or (
-        isinstance(exc, typer.Abort) and isinstance(exc.__cause__ or exc.__context__, KeyboardInterrupt)
-    )
+def _interrupted(exc: BaseException | None) -> bool:
+    """Ctrl-C: a KeyboardInterrupt anywhere in the exception's chain (click's Abort raised
+    from one; a SystemError of a compiled numba function that returned while the
+    interrupt was pending)."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
+class _CtrlC:
+    """SIGINT handler of the command line: the first Ctrl-C raises KeyboardInterrupt (the
+    command unwinds, temporary files are removed) and is remembered, so that it ends the
+    command with 130 even where a library swallowed the exception; a second one exits at once."""
+
+    def __init__(self) -> None:
+        self.pressed = False
+
+    def __call__(self, signum, frame) -> None:
+        if self.pressed:
+            import os
+
+            os.write(2, b"\ninterrupted\n")
+            os._exit(130)
+        self.pressed = True
+        raise KeyboardInterrupt
 
 
 def main() -> None:
@@ -87,8 +113,16 @@ def main() -> None:
     Bad input is a UserError, a ParameterError or a usage error found by click (unknown
     option, a value of the wrong type); none of them prints a traceback.
     """
+    import signal
+    import threading
+
+    ctrl_c = _CtrlC()
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, ctrl_c) if main_thread else None
     try:
         app(standalone_mode=False)
+        if ctrl_c.pressed:
+            raise KeyboardInterrupt
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
     except (KeyboardInterrupt, typer.Abort) as exc:
@@ -98,6 +132,9 @@ def main() -> None:
         typer.echo("interrupted", err=True)
         sys.exit(130)
     except Exception as exc:
+        if _interrupted(exc):
+            typer.echo("interrupted", err=True)
+            sys.exit(130)
         if _is_user_error(exc):
             typer.echo(f"error: {exc}", err=True)
             sys.exit(2)
@@ -107,3 +144,6 @@ def main() -> None:
             typer.echo(f"error: {exc.format_message()} (see {command} --help)", err=True)
             sys.exit(exc.exit_code)
         raise
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGINT, previous)

@@ -1,0 +1,550 @@
+"""Calibration of parameters to observations, with an identifiability report.
+
+Observations (onset speeds, Hopf frequencies, SEV band edges, friction-curve points, each
+with its standard deviation and optionally its own test conditions) are fitted by weighted
+least squares (:func:`scipy.optimize.least_squares`, trust-region reflective, bounds from
+the parameter validation) with the exact sensitivities as the Jacobian: the implicit
+function theorem on the Hopf and fold defining systems
+(:mod:`polywear.analysis.sensitivity`), the analytic derivative of the steady friction
+curve. The fit is followed by an identifiability analysis of the weighted Jacobian in
+relative units (``d r_i / d ln p_j``): singular values and vectors (which combinations
+of the parameters the data determine, which they do not), correlations, linearized 95 %
+intervals, and profile-likelihood 95 % intervals (``chi^2`` raised by 3.84 with the
+other parameters refitted). A parameter that moves along an undetermined combination is
+not reported as a number.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from .. import __version__
+from ..models import get_model
+from ..models.base import kmh_to_ms, ms_to_kmh
+from ..params import ParameterError, Params, get_value, study_keys, with_updates
+
+__all__ = [
+    "QUANTITIES",
+    "CalibrationError",
+    "Observation",
+    "CalibrationResult",
+    "read_observations",
+    "predict",
+    "calibrate",
+]
+
+QUANTITIES = {
+    "first_hopf_kmh": "speed of the lowest Hopf point of steady rolling (linear onset) [km/h]",
+    "second_hopf_kmh": "speed of the second Hopf point (end of the linear band) [km/h]",
+    "hopf_frequency_hz": "frequency at the lowest Hopf point [Hz]",
+    "second_hopf_frequency_hz": "frequency at the second Hopf point [Hz]",
+    "first_bifurcation_kmh": "lower end of the SEV band (Hopf point or fold; continuation) [km/h]",
+    "second_bifurcation_kmh": "upper end of the SEV band (Hopf point or fold; continuation) [km/h]",
+    "friction_mu": "steady friction coefficient mu_ss at at_sliding_speed_m_per_s [-]",
+}
+"""Observable quantities calibrate can fit, and their units."""
+
+_HOPF = {"first_hopf_kmh": (0, "speed"), "second_hopf_kmh": (1, "speed"),
+         "hopf_frequency_hz": (0, "frequency"), "second_hopf_frequency_hz": (1, "frequency")}
+_BAND = {"first_bifurcation_kmh": "first_bifurcation", "second_bifurcation_kmh": "second_bifurcation"}
+_FRICTION_KEYS = ("friction.mu_static", "friction.mu_coulomb", "friction.stribeck_velocity_m_per_s",
+                  "friction.stribeck_exponent", "friction.sigma2_s_per_m")
+CHI2_95 = 3.841458820694124
+"""chi^2 quantile (1 degree of freedom) of a 95 % profile-likelihood interval."""
+Z_95 = 1.959963984540054
+"""Normal quantile of a 95 % linearized interval."""
+
+
+class CalibrationError(ParameterError):
+    """The observations or the request cannot be fitted (one line)."""
+
+
+@dataclass(frozen=True)
+class Observation:
+    """One observed quantity with its standard deviation and test conditions.
+
+    ``set`` holds the ``{"table.key": value}`` conditions of that test that differ from the
+    parameter set (e.g. another toe angle).
+    """
+
+    quantity: str
+    value: float
+    sigma: float
+    at_speed_kmh: float | None = None
+    at_sliding_speed_m_per_s: float | None = None
+    set: tuple[tuple[str, Any], ...] = ()
+    label: str = ""
+
+    def describe(self) -> str:
+        where = ", ".join(f"{k}={v}" for k, v in self.set)
+        at = f" at {self.at_sliding_speed_m_per_s} m/s" if self.at_sliding_speed_m_per_s is not None else ""
+        return self.label or f"{self.quantity}{at}" + (f" ({where})" if where else "")
+
+
+_FIELDS = {"quantity", "value", "sigma", "at_speed_kmh", "at_sliding_speed_m_per_s", "set", "label"}
+
+
+def _number(entry: dict, name: str, where: str, required: bool = True) -> float | None:
+    value = entry.get(name)
+    if value is None:
+        if required:
+            raise CalibrationError(f"{where}: {name} missing")
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise CalibrationError(f"{where}: {name} = {value!r}: must be a finite number")
+    return float(value)
+
+
+def read_observations(path: str | Path, params: Params | None = None) -> list[Observation]:
+    """Observations from a TOML file of ``[[observation]]`` tables (see docs/calibrate.md).
+
+    Every entry is checked (known quantity, sigma > 0, the conditions valid for
+    ``params``); problems are one-line :class:`CalibrationError`.
+    """
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise CalibrationError(f"{path}: cannot read observation file ({exc.strerror})") from None
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise CalibrationError(f"{path}: not a valid TOML observation file ({exc})") from None
+    entries = data.get("observation")
+    if not isinstance(entries, list) or not entries:
+        raise CalibrationError(f"{path}: no [[observation]] tables")
+    unknown_top = sorted(set(data) - {"observation"})
+    if unknown_top:
+        raise CalibrationError(f"{path}: unknown table {unknown_top[0]!r} (only [[observation]])")
+    out = []
+    for i, entry in enumerate(entries, start=1):
+        where = f"{path}: observation {i}"
+        extra = sorted(set(entry) - _FIELDS)
+        if extra:
+            raise CalibrationError(f"{where}: unknown field {extra[0]!r} (known: {', '.join(sorted(_FIELDS))})")
+        quantity = entry.get("quantity")
+        if quantity not in QUANTITIES:
+            raise CalibrationError(f"{where}: quantity = {quantity!r} is not one calibrate fits "
+                                   f"(supported: {', '.join(QUANTITIES)})")
+        sigma = _number(entry, "sigma", where)
+        if not sigma > 0.0:
+            raise CalibrationError(f"{where}: sigma = {sigma!r}: must be positive")
+        at_v = _number(entry, "at_sliding_speed_m_per_s", where, required=quantity == "friction_mu")
+        if at_v is not None and not at_v > 0.0:
+            raise CalibrationError(f"{where}: at_sliding_speed_m_per_s = {at_v!r}: must be positive")
+        conditions = entry.get("set", {})
+        if not isinstance(conditions, dict):
+            raise CalibrationError(f"{where}: set must be a table of \"table.key\" = value")
+        if params is not None and conditions:
+            try:
+                with_updates(params, conditions)
+            except ParameterError as exc:
+                raise CalibrationError(f"{where}: set: {exc}") from None
+        out.append(Observation(
+            quantity=quantity,
+            value=_number(entry, "value", where),
+            sigma=sigma,
+            at_speed_kmh=_number(entry, "at_speed_kmh", where, required=False),
+            at_sliding_speed_m_per_s=at_v,
+            set=tuple(sorted(conditions.items())),
+            label=str(entry.get("label", "")),
+        ))
+    return out
+
+
+# -- the model's predictions and their exact derivatives ------------------------------
+def _friction_point(params: Params, v: float) -> tuple[float, dict[str, float]]:
+    """mu_ss(v) = G(v) + sigma2 v at v > 0 and its partial derivatives by friction key."""
+    f = params.friction
+    a = v / f.stribeck_velocity_m_per_s
+    e = math.exp(-(a**f.stribeck_exponent))
+    drop = f.mu_static - f.mu_coulomb
+    value = f.mu_coulomb + drop * e + f.sigma2_s_per_m * v
+    partials = {
+        "friction.mu_static": e,
+        "friction.mu_coulomb": 1.0 - e,
+        "friction.stribeck_velocity_m_per_s": drop * e * f.stribeck_exponent * a**f.stribeck_exponent
+        / f.stribeck_velocity_m_per_s,
+        "friction.stribeck_exponent": -drop * e * a**f.stribeck_exponent * math.log(a),
+        "friction.sigma2_s_per_m": v,
+    }
+    return value, partials
+
+
+def _hopf_rows(params: Params, obs: list[Observation], keys: list[str], speed_range_kmh, n_speeds):
+    from .sensitivity import hopf_speed_derivative, parameter_direction
+    from .stability import critical_eigenvalue_derivative, stability_analysis
+
+    model = get_model(params.model)
+    p = model.pack(params)
+    hopfs = stability_analysis(params, speed_range_kmh, n_speeds=n_speeds).hopf_points
+    directions = [parameter_direction(model, params, key) for key in keys]
+    values, rows = [], []
+    for o in obs:
+        index, kind = _HOPF[o.quantity]
+        if index >= len(hopfs):
+            values.append(math.nan)
+            rows.append(np.full(len(keys), math.nan))
+            continue
+        h = hopfs[index]
+        row = np.zeros(len(keys))
+        if kind == "speed":
+            values.append(h.speed_kmh)
+            for j, d in enumerate(directions):
+                row[j] = ms_to_kmh(hopf_speed_derivative(model, p, h, d))
+        else:
+            values.append(h.frequency_hz)
+            dlam_dv = critical_eigenvalue_derivative(model, h.u, h.speed, p, h.q, h.w, dV=1.0)
+            for j, d in enumerate(directions):
+                if not np.any(d):
+                    continue
+                dlam = critical_eigenvalue_derivative(model, h.u, h.speed, p, h.q, h.w, dp=d)
+                dv = -dlam.real / dlam_dv.real  # the Hopf point moves along the speed
+                row[j] = (dlam.imag + dlam_dv.imag * dv) / (2.0 * math.pi)
+        rows.append(row)
+    return values, rows
+
+
+def _band_rows(params: Params, obs: list[Observation], keys: list[str], speed_range_kmh):
+    from .bifurcation import bifurcation_diagram
+    from .sensitivity import local_sensitivity
+
+    diagram = bifurcation_diagram(params, speed_range_kmh)
+    sens = local_sensitivity(params, keys, method="exact", diagram=diagram).rows
+    values, rows = [], []
+    for o in obs:
+        name = _BAND[o.quantity]
+        mine = [r for r in sens if r["quantity"] == name]
+        if not mine:
+            values.append(math.nan)
+            rows.append(np.full(len(keys), math.nan))
+            continue
+        values.append(mine[0]["speed_kmh"])
+        by_key = {r["param"]: r["derivative"] for r in mine}
+        rows.append(np.array([by_key[k] for k in keys], dtype=float))
+    return values, rows
+
+
+def predict(
+    params: Params,
+    observations: list[Observation],
+    keys: list[str] | tuple[str, ...] = (),
+    speed_range_kmh: tuple[float, float] = (5.0, 300.0),
+    n_speeds: int = 200,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Model values of the observed quantities and their derivatives.
+
+    Returns
+    -------
+    values : ndarray (n_obs,)
+        In the units of each quantity; NaN where the quantity does not exist (e.g. no
+        second Hopf point in the speed range).
+    jacobian : ndarray (n_obs, n_keys)
+        d value / d key [quantity units per key unit], exact.
+    """
+    keys = list(keys)
+    values = np.full(len(observations), math.nan)
+    jac = np.full((len(observations), len(keys)), math.nan)
+    groups: dict[tuple, list[int]] = {}
+    for i, o in enumerate(observations):
+        groups.setdefault(o.set, []).append(i)
+    for conditions, index in groups.items():
+        cond = with_updates(params, dict(conditions)) if conditions else params
+        for kind, rows_of in (("hopf", _HOPF), ("band", _BAND)):
+            mine = [i for i in index if observations[i].quantity in rows_of]
+            if not mine:
+                continue
+            obs = [observations[i] for i in mine]
+            vals, rows = (_hopf_rows(cond, obs, keys, speed_range_kmh, n_speeds) if kind == "hopf"
+                          else _band_rows(cond, obs, keys, speed_range_kmh))
+            values[mine] = vals
+            jac[mine] = rows
+        for i in index:
+            o = observations[i]
+            if o.quantity == "friction_mu":
+                values[i], partials = _friction_point(cond, o.at_sliding_speed_m_per_s)
+                jac[i] = [partials.get(k, 0.0) for k in keys]
+    return values, jac
+
+
+# -- bounds from the parameter validation ---------------------------------------------
+def _bounds(key: str) -> tuple[float, float]:
+    """(low, high) of a float key from its validation rules (open bounds as closed)."""
+    table, name = key.split(".")
+    info = type(getattr(Params(), table)).model_fields[name]
+    lo, hi = -math.inf, math.inf
+    for rule in info.metadata:
+        for attr in ("gt", "ge"):
+            if getattr(rule, attr, None) is not None:
+                lo = max(lo, float(getattr(rule, attr)))
+        for attr in ("lt", "le"):
+            if getattr(rule, attr, None) is not None:
+                hi = min(hi, float(getattr(rule, attr)))
+    return lo, hi
+
+
+# -- the result -------------------------------------------------------------------------
+@dataclass
+class CalibrationResult:
+    """Fitted parameters, residuals and the identifiability report.
+
+    ``parameters``: one dict per varied key (value None where not identifiable);
+    ``residuals``: one dict per observation; ``identifiability``: singular values,
+    determined and undetermined combinations, correlations, chi^2.
+    """
+
+    params: Params
+    fitted: Params
+    parameters: list[dict]
+    residuals: list[dict]
+    identifiability: dict
+    settings: dict = field(default_factory=dict)
+
+    def summary(self) -> dict:
+        return {"parameters": self.parameters, "residuals": self.residuals,
+                "identifiability": self.identifiability}
+
+    def save(self, path) -> None:
+        """JSON of the summary with settings and version."""
+        import json
+
+        payload = {**self.summary(), "settings": self.settings, "polywear_version": __version__}
+        Path(path).write_text(json.dumps(payload, indent=2, allow_nan=False))
+
+    def plot(self, ax=None):
+        """Normalized residuals (predicted - observed) / sigma per observation."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 3.5))
+        z = [r["normalized"] for r in self.residuals]
+        bars = ax.barh(range(len(z)), z, color="tab:blue")
+        ax.set_yticks(range(len(z)), [r["observation"] for r in self.residuals], fontsize=8)
+        ax.invert_yaxis()
+        for x in (-2.0, 2.0):
+            ax.axvline(x, color="0.6", ls="--", lw=0.8)
+        ax.axvline(0.0, color="k", lw=0.8)
+        ax.set_xlabel("(predicted - observed) / sigma [-]")
+        return list(bars)
+
+
+def _combination(vector: np.ndarray, keys: list[str]) -> str:
+    """'+0.50 ln(a) - 0.50 ln(b)' for the significant components of a singular vector."""
+    parts = [f"{'+' if c >= 0 else '-'}{abs(c):.2f} ln({k})"
+             for c, k in zip(vector, keys) if abs(c) >= 0.05]
+    return " ".join(parts)
+
+
+def calibrate(
+    params: Params,
+    observations: list[Observation],
+    keys: list[str] | tuple[str, ...],
+    speed_range_kmh: tuple[float, float] = (5.0, 300.0),
+    n_speeds: int = 200,
+    profile: bool = True,
+    undetermined_above: float = 1.0,
+    on_evaluation: Callable[[], None] | None = None,
+) -> CalibrationResult:
+    """Fit ``keys`` to ``observations`` and report what the data determine.
+
+    Parameters
+    ----------
+    params : Params
+        Starting point and every other parameter.
+    observations : list of Observation
+    keys : sequence of str
+        Float configuration keys to vary (``table.key``).
+    speed_range_kmh : (float, float)
+        Speeds searched for Hopf points and bands [km/h].
+    n_speeds : int
+        Grid speeds bracketing the Hopf points (then located to 1e-10 m/s).
+    profile : bool
+        Also compute profile-likelihood intervals (a refit per evaluation).
+    undetermined_above : float
+        A combination of relative parameter changes counts as undetermined when its
+        linearized 95 % half-width exceeds this (1.0: +-100 %) or its singular value is
+        at rounding level.
+    on_evaluation : callable, optional
+        Called after every model evaluation (progress).
+    """
+    from scipy.optimize import least_squares
+
+    keys = list(keys)
+    allowed = set(study_keys()) - {"adhesion_scale"}
+    for key in keys:
+        if key not in allowed:
+            raise CalibrationError(f"--vary {key}: not a float parameter key (e.g. tread.lateral_damping_ns_per_m)")
+    if len(set(keys)) != len(keys):
+        raise CalibrationError("--vary: a key is given twice")
+    if not keys:
+        raise CalibrationError("--vary: give at least one parameter key to fit")
+    for o in observations:
+        clash = [k for k, _ in o.set if k in keys]
+        if clash:
+            raise CalibrationError(f"observation {o.describe()}: its set fixes {clash[0]}, which is varied")
+    n, m = len(observations), len(keys)
+    if n < m:
+        raise CalibrationError(
+            f"{n} observation{'s' if n != 1 else ''} cannot determine {m} parameters: "
+            f"give at least {m} observations, or vary fewer keys"
+        )
+    scale = np.array([abs(float(get_value(params, k))) or 1.0 for k in keys])
+    bounds = np.array([_bounds(k) for k in keys]).T / scale
+    observed = np.array([o.value for o in observations])
+    sigma = np.array([o.sigma for o in observations])
+    x0 = np.array([float(get_value(params, k)) for k in keys]) / scale
+    cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+    def evaluate(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        tag = np.asarray(x, dtype=float).tobytes()
+        if tag not in cache:
+            try:
+                trial = with_updates(params, dict(zip(keys, map(float, x * scale))))
+                values, jac = predict(trial, observations, keys, speed_range_kmh, n_speeds)
+            except ParameterError:  # a cross-rule (e.g. mu_c <= mu_s) broken: not a valid point
+                values, jac = np.full(n, math.nan), np.full((n, m), math.nan)
+            if len(cache) > 64:
+                cache.clear()
+            cache[tag] = ((values - observed) / sigma, jac * scale / sigma[:, None])
+            if on_evaluation is not None:
+                on_evaluation()
+        return cache[tag]
+
+    r0 = evaluate(x0)[0]
+    if not np.all(np.isfinite(r0)):
+        missing = [observations[i].describe() for i in np.flatnonzero(~np.isfinite(r0))]
+        raise CalibrationError(f"at the starting parameters the model has no {missing[0]} in "
+                               f"{speed_range_kmh[0]:g}-{speed_range_kmh[1]:g} km/h: start closer, or widen --speed-range")
+    lo = np.nextafter(bounds[0], np.inf)
+    fit = least_squares(lambda x: evaluate(x)[0], x0, jac=lambda x: evaluate(x)[1], bounds=(lo, bounds[1]),
+                        method="trf", x_scale=1.0, xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=100)
+    x_hat = fit.x
+    r, J = evaluate(x_hat)
+    chi2 = float(r @ r)
+    # identifiability in relative units: columns d r / d ln p = J x (x is p / scale)
+    Jrel = J * x_hat[None, :]
+    U, s, Vt = np.linalg.svd(Jrel, full_matrices=False)
+    s_max = s[0] if s.size else 0.0
+    undetermined_mask = (s <= 1e-9 * max(s_max, 1e-300)) | (Z_95 / np.maximum(s, 1e-300) > undetermined_above)
+    if len(s) < m:
+        undetermined_mask = np.concatenate([undetermined_mask, np.ones(m - len(s), bool)])
+        s = np.concatenate([s, np.zeros(m - len(s))])
+        Vt = np.linalg.svd(Jrel, full_matrices=True)[2]
+    Vt = Vt * np.where(Vt[np.arange(m), np.argmax(np.abs(Vt), axis=1)] < 0.0, -1.0, 1.0)[:, None]  # largest > 0
+    combos = []
+    for k in range(m):
+        combos.append({
+            "singular_value": float(s[k]),
+            "vector": {key: float(v) for key, v in zip(keys, Vt[k])},
+            "combination": _combination(Vt[k], keys),
+            "half_width_95_relative": (Z_95 / s[k]) if s[k] > 0 else None,
+        })
+    null_vectors = Vt[undetermined_mask]
+    identifiable = [not np.any(np.abs(null_vectors[:, j]) > 0.05) for j in range(m)] if len(null_vectors) else [True] * m
+    # linearized covariance of ln p on the determined subspace
+    det = ~undetermined_mask
+    cov_rel = (Vt[det].T / s[det] ** 2) @ Vt[det] if np.any(det) else np.zeros((m, m))
+    sd_rel = np.sqrt(np.diag(cov_rel))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov_rel / np.outer(sd_rel, sd_rel)
+    values = x_hat * scale
+    parameters = []
+    for j, key in enumerate(keys):
+        entry = {"key": key, "initial": float(x0[j] * scale[j]), "identifiable": bool(identifiable[j]),
+                 "value": None, "ci_low": None, "ci_high": None, "linear_ci": None, "profile_ci": None}
+        if identifiable[j]:
+            half = Z_95 * sd_rel[j]
+            entry.update(value=float(values[j]), sd=float(sd_rel[j] * values[j]),
+                         linear_ci=[float(values[j] * math.exp(-half)), float(values[j] * math.exp(half))])
+            entry["ci_low"], entry["ci_high"] = entry["linear_ci"]
+        else:
+            along = [c["combination"] for c, u in sorted(zip(combos, undetermined_mask), key=lambda cu: cu[0]["singular_value"])
+                     if u and abs(c["vector"][key]) > 0.05]  # the least determined first
+            entry["reason"] = (f"not identifiable from these observations: {key} moves along the undetermined "
+                               f"combination {along[0]} (fix it, or add an observation that depends on it)")
+        parameters.append(entry)
+    if profile and any(identifiable):
+        for j, entry in enumerate(parameters):
+            if entry["identifiable"]:
+                entry["profile_ci"] = _profile_interval(j, x_hat, chi2, evaluate, (lo, bounds[1]), sd_rel[j], scale)
+                if entry["profile_ci"] is not None:
+                    entry["ci_low"], entry["ci_high"] = entry["profile_ci"]
+    fitted = with_updates(params, {k: float(v) for k, v, ok in zip(keys, values, identifiable) if ok})
+    predicted = r * sigma + observed
+    residuals = [{"observation": o.describe(), "quantity": o.quantity, "observed": o.value, "sigma": o.sigma,
+                  "predicted": float(pv), "normalized": float(z)}
+                 for o, pv, z in zip(observations, predicted, r)]
+    report = {
+        "chi2": chi2,
+        "dof": n - m,
+        "singular_values": [c["singular_value"] for c in combos],
+        "determined": [c for c, u in zip(combos, undetermined_mask) if not u],
+        "undetermined": [c for c, u in zip(combos, undetermined_mask) if u],
+        "correlations": {"keys": keys, "matrix": np.where(np.isfinite(corr), corr, 0.0).tolist()},
+        "converged": bool(fit.success),
+        "evaluations": int(fit.nfev),
+        "criterion": f"undetermined: singular value at rounding level or 95 % half-width > "
+                     f"{undetermined_above:g} in ln(p) (a factor e = 2.7)",
+    }
+    refused = [p["key"] for p in parameters if not p["identifiable"]]
+    if refused:
+        report["refused"] = refused
+    return CalibrationResult(params=params, fitted=fitted, parameters=parameters, residuals=residuals,
+                             identifiability=report,
+                             settings={"keys": keys, "speed_range_kmh": list(speed_range_kmh), "n_speeds": n_speeds,
+                                       "profile": profile,
+                                       "n_observations": n})
+
+
+def _profile_interval(j, x_hat, chi2_min, evaluate, bounds, sd_rel, scale) -> list[float | None] | None:
+    """95 % profile-likelihood interval of parameter j [key units]; None ends at a bound."""
+    from scipy.optimize import brentq, least_squares
+
+    others = [i for i in range(len(x_hat)) if i != j]
+    start = {"x": x_hat[others].copy()}
+
+    def profile(t: float) -> float:
+        if not others:
+            x = x_hat.copy()
+            x[j] = t
+            r = evaluate(x)[0]
+            return float(r @ r) - chi2_min - CHI2_95 if np.all(np.isfinite(r)) else math.inf
+
+        def full(y):
+            x = x_hat.copy()
+            x[j] = t
+            x[others] = y
+            return x
+
+        fit = least_squares(lambda y: evaluate(full(y))[0], start["x"], jac=lambda y: evaluate(full(y))[1][:, others],
+                            bounds=(bounds[0][others], bounds[1][others]), method="trf", max_nfev=30)
+        start["x"] = fit.x
+        return 2.0 * fit.cost - chi2_min - CHI2_95
+
+    ends: list[float | None] = []
+    for side in (-1.0, 1.0):
+        start["x"] = x_hat[others].copy()
+        step = max(Z_95 * sd_rel * x_hat[j], 1e-6 * abs(x_hat[j]))
+        inner, outer = x_hat[j], None
+        for _ in range(8):
+            t = x_hat[j] + side * step
+            if not bounds[0][j] < t < bounds[1][j]:
+                break
+            value = profile(t)
+            if value > 0.0:
+                outer = t
+                break
+            inner, step = t, step * 2.0
+        if outer is None:
+            ends.append(None)
+            continue
+        start["x"] = x_hat[others].copy()
+        lo, hi = sorted((inner, outer))
+        root = brentq(lambda t: min(profile(t), 1e6), lo, hi, xtol=1e-4 * abs(x_hat[j]), maxiter=30) \
+            if profile(inner) < 0.0 else inner
+        ends.append(float(root * scale[j]))
+    return ends

@@ -1,0 +1,90 @@
+"""``polywear calibrate``: fit parameters to observations, say what the data determine."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from .common import (
+    ConfigOpt,
+    JsonOpt,
+    PlotOpt,
+    PLOT_SUFFIXES,
+    QuietOpt,
+    SetOpt,
+    check_speed_range,
+    emit_json,
+    info,
+    load,
+    one_axes,
+    output_file,
+    progress,
+    write_figure,
+    write_output,
+)
+
+
+def calibrate(
+    observed: Annotated[Path, typer.Option("--observed", help="TOML file of [[observation]] tables.")],
+    vary: Annotated[list[str], typer.Option("--vary", help="Parameter key to fit, table.key (repeatable).")],
+    config: ConfigOpt = None,
+    set_: SetOpt = None,
+    speed_range: Annotated[
+        tuple[float, float], typer.Option("--speed-range", help="Speeds searched for Hopf points and bands [km/h].")
+    ] = (5.0, 300.0),
+    profile: Annotated[
+        bool, typer.Option("--profile/--no-profile", help="Profile-likelihood intervals (a refit per point).")
+    ] = True,
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write the result (JSON).")] = None,
+    fitted: Annotated[
+        Optional[Path], typer.Option("--fitted", help="Write the fitted parameter set (TOML), identifiable keys only.")
+    ] = None,
+    json_: JsonOpt = False,
+    plot: PlotOpt = None,
+    quiet: QuietOpt = False,
+) -> None:
+    """Weighted least squares of --vary keys to observed onset speeds, frequencies, band edges
+    and friction points; identifiability report, linearized and profile-likelihood intervals."""
+    output_file(out, "--out", (".json",))
+    output_file(fitted, "--fitted", (".toml",))
+    output_file(plot, "--plot", PLOT_SUFFIXES)
+    lo, hi = check_speed_range(speed_range)
+    params = load(config, set_)
+    from ..analysis.calibration import calibrate as fit, read_observations
+    from ..params import to_toml
+
+    observations = read_observations(observed, params)
+    info(f"calibrate: {len(vary)} parameter(s) to {len(observations)} observation(s) ...", quiet)
+    with progress("model evaluations", None, enabled=not quiet) as advance:
+        result = fit(params, observations, vary, (lo, hi), profile=profile, on_evaluation=advance)
+    if out:
+        write_output(out, result.save, quiet)
+    if fitted:
+        write_output(fitted, lambda tmp: tmp.write_text(to_toml(result.fitted), encoding="utf-8"), quiet)
+    if plot:
+        write_figure(plot, lambda: one_axes(result.plot, (7, 1.0 + 0.4 * len(observations))), quiet)
+    for p in result.parameters:
+        if not p["identifiable"]:
+            info(f"refused: {p['key']}: {p['reason']}", quiet)
+    if json_:
+        emit_json(result.summary())
+        return
+    ident = result.identifiability
+    typer.echo(f"chi2 = {ident['chi2']:.4g} with {ident['dof']} degree(s) of freedom"
+               f"{'' if ident['converged'] else ' (least squares did not converge)'}")
+    for p in result.parameters:
+        if p["identifiable"]:
+            ci = p["profile_ci"] or p["linear_ci"]
+            kind = "profile" if p["profile_ci"] else "linearized"
+            shown = ["open" if c is None else f"{c:.6g}" for c in ci]
+            typer.echo(f"{p['key']:<40} {p['value']:.6g}  95 % {kind}: [{shown[0]}, {shown[1]}]")
+        else:
+            typer.echo(f"{p['key']:<40} not identifiable (no value)")
+    typer.echo("singular values (d r / d ln p): " + ", ".join(f"{s:.3g}" for s in ident["singular_values"]))
+    for c in ident["undetermined"]:
+        typer.echo(f"undetermined: {c['combination']} (singular value {c['singular_value']:.2g})")
+    for r in result.residuals:
+        typer.echo(f"{r['observation']:<48} observed {r['observed']:.5g} +- {r['sigma']:.3g}, "
+                   f"predicted {r['predicted']:.5g} ({r['normalized']:+.2f} sigma)")
