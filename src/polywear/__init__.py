@@ -28,8 +28,6 @@ Entry points (each is the function or class named in brackets):
 from __future__ import annotations
 
 import sys
-import types
-from importlib import import_module
 
 __version__ = "0.1.0"
 
@@ -55,7 +53,10 @@ _ENTRY_POINTS: dict[str, tuple[str, str | None]] = {
 __all__ = ["__version__", *_ENTRY_POINTS]
 
 
-class _Package(types.ModuleType):
+_ModuleType = type(sys)  # types.ModuleType, without importing types
+
+
+class _Package(_ModuleType):
     """The ``polywear`` module object: an entry point is never replaced by a submodule.
 
     Importing a submodule sets it as an attribute of its package; ``polywear.report``
@@ -65,7 +66,7 @@ class _Package(types.ModuleType):
 
     def __setattr__(self, name: str, value: object) -> None:
         target = _ENTRY_POINTS.get(name)
-        if target is not None and target[1] is not None and isinstance(value, types.ModuleType):
+        if target is not None and target[1] is not None and isinstance(value, _ModuleType):
             return
         super().__setattr__(name, value)
 
@@ -76,6 +77,8 @@ def __getattr__(name: str) -> object:
         module_name, attribute = _ENTRY_POINTS[name]
     except KeyError:
         raise AttributeError(f"module 'polywear' has no attribute {name!r}") from None
+    from importlib import import_module
+
     module = import_module(module_name)
     value = module if attribute is None else getattr(module, attribute)
     globals()[name] = value
