@@ -270,7 +270,36 @@ def stability_analysis(
     n_speeds: int = 400,
     xtol_ms: float = 1e-10,
 ) -> StabilityResult:
-    """Equilibrium eigenvalues on a speed grid, Hopf points and unstable speed intervals."""
+    """Linear stability of steady rolling along speed (``polywear stability``, ``pw.stability``).
+
+    The equilibrium and its Jacobian eigenvalues are computed on a speed grid; every
+    change in the number of unstable eigenvalues between grid points is located by
+    Brent's method: a complex pair gives a Hopf point (frequency, first Lyapunov
+    coefficient, mode), a real eigenvalue a static-divergence speed.
+
+    Parameters
+    ----------
+    params : Params
+        The parameter set (model, operating point, tread, friction, axle, tire).
+    speed_range_kmh : (float, float)
+        Lowest and highest speed [km/h], ``0 < low < high``.
+    n_speeds : int
+        Grid points for bracketing (at least 3); a pair of crossings closer than the
+        grid spacing can be missed.
+    xtol_ms : float
+        Tolerance of the located crossing speeds [m/s].
+
+    Returns
+    -------
+    StabilityResult
+        Eigenvalues [1/s] against speed, Hopf points, unstable intervals [km/h];
+        ``summary()`` is what ``polywear stability --json`` prints.
+
+    Raises
+    ------
+    ValueError
+        If the speed range or ``n_speeds`` is invalid.
+    """
     lo, hi = (float(v) for v in speed_range_kmh)
     if not (0.0 < lo < hi):
         raise ValueError(f"speed range {lo} {hi}: need 0 < low < high [km/h]")
