@@ -569,6 +569,30 @@ def bifurcation_diagram(
     step, up by doubling to ``SPEED_CEILING_KMH``) and the diagram computed again, with
     the stability grid as fine as on the requested range. An end still cut at the limit
     is reported by ``open_edges``.
+
+    This is ``polywear bifurcation`` and ``pw.bifurcation``.
+
+    Parameters
+    ----------
+    params : Params
+        The parameter set.
+    speed_range_kmh : (float, float)
+        Speeds analysed [km/h], ``0 < low < high`` (widened as above with ``extend``).
+    settings : ContinuationSettings
+        Collocation mesh and step control of the cycle continuation.
+    n_speeds : int
+        Grid of the stability analysis that brackets the Hopf points.
+    on_step : callable, optional
+        ``on_step(branch_index, speed_kmh)`` after every continuation step (progress).
+    extend : bool
+        Widen the range until the answer no longer depends on it.
+
+    Returns
+    -------
+    BifurcationDiagram
+        Hopf points, stable and unstable cycle branches, folds and other special
+        points, linear and SEV bands [km/h], hard regions, trigger amplitudes;
+        ``summary()`` is what ``polywear bifurcation --json`` prints.
     """
     if extend:
         return _extended_diagram(params, speed_range_kmh, settings, n_speeds, on_step)
