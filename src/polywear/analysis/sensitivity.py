@@ -249,6 +249,32 @@ def local_sensitivity(
 
     ``step`` is relative to the nominal value (absolute where the nominal is 0) for the
     finite-difference methods. ``diagram`` reuses a nominal diagram already computed.
+    This is ``polywear sensitivity`` and ``pw.sensitivity``.
+
+    Parameters
+    ----------
+    params : Params
+        The nominal parameter set.
+    keys : sequence of str
+        Configuration keys (``"table.key"``) or ``"adhesion_scale"`` (mu_s and mu_c
+        scaled together); default the paper's seven parameters, adhesion both ways.
+    method : {"exact", "central", "forward"}
+        Implicit-function theorem on the defining system of each Hopf point and fold,
+        central differences, or forward differences as the paper's eq. (3).
+    step : float
+        Relative finite-difference step [-].
+    speed_range_kmh : (float, float)
+        Speeds of the nominal (and perturbed) diagrams [km/h].
+    diagram : BifurcationDiagram, optional
+        The nominal diagram, if already computed.
+    **diagram_options
+        Passed to :func:`polywear.analysis.bifurcation.bifurcation_diagram`.
+
+    Returns
+    -------
+    SensitivityResult
+        One row per (bifurcation speed, parameter): derivative dV/dp [km/h per key
+        unit] and normalized ``S = (p/V) dV/dp`` [-].
     """
     if method not in ("exact", "central", "forward"):
         raise ValueError(f"method = {method!r}: must be exact, central or forward")

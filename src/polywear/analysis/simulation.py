@@ -517,6 +517,29 @@ def simulate(
     Starts from the equilibrium with the tread displacement ``x`` moved by
     ``disturbance`` [m], or from the full state ``initial`` if given; the last
     ``settings.window_fraction`` of the run decides the steady state.
+    This is ``polywear simulate`` and ``pw.simulate``.
+
+    Parameters
+    ----------
+    params : Params
+        The parameter set.
+    speed_kmh : float, optional
+        Vehicle speed [km/h]; default ``params.operating.speed_kmh``.
+    duration_s : float
+        Simulated time [s].
+    disturbance : float
+        Initial displacement of the tread ``x`` from the equilibrium [m].
+    initial : array, optional
+        Full initial state in the model's state order (overrides ``disturbance``).
+    settings : SimulationSettings
+        Integrator, tolerances, output step and steady-state criteria.
+
+    Returns
+    -------
+    SimulationResult
+        Trajectory, diagnostics (sliding velocity, friction force, normal load) and
+        ``steady``: outcome (equilibrium, cycle, transient), amplitude of every state,
+        frequency [Hz]; ``summary()`` is what ``polywear simulate --json`` prints.
     """
     return _run(params, speed_kmh, duration_s, disturbance, initial, settings, "")
 
