@@ -132,7 +132,27 @@ def run_report(
 ) -> Report:
     """Run the main job and write figures, data, ``summary.json`` and ``report.html`` to ``out_dir``.
 
-    ``progress(message)`` is called before each step.
+    ``progress(message)`` is called before each step. This is ``polywear report`` and
+    ``pw.report``.
+
+    Parameters
+    ----------
+    params : Params
+        The parameter set; ``operating.speed_kmh`` is the speed of the verdict.
+    out_dir : path
+        Output folder (created if missing).
+    speed_range_kmh : (float, float)
+        Speeds of the analysis [km/h].
+    operating_range_kmh : (float, float), optional
+        Speeds to keep free of SEV [km/h] for the design options (default: the
+        operating speed -30/+20 km/h).
+    progress : callable, optional
+        Called with a short message before each step.
+
+    Returns
+    -------
+    Report
+        The summary (verdict, bands, sensitivities, design options) and the files written.
     """
     import matplotlib
 

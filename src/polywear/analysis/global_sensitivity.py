@@ -499,7 +499,31 @@ def global_sensitivity(
     batch_size: int | None = None,
     on_progress=None,
 ) -> GlobalSensitivityResult:
-    """Run the study of ``params.study`` on the given backend (see :func:`polywear.parallel.map_batched`)."""
+    """Run the study of ``params.study`` on the given backend (see :func:`polywear.parallel.map_batched`).
+
+    This is ``polywear study`` and ``pw.study``.
+
+    Parameters
+    ----------
+    params : Params
+        The nominal parameter set; its ``[study]`` table gives the method (Sobol or
+        Morris), sample size, outputs, seed and the uncertain parameters.
+    backend : {"serial", "processes", "dask"}
+        Where the samples are evaluated.
+    workers : int, optional
+        Process-pool size (default: the number of CPUs).
+    scheduler : str, optional
+        Dask scheduler address, e.g. ``tcp://host:8786`` (backend ``"dask"``).
+    batch_size : int, optional
+        Samples per task.
+    on_progress : callable, optional
+        Called with the number of samples finished, after every batch.
+
+    Returns
+    -------
+    GlobalSensitivityResult
+        Indices with bootstrap confidence intervals per output, and the samples.
+    """
     from SALib.sample import morris as morris_sample
     from SALib.sample import sobol as sobol_sample
 

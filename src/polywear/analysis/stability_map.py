@@ -655,6 +655,31 @@ def stability_map(
     """Hopf and fold-of-cycles curves of ``key`` over ``value_range`` and speeds [km/h].
 
     ``on_step()`` is called after every continuation step (for a progress display).
+    This is ``polywear map`` and ``pw.stability_map``.
+
+    Parameters
+    ----------
+    params : Params
+        The nominal parameter set.
+    key : str
+        The mapped configuration key (``"table.key"``) or ``"adhesion_scale"``.
+    value_range : (float, float)
+        Lowest and highest value of ``key`` [key units].
+    speed_range_kmh : (float, float)
+        Speeds of the map [km/h].
+    operating_range_kmh : (float, float), optional
+        Speeds to keep free of SEV [km/h]: the map reports which values of ``key`` do.
+    folds : bool
+        Also continue the folds of cycles (the SEV band's hard ends), not only Hopf points.
+    settings : MapSettings
+        Step control of the two-parameter continuation.
+    on_step : callable, optional
+        Progress callback, no arguments.
+
+    Returns
+    -------
+    StabilityMap
+        Hopf and fold curves in the (speed, value) plane, the linear and SEV regions.
     """
     from .bifurcation import bifurcation_diagram
     from .stability import stability_analysis
