@@ -11,16 +11,24 @@ with the trivial multiplier as accuracy check), folds of cycles located by secan
 iteration on the speed component of the tangent, period doubling and torus
 (Neimark-Sacker) bifurcations detected by multipliers crossing the unit circle
 at -1 or as a complex pair.
+
+Every branch ends with a typed reason (:class:`BranchEnd`). Before a branch is given
+up the numerics are rescued as a specialist would: a step whose monodromy fails the
+trivial-multiplier check, or whose Newton iteration fails at the smallest step, is
+re-solved on a finer, kink-aligned, adapted mesh. What cannot be rescued ends the
+branch as failed, with the speed and the reason.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import Enum
 
 import numpy as np
 from .collocation import Collocation, PeriodicOrbit, monodromy
 
 __all__ = [
+    "BranchEnd",
     "ContinuationSettings",
     "BranchPoint",
     "Branch",
@@ -52,6 +60,48 @@ class ContinuationSettings:
     align_kinks: bool = True
     """Put mesh points where the orbit crosses a kink of the vector field (v_r = 0, contact
     loss) and re-solve, so that no collocation interval straddles a jump of the Jacobian."""
+    multiplier_tol: float = 1e-5
+    """Largest accepted |mu - 1| of the trivial Floquet multiplier. Above it the step is
+    re-solved on a mesh with twice the intervals (up to ``max_intervals``); if that does
+    not resolve it, the branch ends as failed (``BranchEnd.MULTIPLIER_CHECK_LOST``)."""
+    max_intervals: int = 320
+    """Finest mesh the rescue of a step may use (mesh intervals)."""
+    max_period_factor: float = 10.0
+    """The branch ends (``BranchEnd.PERIOD_LIMIT``) when the period exceeds this multiple
+    of the period at its Hopf point: the cycles approach an orbit of infinite period
+    (e.g. homoclinic to the steady state), where the monodromy product loses all accuracy."""
+
+
+class BranchEnd(str, Enum):
+    """Why a branch of cycles ended. A ``failed`` end is a numerical failure: the branch
+    beyond its last point is unknown, and nothing may be concluded from where it stops."""
+
+    RANGE_END = "range_end"
+    HOPF_REACHED = "hopf_reached"
+    AMPLITUDE_LIMIT = "amplitude_limit"
+    PERIOD_LIMIT = "period_limit"
+    STEP_UNDERFLOW = "step_underflow"
+    MULTIPLIER_CHECK_LOST = "multiplier_check_lost"
+    MAX_STEPS = "max_steps"
+
+    @property
+    def failed(self) -> bool:
+        return self in (BranchEnd.STEP_UNDERFLOW, BranchEnd.MULTIPLIER_CHECK_LOST, BranchEnd.MAX_STEPS)
+
+    @property
+    def description(self) -> str:
+        return _END_TEXT[self]
+
+
+_END_TEXT = {
+    BranchEnd.RANGE_END: "left the speed range",
+    BranchEnd.HOPF_REACHED: "returned to an equilibrium (Hopf point)",
+    BranchEnd.AMPLITUDE_LIMIT: "amplitude limit reached",
+    BranchEnd.PERIOD_LIMIT: "period limit reached (the cycles approach an orbit of infinite period)",
+    BranchEnd.STEP_UNDERFLOW: "step size underflow (Newton did not converge)",
+    BranchEnd.MULTIPLIER_CHECK_LOST: "Floquet multipliers not resolved (trivial multiplier check lost)",
+    BranchEnd.MAX_STEPS: "maximum number of steps",
+}
 
 
 @dataclass
@@ -95,8 +145,26 @@ class Branch:
     points: list[BranchPoint] = field(default_factory=list)
     special: list[tuple[str, BranchPoint, int]] = field(default_factory=list)
     """(label, point, index): the special point lies between points[index - 1] and points[index]."""
-    end_reason: str = ""
+    end: BranchEnd | None = None
+    end_detail: str = ""
+    """Where and why the branch ended, in words (speed, step, mesh, multiplier error)."""
+    end_speed: float | None = None
+    """Speed [m/s] of the last converged point (for a failed branch: where it was lost)."""
+    recoveries: list[str] = field(default_factory=list)
+    """Numerical rescues on the way (mesh refinements), in words."""
     scales: np.ndarray | None = None
+
+    @property
+    def failed(self) -> bool:
+        """True when the branch ended by a numerical failure (see :class:`BranchEnd`)."""
+        return self.end is not None and self.end.failed
+
+    @property
+    def end_reason(self) -> str:
+        """The end in words: the reason, then the detail."""
+        if self.end is None:
+            return ""
+        return self.end.description + (f": {self.end_detail}" if self.end_detail else "")
 
 
 class _Stepper:
@@ -191,24 +259,56 @@ def continue_from_hopf(
     prev: BranchPoint | None = None
     prev_harmonic = None
     steps_since_adapt = 0
+
+    def finish(end: BranchEnd, detail: str = "") -> None:
+        branch.end, branch.end_detail = end, detail
+        branch.end_speed = branch.points[-1].orbit.speed if branch.points else hopf.speed
+
+    def last_kmh() -> float:
+        return 3.6 * (branch.points[-1].orbit.speed if branch.points else hopf.speed)
+
     for _ in range(settings.max_steps):
         out = stepper.correct(X0, t0, ds, phase_ref)
         if out is not None and settings.align_kinks:
             stepper, X0, t0, phase_ref, out = _align_to_kinks(
                 model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale
             )
-            c = stepper.coll
+        if out is not None and _trivial_error(out[3]) > settings.multiplier_tol:
+            stepper, X0, t0, phase_ref, out = _refine_step(
+                model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale,
+                branch.recoveries,
+            )
+            if out is not None and _trivial_error(out[3]) > settings.multiplier_tol:
+                mu = out[3]
+                finish(BranchEnd.MULTIPLIER_CHECK_LOST,
+                       f"beyond {last_kmh():.3f} km/h |mu - 1| of the trivial multiplier is "
+                       f"{_trivial_error(mu):.1e} with {stepper.coll.N} mesh intervals (largest multiplier "
+                       f"{np.abs(mu).max():.1e}); stability there is unknown")
+                break
+        c = stepper.coll
         if out is None:
             ds *= 0.5
             if ds < settings.ds_min:
-                branch.end_reason = "step size underflow (Newton did not converge)"
+                if 2 * c.N <= settings.max_intervals:
+                    # rescue: the previous point on a finer adapted, kink-aligned mesh, steps anew
+                    stepper, X0, t0, phase_ref = _remesh(
+                        model, p, stepper, _finer_mesh(model, p, c, c.unpack(X0), settings), X0, t0, settings,
+                        scales, speed_scale, period_scale,
+                    )
+                    branch.recoveries.append(
+                        f"Newton failed beyond {last_kmh():.3f} km/h: mesh refined to {stepper.coll.N} intervals")
+                    ds = settings.ds_initial
+                    continue
+                finish(BranchEnd.STEP_UNDERFLOW,
+                       f"beyond {last_kmh():.3f} km/h, with steps down to {settings.ds_min:g} and "
+                       f"{c.N} mesh intervals")
                 break
             continue
         X, t, iterations, multipliers = out
         orbit = c.unpack(X)
         harmonic = _first_harmonic(orbit, scales)
         if prev_harmonic is not None and np.real(np.vdot(prev_harmonic, harmonic)) < 0:
-            branch.end_reason = "returned to an equilibrium (Hopf point)"
+            finish(BranchEnd.HOPF_REACHED)
             break
         point = BranchPoint(orbit, multipliers, t, iterations)
         if prev is not None and np.sign(point.tangent_speed) != np.sign(prev.tangent_speed):
@@ -223,13 +323,16 @@ def continue_from_hopf(
             on_step(branch)
         amplitude = _scaled_amplitude(orbit, scales)
         if not (speed_bounds[0] <= orbit.speed <= speed_bounds[1]):
-            branch.end_reason = "left the speed range"
+            finish(BranchEnd.RANGE_END)
             break
         if amplitude < settings.min_amplitude and len(branch.points) > 3:
-            branch.end_reason = "returned to an equilibrium (Hopf point)"
+            finish(BranchEnd.HOPF_REACHED)
             break
         if amplitude > settings.max_amplitude:
-            branch.end_reason = "amplitude limit reached"
+            finish(BranchEnd.AMPLITUDE_LIMIT, f"at {3.6 * orbit.speed:.3f} km/h")
+            break
+        if orbit.period > settings.max_period_factor * period_scale:
+            finish(BranchEnd.PERIOD_LIMIT, _period_detail(model, p, orbit, period_scale))
             break
         prev, prev_harmonic = point, harmonic
         X0, t0, phase_ref = X, t, orbit
@@ -246,10 +349,52 @@ def continue_from_hopf(
             stepper, X0, t0, phase_ref = _remesh(
                 model, p, stepper, new_mesh, X0, t0, settings, scales, speed_scale, period_scale
             )
-            c = stepper.coll
     else:
-        branch.end_reason = "maximum number of steps"
+        finish(BranchEnd.MAX_STEPS, f"{settings.max_steps} steps, the last at {last_kmh():.3f} km/h")
     return branch
+
+
+def _trivial_error(multipliers: np.ndarray) -> float:
+    """|mu - 1| of the multiplier nearest 1."""
+    return float(np.min(np.abs(multipliers - 1.0)))
+
+
+def _finer_mesh(model, p, coll: Collocation, orbit: PeriodicOrbit, settings: ContinuationSettings) -> np.ndarray:
+    """Twice the intervals, equidistributed for ``orbit`` (AUTO's rule), kinks on mesh points."""
+    mesh = coll.adapted_mesh(orbit, 2 * coll.N)
+    return _with_kinks(mesh, switching_times(model, p, orbit)) if settings.align_kinks else mesh
+
+
+def _refine_step(model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale,
+                 notes: list[str]):
+    """Re-solve a step whose trivial multiplier is off on finer meshes until it is resolved
+    (or the mesh reaches ``settings.max_intervals``, or Newton fails: ``out`` None)."""
+    while out is not None and _trivial_error(out[3]) > settings.multiplier_tol \
+            and 2 * stepper.coll.N <= settings.max_intervals:
+        error = _trivial_error(out[3])
+        mesh = _finer_mesh(model, p, stepper.coll, stepper.coll.unpack(out[0]), settings)
+        stepper, X0, t0, phase_ref = _remesh(model, p, stepper, mesh, X0, t0, settings, scales, speed_scale,
+                                             period_scale)
+        out = stepper.correct(X0, t0, ds, phase_ref)
+        if out is not None and settings.align_kinks:
+            stepper, X0, t0, phase_ref, out = _align_to_kinks(
+                model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale
+            )
+        notes.append(f"trivial multiplier error {error:.1e} near {3.6 * X0[-1]:.3f} km/h: mesh refined to "
+                     f"{stepper.coll.N} intervals")
+    return stepper, X0, t0, phase_ref, out
+
+
+def _period_detail(model, p, orbit: PeriodicOrbit, hopf_period: float) -> str:
+    """Where the period limit was hit, and how close the orbit comes to the steady state."""
+    _, u = orbit.dense(16)
+    span = np.ptp(u, axis=0)
+    moving = span > 0.0
+    u_eq = model.equilibrium(orbit.speed, p)
+    closest = float(np.min(np.max(np.abs(u - u_eq)[:, moving] / span[moving], axis=1)))
+    return (f"period {orbit.period:.4g} s = {orbit.period / hopf_period:.1f} x the Hopf period at "
+            f"{3.6 * orbit.speed:.3f} km/h; the orbit comes within {closest:.1%} of its range to the steady "
+            f"state (a homoclinic orbit when this goes to 0)")
 
 
 def solve_at_speed(model, p, guess: PeriodicOrbit, speed: float, settings: ContinuationSettings = ContinuationSettings()):
