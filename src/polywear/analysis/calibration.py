@@ -468,9 +468,10 @@ def calibrate(
                                f"combination {along[0]} (fix it, or add an observation that depends on it)")
         parameters.append(entry)
     if profile and any(identifiable):
+        cov_x = cov_rel * np.outer(x_hat, x_hat)  # covariance of x = p / scale
         for j, entry in enumerate(parameters):
             if entry["identifiable"]:
-                entry["profile_ci"] = _profile_interval(j, x_hat, chi2, evaluate, (lo, bounds[1]), sd_rel[j], scale)
+                entry["profile_ci"] = _profile_interval(j, x_hat, chi2, evaluate, (lo, bounds[1]), cov_x, scale)
                 if entry["profile_ci"] is not None:
                     entry["ci_low"], entry["ci_high"] = entry["profile_ci"]
     fitted = with_updates(params, {k: float(v) for k, v, ok in zip(keys, values, identifiable) if ok})
@@ -500,51 +501,59 @@ def calibrate(
                                        "n_observations": n})
 
 
-def _profile_interval(j, x_hat, chi2_min, evaluate, bounds, sd_rel, scale) -> list[float | None] | None:
-    """95 % profile-likelihood interval of parameter j [key units]; None ends at a bound."""
-    from scipy.optimize import brentq, least_squares
+def _profile_interval(j, x_hat, chi2_min, evaluate, bounds, cov_x, scale) -> list[float | None]:
+    """95 % profile-likelihood interval of parameter j [key units]; None: no end before the bound.
+
+    ``q(t) = sqrt(chi2_profile(t) - chi2_min)`` is linear in t where the problem is; each
+    end ``q = 1.96`` is found by the secant method from the linearized end, every
+    profile point a refit of the other parameters started on their linear prediction
+    ``y_hat + cov_yt / cov_tt (t - t_hat)``.
+    """
+    from scipy.optimize import least_squares
 
     others = [i for i in range(len(x_hat)) if i != j]
-    start = {"x": x_hat[others].copy()}
+    sd = math.sqrt(cov_x[j, j])
+    slope = cov_x[others, j] / cov_x[j, j]
 
-    def profile(t: float) -> float:
-        if not others:
-            x = x_hat.copy()
-            x[j] = t
-            r = evaluate(x)[0]
-            return float(r @ r) - chi2_min - CHI2_95 if np.all(np.isfinite(r)) else math.inf
+    def q_of(t: float) -> float:
+        x = x_hat.copy()
+        x[j] = t
+        if others:
+            y0 = np.clip(x_hat[others] + slope * (t - x_hat[j]), np.nextafter(bounds[0][others], np.inf),
+                         np.nextafter(bounds[1][others], -np.inf))
 
-        def full(y):
-            x = x_hat.copy()
-            x[j] = t
-            x[others] = y
-            return x
+            def full(y):
+                z = x.copy()
+                z[others] = y
+                return z
 
-        fit = least_squares(lambda y: evaluate(full(y))[0], start["x"], jac=lambda y: evaluate(full(y))[1][:, others],
-                            bounds=(bounds[0][others], bounds[1][others]), method="trf", max_nfev=30)
-        start["x"] = fit.x
-        return 2.0 * fit.cost - chi2_min - CHI2_95
+            fit = least_squares(lambda y: evaluate(full(y))[0], y0, jac=lambda y: evaluate(full(y))[1][:, others],
+                                bounds=(bounds[0][others], bounds[1][others]), method="trf", max_nfev=30)
+            x = full(fit.x)
+        r = evaluate(x)[0]
+        if not np.all(np.isfinite(r)):
+            return math.nan
+        return math.sqrt(max(float(r @ r) - chi2_min, 0.0))
 
+    target = math.sqrt(CHI2_95)
     ends: list[float | None] = []
     for side in (-1.0, 1.0):
-        start["x"] = x_hat[others].copy()
-        step = max(Z_95 * sd_rel * x_hat[j], 1e-6 * abs(x_hat[j]))
-        inner, outer = x_hat[j], None
-        for _ in range(8):
-            t = x_hat[j] + side * step
-            if not bounds[0][j] < t < bounds[1][j]:
+        lo, hi = bounds[0][j], bounds[1][j]
+        t_prev, q_prev = x_hat[j], 0.0
+        t = x_hat[j] + side * target * sd
+        end = None
+        for _ in range(12):
+            t = min(max(t, np.nextafter(lo, np.inf)), np.nextafter(hi, -np.inf))
+            q = q_of(t)
+            if math.isnan(q):  # not a valid parameter set there: back towards the last good point
+                t = 0.5 * (t + t_prev)
+                continue
+            if abs(q - target) < 1e-3 * target:
+                end = t
                 break
-            value = profile(t)
-            if value > 0.0:
-                outer = t
-                break
-            inner, step = t, step * 2.0
-        if outer is None:
-            ends.append(None)
-            continue
-        start["x"] = x_hat[others].copy()
-        lo, hi = sorted((inner, outer))
-        root = brentq(lambda t: min(profile(t), 1e6), lo, hi, xtol=1e-4 * abs(x_hat[j]), maxiter=30) \
-            if profile(inner) < 0.0 else inner
-        ends.append(float(root * scale[j]))
+            if q < target and (t <= np.nextafter(lo, np.inf) or t >= np.nextafter(hi, -np.inf)):
+                break  # the bound comes first: open on this side
+            step = (target - q) * (t - t_prev) / (q - q_prev) if q != q_prev else side * sd
+            t_prev, q_prev, t = t, q, t + step
+        ends.append(None if end is None else float(end * scale[j]))
     return ends
