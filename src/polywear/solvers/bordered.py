@@ -44,7 +44,7 @@ def _eliminate(rows, n_rows, col0, n_cols, used, border, pivots_out):
                 if v > best_val:
                     best_val = v
                     best = r
-        if best_val == 0.0:
+        if not best_val > 0.0:  # singular, or NaN entries (no pivot found: best stays -1)
             return False
         used[best] = True
         pivots_out[c] = best
