@@ -19,11 +19,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import njit
+from numpy.typing import ArrayLike
 
 from .bordered import solve_bordered
+
+if TYPE_CHECKING:
+    from scipy.sparse import csc_matrix
+
+    from ..models.base import Model
 
 __all__ = ["Scheme", "scheme", "PeriodicOrbit", "Collocation", "monodromy"]
 
@@ -106,14 +113,14 @@ class PeriodicOrbit:
         h = np.diff(self.mesh)
         return (self.mesh[:-1, None] + h[:, None] * scheme(self.m).nodes[None, :-1]).ravel()
 
-    def evaluate(self, tau) -> np.ndarray:
+    def evaluate(self, tau: ArrayLike) -> np.ndarray:
         """State at normalized times ``tau`` (taken modulo 1), shape (len(tau), n)."""
-        tau = np.mod(np.atleast_1d(np.asarray(tau, dtype=float)), 1.0)
-        j = np.clip(np.searchsorted(self.mesh, tau, side="right") - 1, 0, self.n_intervals - 1)
+        t = np.mod(np.atleast_1d(np.asarray(tau, dtype=float)), 1.0)
+        j = np.clip(np.searchsorted(self.mesh, t, side="right") - 1, 0, self.n_intervals - 1)
         h = np.diff(self.mesh)
-        s = (tau - self.mesh[j]) / h[j]
+        s = (t - self.mesh[j]) / h[j]
         nodes = scheme(self.m).nodes
-        basis = np.ones((len(tau), self.m + 1))
+        basis = np.ones((len(t), self.m + 1))
         for a in range(self.m + 1):
             for b in range(self.m + 1):
                 if a != b:
@@ -213,12 +220,12 @@ class Collocation:
     through :meth:`solve_linear`).
     """
 
-    model: object
+    model: Model
     p: np.ndarray
     mesh: np.ndarray
     m: int = 4
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         self.mesh = np.asarray(self.mesh, dtype=float)
         self.sch = scheme(self.m)
         self.h = np.diff(self.mesh)
@@ -242,7 +249,7 @@ class Collocation:
         return PeriodicOrbit(self.mesh, nodes, float(X[-2]), float(X[-1]), self.m)
 
     # -- system ------------------------------------------------------------------------
-    def evaluate(self, X: np.ndarray):
+    def evaluate(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Residual of the collocation equations and their Jacobian parts at X."""
         rhs, jac, dfdv = self.model.compiled
         N, m, n = self.N, self.m, self.n
@@ -257,7 +264,7 @@ class Collocation:
         )
         return res, blocks, tcol, vcol
 
-    def sparse_matrix(self, X: np.ndarray, border: np.ndarray):
+    def sparse_matrix(self, X: np.ndarray, border: np.ndarray) -> csc_matrix:
         """The bordered Newton matrix at X as scipy CSC (for transposed solves)."""
         from scipy.sparse import coo_matrix
 
@@ -297,7 +304,9 @@ class Collocation:
             np.add.at(row, idx, coef[:, l, :])
         return np.concatenate([row.ravel(), [0.0, 0.0]])
 
-    def solve(self, X: np.ndarray, border: np.ndarray, border_values: np.ndarray, extra_rhs=None):
+    def solve(
+        self, X: np.ndarray, border: np.ndarray, border_values: np.ndarray, extra_rhs: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
         """Newton correction and tangent at X.
 
         Solves ``A [dX, t] = [-F, e]`` where A is the collocation Jacobian bordered by

@@ -20,10 +20,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numba import njit
+from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:
+    from ..models.base import Model
 
 __all__ = [
     "METHODS",
@@ -124,7 +128,7 @@ class DenseOutput:
     def t_max(self) -> float:
         return float(self.t_start[-1] + self.h[-1])
 
-    def __call__(self, t) -> np.ndarray:
+    def __call__(self, t: ArrayLike) -> np.ndarray:
         """State at time(s) ``t`` [s]: shape (n,) for a scalar, (len(t), n) for an array."""
         t_arr = np.atleast_1d(np.asarray(t, dtype=float))
         out = np.empty((t_arr.size, self.coefficients.shape[2]))
@@ -159,7 +163,7 @@ class _ScipyDense:
     t_min: float
     t_max: float
 
-    def __call__(self, t) -> np.ndarray:
+    def __call__(self, t: ArrayLike) -> np.ndarray:
         return np.asarray(self.solution(t)).T
 
 
@@ -453,10 +457,10 @@ def output_grid(t_end: float, dt_out: float) -> np.ndarray:
 
 
 def integrate(
-    model,
-    u0,
+    model: Model,
+    u0: ArrayLike,
     V: float,
-    p,
+    p: np.ndarray,
     t_end: float,
     *,
     dt_out: float | None = None,
