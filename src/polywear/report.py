@@ -34,13 +34,13 @@ def operating_verdict(diagram, params: Params, speed_kmh: float) -> dict:
     Regimes: ``"no SEV"``, ``"unstable rolling (soft SEV)"``, ``"hard SEV region"`` (a
     stable cycle of the continuation there), and, where steady rolling is unstable or the
     speed lies in the SEV band but no continued cycle is stable, the motion a simulation
-    reaches (:func:`polywear.analysis.attractor.reached_attractor`): period-doubled
+    reaches (:func:`polywear.analysis.attractor.reached_attractors`): period-multiplied
     (stick-slip), quasi-periodic or chaotic, a cycle off the continued branches, or
     static divergence (a real eigenvalue: the tread drifts, it does not vibrate).
     """
     import numpy as np
 
-    from .analysis.attractor import reached_attractor
+    from .analysis.attractor import reached_attractors
     from .analysis.bifurcation import statically_divergent
     from .analysis.wear import wear_indicators
     from .models import get_model
@@ -71,9 +71,10 @@ def operating_verdict(diagram, params: Params, speed_kmh: float) -> dict:
         verdict["frequency_hz"] = 1.0 / big.period
         verdict["wear"] = wear_indicators(model, p, big.orbit, params.operating.rolling_radius_m).summary()
     elif in_sev or not rolling_stable:
-        found = reached_attractor(diagram, speed_kmh)
+        found, *others = reached_attractors(diagram, speed_kmh)
         verdict["regime"] = found.regime
         verdict["attractor"] = found.summary()
+        verdict["other_attractors"] = [a.summary() for a in others]
         if found.oscillating:
             verdict["sev_amplitude_x_m"] = float(found.amplitude[x])
             verdict["frequency_hz"] = found.dominant_frequency_hz
@@ -100,13 +101,10 @@ def _sentence(v: dict) -> str:
                    else "steady rolling is unstable" if not v["steady_rolling_stable"]
                    else "steady rolling is stable")
         s += f"{rolling} and no continued period-1 cycle is stable; a {a['simulated_s']:g} s simulation from {a['start']} "
-        if regime == "static divergence":
-            return s + f"comes to rest {a['offset_x_m'] * 1e3:+.3f} mm away from steady rolling: static divergence, not SEV."
-        if regime == "no SEV":
-            return s + "returns to steady rolling: no self-excited vibration."
-        mpp = f", {a['maxima_per_period']} maxima of x per period" if a["maxima_per_period"] > 1 else ""
-        return s + (f"ends in {regime}: {a['amplitude_x_m'] * 1e3:.3f} mm at a dominant frequency of "
-                    f"{a['dominant_frequency_hz']:.1f} Hz{mpp}.")
+        s += f"ends in {_motion(a)}."
+        for other in v.get("other_attractors", []):
+            s += f" From {other['start']} it ends in {_motion(other)} instead (coexisting attractors)."
+        return s
     w = v["wear"]
     s += (
         f"self-excited vibration of {v['sev_amplitude_x_m'] * 1e3:.3f} mm at {w['frequency_hz']:.1f} Hz "
@@ -121,6 +119,18 @@ def _sentence(v: dict) -> str:
     else:
         s += "; steady rolling is unstable, so any disturbance starts it."
     return s
+
+
+def _motion(a: dict) -> str:
+    """One attractor (an ``Attractor.summary()``) in words."""
+    if a["regime"] == "static divergence":
+        return (f"static divergence, not SEV: no oscillation, {a['offset_x_m'] * 1e3:+.3f} mm away from "
+                "steady rolling")
+    if a["regime"] == "no SEV":
+        return "steady rolling: no self-excited vibration"
+    mpp = f", {a['maxima_per_period']} maxima of x per period" if a["maxima_per_period"] > 1 else ""
+    return (f"{a['regime']}: {a['amplitude_x_m'] * 1e3:.3f} mm at a dominant frequency of "
+            f"{a['dominant_frequency_hz']:.1f} Hz{mpp}")
 
 
 def run_report(

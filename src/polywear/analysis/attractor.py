@@ -5,17 +5,22 @@ unstable but none of those cycles is stable (past a period doubling: stick-slip 
 two or more maxima per period; past a torus bifurcation: a quasi-periodic motion; or a
 static divergence, a real eigenvalue crossing zero), the motion reached is found by
 simulation (:mod:`.simulation`), started from the continuation's last stable cycle (the
-stable cycle point nearest in speed), or from steady rolling disturbed when there is
-none, and named:
+stable cycle point nearest in speed) and from steady rolling disturbed (several attractors
+can coexist: stick-slip at mu_c = 0.05 and 110 km/h ends on a cycle with two maxima per
+period from the one start and three from the other), and named:
 
-``"period-doubled SEV (stick-slip)"``
-    the run settles on a cycle whose lead state has m >= 2 maxima per period;
+``"period-multiplied SEV (stick-slip)"``
+    the run settles on a cycle whose lead state has m >= 2 maxima per period (past a
+    period doubling, or stick-slip ringing);
 ``"SEV on a cycle off the continued branches"``
     it settles on a simple cycle (m = 1) that no continued branch holds at that speed;
 ``"quasi-periodic or chaotic SEV"``
-    it keeps oscillating without settling (a torus or chaos);
+    it keeps oscillating without settling on a cycle, with a sustained swing (a torus or
+    chaos; a run still growing or decaying is continued first, up to four pieces);
 ``"static divergence"``
-    it comes to rest away from steady rolling (another steady state);
+    it does not oscillate (fewer than ``min_cycles`` periods of its dominant frequency in
+    the analysed window) and stays away from steady rolling: it rests on or drifts to
+    another state;
 ``"no SEV"``
     it returns to steady rolling.
 
@@ -31,13 +36,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..models import get_model
-from ..models.base import kmh_to_ms, ms_to_kmh
+from ..models.base import ms_to_kmh
 from .simulation import SimulationResult, simulate
 
-__all__ = ["Attractor", "reached_attractor", "dominant_frequency"]
+__all__ = ["Attractor", "reached_attractors", "dominant_frequency"]
 
-PERIOD_DOUBLED = "period-doubled SEV (stick-slip)"
+PERIOD_MULTIPLIED = "period-multiplied SEV (stick-slip)"
 OFF_BRANCH_CYCLE = "SEV on a cycle off the continued branches"
 QUASI_PERIODIC = "quasi-periodic or chaotic SEV"
 DIVERGENCE = "static divergence"
@@ -57,6 +61,8 @@ class Attractor:
     run: SimulationResult
     start: str
     """Where the simulation started."""
+    simulated_s: float
+    """Total simulated time [s] (the classified run is its last piece)."""
 
     @property
     def oscillating(self) -> bool:
@@ -74,7 +80,7 @@ class Attractor:
             "maxima_per_period": st.maxima_per_period,
             "outcome": st.outcome,
             "offset_x_m": float(st.mean[x] - self.run.equilibrium[x]),
-            "simulated_s": self.run.duration_s,
+            "simulated_s": self.simulated_s,
             "start": self.start,
         }
 
@@ -99,38 +105,71 @@ def dominant_frequency(t: np.ndarray, s: np.ndarray) -> float:
     return (k + shift) / (len(s) * dt)
 
 
-def _start_state(diagram, speed_kmh: float) -> tuple[np.ndarray | None, str]:
-    """State on the stable continuation cycle nearest in speed, or None (steady rolling disturbed)."""
+def _starts(diagram, speed_kmh: float) -> list[tuple[np.ndarray | None, str]]:
+    """Start states: on the stable continuation cycle nearest in speed (if any), and steady
+    rolling with x disturbed by 0.1 mm (None: :func:`simulate`'s disturbance)."""
+    starts = []
     stable = [c for c in diagram.cycles if c.stable and c.orbit is not None]
-    if not stable:
-        return None, "steady rolling with x disturbed by 0.1 mm"
-    c = min(stable, key=lambda c: abs(ms_to_kmh(c.speed) - speed_kmh))
-    return np.array(c.orbit.nodes[0], dtype=float), f"the stable cycle at {ms_to_kmh(c.speed):.1f} km/h"
+    if stable:
+        c = min(stable, key=lambda c: abs(ms_to_kmh(c.speed) - speed_kmh))
+        starts.append((np.array(c.orbit.nodes[0], dtype=float), f"the stable cycle at {ms_to_kmh(c.speed):.1f} km/h"))
+    starts.append((None, "steady rolling with x disturbed by 0.1 mm"))
+    return starts
 
 
-def reached_attractor(diagram, speed_kmh: float, duration_s: float = 1.5) -> Attractor:
-    """Simulate ``duration_s`` [s] at ``speed_kmh`` [km/h] from the continuation's last
-    stable cycle (see the module docstring) and name the motion reached."""
-    params = diagram.params
-    model = get_model(params.model)
-    p = model.pack(params)
-    initial, start = _start_state(diagram, speed_kmh)
-    run = simulate(params, speed_kmh, duration_s, disturbance=1e-4, initial=initial)
+def reached_attractors(diagram, speed_kmh: float, duration_s: float = 1.5) -> list[Attractor]:
+    """The motions reached at ``speed_kmh`` [km/h] in ``duration_s`` [s] from the
+    continuation's last stable cycle and from steady rolling disturbed (see the module
+    docstring), distinct ones only (amplitude of x and period differing by more than 1 %):
+    several attractors can coexist, and which one the tread ends on depends on its history."""
+    found: list[Attractor] = []
+    for initial, start in _starts(diagram, speed_kmh):
+        a = _attractor(diagram.params, speed_kmh, duration_s, initial, start)
+        if not any(_same(a, b) for b in found):
+            found.append(a)
+    return found
+
+
+def _same(a: Attractor, b: Attractor) -> bool:
+    x = a.run.model.index("x")
+    pa, pb = a.run.steady.period, b.run.steady.period
+    same_period = (math.isnan(pa) and math.isnan(pb)) or abs(pa - pb) <= 0.01 * max(abs(pa), abs(pb))
+    return a.regime == b.regime and same_period and abs(a.amplitude[x] - b.amplitude[x]) <= 0.01 * max(
+        a.amplitude[x], b.amplitude[x], 1e-12)
+
+
+def _attractor(params, speed_kmh, duration_s, initial, start, max_runs: int = 4) -> Attractor:
+    """Simulate in pieces of ``duration_s`` [s], each from the end of the last, until the
+    run settles (equilibrium or cycle), or its oscillation is sustained (the swing of the
+    lead state over the analysed window changes by less than 5 % from the previous piece:
+    quasi-periodic or chaotic), or ``max_runs`` pieces are done; then classify the last piece."""
+    previous_swing, total = None, 0.0
+    for _ in range(max_runs):
+        run = simulate(params, speed_kmh, duration_s, disturbance=1e-4, initial=initial)
+        total += duration_s
+        if run.steady.steady:
+            break
+        lead = run.model.index(run.settings.lead_state)
+        swing = float(np.ptp(run.u[run.t >= (1.0 - run.settings.window_fraction) * duration_s, lead]))
+        if previous_swing is not None and abs(swing - previous_swing) <= 0.05 * swing:
+            break
+        previous_swing, initial = swing, run.u[-1]
     st = run.steady
-    lead = model.index(run.settings.lead_state)
+    lead = run.model.index(run.settings.lead_state)
     window = run.t >= (1.0 - run.settings.window_fraction) * run.duration_s
     t, s = run.t[window], run.u[window, lead]
-    u_eq = model.equilibrium(kmh_to_ms(speed_kmh), p)
-    offset = abs(float(np.mean(s)) - u_eq[lead])
-    swing = 0.5 * float(np.ptp(s))
+    frequency = dominant_frequency(t, s)
+    # an oscillation shows at least min_cycles periods of its dominant frequency in the window
+    oscillating = frequency * (t[-1] - t[0]) >= run.settings.min_cycles
     if st.outcome == "equilibrium":
         regime = NO_SEV
-    elif swing <= 1e-3 * max(offset, 1e-300) or (st.outcome != "cycle" and swing < 1e-9):
-        regime = DIVERGENCE  # at rest, away from steady rolling
     elif st.outcome == "cycle":
-        regime = PERIOD_DOUBLED if st.maxima_per_period > 1 else OFF_BRANCH_CYCLE
+        regime = PERIOD_MULTIPLIED if st.maxima_per_period > 1 else OFF_BRANCH_CYCLE
+    elif not oscillating:
+        regime = DIVERGENCE  # at rest or drifting, away from steady rolling
     else:
         regime = QUASI_PERIODIC
     amplitude = st.amplitude if st.outcome == "cycle" else 0.5 * np.ptp(run.u[window], axis=0)
-    frequency = dominant_frequency(t, s) if regime not in (NO_SEV, DIVERGENCE) else math.nan
-    return Attractor(regime, float(speed_kmh), np.asarray(amplitude), frequency, run, start)
+    if regime in (NO_SEV, DIVERGENCE):
+        frequency = math.nan
+    return Attractor(regime, float(speed_kmh), np.asarray(amplitude), frequency, run, start, total)

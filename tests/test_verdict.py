@@ -1,0 +1,231 @@
+"""The verdict in every regime: the safe car, bands cut by the analysed range, attractors
+other than the continued period-1 cycle (period doubling, static divergence), and the
+trigger amplitude up to the fold.
+
+Oracles: for tread1dof the speed enters only through V sin(toe), so every bifurcation
+speed scales exactly as 1 / sin(toe) (the diagram at the default toe 0.5 deg is the
+reference); AUTO-07p's fold amplitudes (docs/validation_auto07p.md); det J changing
+sign at a real eigenvalue crossing; a second simulation from another start.
+"""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from polywear.analysis.attractor import PERIOD_MULTIPLIED, reached_attractors
+from polywear.analysis.bifurcation import SPEED_CEILING_KMH, bifurcation_diagram, statically_divergent
+from polywear.analysis.design import clear_operating_range
+from polywear.analysis.sensitivity import local_sensitivity
+from polywear.analysis.simulation import simulate
+from polywear.models import get_model
+from polywear.params import Params, with_updates
+from polywear.report import _sentence, operating_verdict
+
+from .cli_runner import run_main
+
+SIN_NOMINAL = math.sin(math.radians(0.5))
+
+
+def _toe(toe_deg, **more):
+    return with_updates(Params(), {"operating.toe_deg": toe_deg, **more})
+
+
+@pytest.fixture(scope="module")
+def nominal():
+    """Hopf and fold speeds [km/h] of the defaults (toe 0.5 deg), the scaling reference."""
+    d = bifurcation_diagram(Params(), (20.0, 300.0))
+    return [h.speed_kmh for h in d.hopf_points], [f.speed * 3.6 for f in d.folds]
+
+
+def _scaled(speed_kmh, toe_deg):
+    return speed_kmh * SIN_NOMINAL / math.sin(math.radians(toe_deg))
+
+
+# -- the safe car: no Hopf point, no cycle ----------------------------------------------
+def test_safe_car_verdict_sensitivity_and_design_are_answers():
+    params = _toe(0.05)  # Hopf speeds scale to 581 and 2078 km/h: nothing in 20-300 km/h
+    diagram = bifurcation_diagram(params, (20.0, 300.0))
+    assert diagram.hopf_points == [] and diagram.sev_band_kmh == [] and diagram.open_edges == []
+    s = diagram.summary()
+    assert s["first_bifurcation_speed_kmh"] is None and s["second_bifurcation_speed_kmh"] is None
+    assert s["open_at"] is None and s["warnings"] == []
+    verdict = operating_verdict(diagram, params, 110.0)
+    assert verdict["regime"] == "no SEV" and verdict["steady_rolling_stable"]
+    assert "no self-excited vibration" in _sentence(verdict)
+    sens = local_sensitivity(params, diagram=diagram)
+    assert sens.rows == [] and "no Hopf point" in sens.summary()["notes"][0]
+    design = clear_operating_range(params, (80.0, 130.0), diagram=diagram)
+    assert design.options == []
+
+
+def test_safe_car_bifurcation_text_exit_0():
+    code, out, err = run_main(["bifurcation", "-q", "-s", "operating.toe_deg=0.05"])
+    assert code == 0, err
+    assert "no self-excited vibration in the speed range" in out
+
+
+# -- the analysed range does not decide the answer ---------------------------------------
+def test_band_cut_at_the_upper_end_is_extended_to_its_fold(nominal):
+    """toe 0.3 deg: the band used to end at 300 km/h; its fold is at 254.7 / sin ratio."""
+    hopfs, folds = nominal
+    diagram = bifurcation_diagram(_toe(0.3), (20.0, 300.0))
+    s = diagram.summary()
+    assert s["open_at"] is None and s["range_notes"]
+    assert s["second_bifurcation_speed_kmh"] == pytest.approx(_scaled(folds[0], 0.3), rel=1e-7)
+    assert s["first_bifurcation_speed_kmh"] == pytest.approx(_scaled(hopfs[0], 0.3), rel=1e-9)
+    assert s["requested_speed_range_kmh"] == [20.0, 300.0]
+
+
+def test_band_cut_at_the_lower_end_is_extended_to_its_hopf_point(nominal):
+    hopfs, folds = nominal
+    s = bifurcation_diagram(_toe(5.0), (20.0, 300.0)).summary()
+    assert s["first_bifurcation_speed_kmh"] == pytest.approx(_scaled(hopfs[0], 5.0), rel=1e-9)  # 5.81 km/h
+    assert s["second_bifurcation_speed_kmh"] == pytest.approx(_scaled(folds[0], 5.0), rel=1e-7)
+
+
+def test_band_open_beyond_the_ceiling_is_null_with_open_at(nominal):
+    """toe 0.1 deg: the second Hopf point scales to 1039 km/h, above the ceiling: the upper
+    edge is reported as null, never as the range limit, and has no sensitivity."""
+    hopfs, _ = nominal
+    assert _scaled(hopfs[1], 0.1) > SPEED_CEILING_KMH
+    params = _toe(0.1)
+    diagram = bifurcation_diagram(params, (20.0, 300.0))
+    s = diagram.summary()
+    assert diagram.speed_range_kmh[1] == SPEED_CEILING_KMH
+    assert s["open_at"] == "upper" and "upper end" in s["warnings"][0]
+    assert s["second_bifurcation_speed_kmh"] is None and s["sev_band_kmh"][-1][1] is None
+    assert s["first_bifurcation_speed_kmh"] == pytest.approx(_scaled(hopfs[0], 0.1), rel=1e-9)
+    json.dumps(s)  # null, not NaN or a number
+    sens = local_sensitivity(params, keys=("operating.toe_deg",), diagram=diagram)
+    assert {r["quantity"] for r in sens.rows} == {"hopf_1", "first_bifurcation"}
+    assert any(n.startswith("second_bifurcation") for n in sens.notes)
+    # the first bifurcation speed's exact toe sensitivity against the 1/sin(toe) law
+    (row,) = [r for r in sens.rows if r["quantity"] == "first_bifurcation"]
+    toe = math.radians(0.1)
+    assert row["normalized"] == pytest.approx(-toe / math.tan(toe), rel=1e-6)
+    verdict = operating_verdict(diagram, params, 300.0)  # in the band: soft SEV, margin to an open edge
+    assert verdict["regime"] == "unstable rolling (soft SEV)"
+    assert verdict["margin_to_second_bifurcation_kmh"] is None
+    assert verdict["margin_to_first_bifurcation_kmh"] == pytest.approx(row["speed_kmh"] - 300.0)
+
+
+def test_operating_speed_outside_the_requested_range_is_analysed():
+    """--speed-range 20 100 at 110 km/h: the range widens to hold 110 km/h, and the verdict is
+    the one on the full range (0.269 mm soft SEV), not "no SEV"."""
+    params = Params()
+    narrow = bifurcation_diagram(params, (20.0, 100.0))
+    full = bifurcation_diagram(params, (20.0, 300.0))
+    assert narrow.speed_range_kmh[1] >= 110.0 and narrow.range_notes
+    v_narrow, v_full = operating_verdict(narrow, params, 110.0), operating_verdict(full, params, 110.0)
+    assert v_narrow["regime"] == v_full["regime"] == "unstable rolling (soft SEV)"
+    assert v_narrow["sev_amplitude_x_m"] == pytest.approx(v_full["sev_amplitude_x_m"], rel=1e-8)
+    assert narrow.summary()["second_bifurcation_speed_kmh"] == pytest.approx(
+        full.summary()["second_bifurcation_speed_kmh"], rel=1e-8)
+
+
+# -- other attractors -----------------------------------------------------------------------
+def test_stick_slip_past_period_doubling_is_named_with_amplitude_and_frequency():
+    """mu_c = 0.05 at 110 km/h lies between two period doublings of the period-1 branch
+    (54.7 and 118.1 km/h); without a stable continued cycle at hand the run starts from
+    steady rolling and ends on a cycle with several maxima per period. Checks: the run
+    continued from its own end state stays on it (an attractor, settled), and the dominant
+    frequency of the spectrum is a whole multiple of 1/period (two methods)."""
+    params = with_updates(Params(), {"friction.mu_coulomb": 0.05})
+    diagram = bifurcation_diagram(params, (100.0, 120.0), extend=False)  # no Hopf point: no continuation
+    assert diagram.hopf_points == [] and diagram.linear_band_kmh == [(100.0, 120.0)]
+    (found,) = reached_attractors(diagram, 110.0)
+    st = found.run.steady
+    assert found.regime == PERIOD_MULTIPLIED and st.maxima_per_period >= 2
+    ratio = found.dominant_frequency_hz * st.period
+    assert ratio == pytest.approx(round(ratio), abs=0.02) and round(ratio) >= 1
+    again = simulate(params, 110.0, 1.0, initial=found.run.u[-1])
+    assert again.steady.outcome == "cycle" and again.steady.maxima_per_period == st.maxima_per_period
+    assert again.steady.amplitude[0] == pytest.approx(found.amplitude[0], rel=1e-3)
+    assert again.steady.period == pytest.approx(st.period, rel=1e-4)
+    verdict = operating_verdict(diagram, params, 110.0)
+    assert verdict["regime"] == PERIOD_MULTIPLIED and verdict["sev_amplitude_x_m"] == found.amplitude[0]
+    assert verdict["frequency_hz"] == found.dominant_frequency_hz
+    assert PERIOD_MULTIPLIED in _sentence(verdict)
+
+
+@pytest.fixture(scope="module")
+def divergent_axle():
+    """axle4dof with a soft toe bushing: a real eigenvalue crosses zero near 35.7 km/h, below
+    the tread's Hopf point (78.5 km/h): compliance steer, a static divergence."""
+    return with_updates(Params(), {"model": "axle4dof", "axle.toe_stiffness_nm_per_rad": 2e4,
+                                   "operating.speed_kmh": 50.0})
+
+
+def test_static_divergence_is_not_sev(divergent_axle):
+    params = divergent_axle
+    diagram = bifurcation_diagram(params, (30.0, 70.0), extend=False)
+    (v_div,) = diagram.stability.real_crossings_kmh
+    model = get_model("axle4dof")
+    p = model.pack(params)
+
+    def det(v_kmh):
+        V = v_kmh / 3.6
+        return np.linalg.det(model.jacobian(model.equilibrium(V, p), V, p))
+
+    assert np.sign(det(v_div - 0.01)) != np.sign(det(v_div + 0.01))  # a real eigenvalue through 0
+    assert diagram.divergence_kmh == [(v_div, 70.0)]
+    assert diagram.sev_band_kmh == []  # unstable rolling, but nothing vibrates
+    s = diagram.summary()
+    assert s["real_eigenvalue_crossings_kmh"] == [v_div] and s["divergence_kmh"] == [[v_div, None]]
+    verdict = operating_verdict(diagram, params, 50.0)
+    assert verdict["regime"] == "static divergence" and verdict["divergence"]
+    assert not verdict["steady_rolling_stable"] and "sev_amplitude_x_m" not in verdict
+    assert "not SEV" in _sentence(verdict)
+
+
+def test_a_hopf_pair_split_into_two_real_eigenvalues_is_not_divergence():
+    assert statically_divergent(np.array([2.0, -1.0 + 3j, -1.0 - 3j]))
+    assert not statically_divergent(np.array([2.0, 5.0, -1.0]))  # an even count: a split oscillatory pair
+    assert not statically_divergent(np.array([2.0, 1.0 + 3j, 1.0 - 3j]))
+    assert not statically_divergent(np.array([-2.0, -1.0 + 3j, -1.0 - 3j]))
+
+
+# -- trigger amplitude -----------------------------------------------------------------------
+@pytest.mark.parametrize("model, auto_fold_mm", [("tread1dof", 0.4707251313), ("axle4dof", 0.24766178)])
+def test_trigger_amplitude_runs_from_zero_to_the_fold(model, auto_fold_mm):
+    """The hard region's trigger amplitude runs from 0 at the subcritical Hopf point to the
+    fold amplitude (AUTO-07p's value, docs/validation_auto07p.md), not to the largest stored point."""
+    diagram = bifurcation_diagram(with_updates(Params(), {"model": model}), (20.0, 300.0))
+    (trigger,) = diagram.trigger_amplitude("x")
+    (fold,) = diagram.folds
+    assert trigger["min_x"] == 0.0
+    assert trigger["max_x"] == fold.amplitude[diagram.state_names.index("x")]
+    assert trigger["max_x"] * 1e3 == pytest.approx(auto_fold_mm, rel=2e-6)
+    assert trigger["speed_range_kmh"][1] == pytest.approx(fold.speed * 3.6)
+
+
+@pytest.mark.slow
+def test_period_doublings_listed_in_text_and_the_verdict_is_not_blank(capsys):
+    """Stick-slip (mu_c = 0.3): two period doublings of the period-1 branch near 81 and
+    102 km/h; at 90 km/h no continued cycle is stable and the verdict names the motion
+    reached from the last stable cycle, with its amplitude and frequency."""
+    from polywear.cli.bifurcation_cmd import _print_summary
+
+    params = with_updates(Params(), {"friction.mu_coulomb": 0.3, "operating.speed_kmh": 90.0})
+    diagram = bifurcation_diagram(params, (20.0, 150.0), extend=False)
+    s = diagram.summary()
+    assert len(s["period_doublings"]) == 2 and s["period_doublings"][0] < 90.0 < s["period_doublings"][1]
+    _print_summary(s)
+    out = capsys.readouterr().out
+    assert sum(line.strip().startswith("PD") for line in out.splitlines()) == 2
+    assert not any(c.stable for c in diagram.cycles_at(90.0))
+    verdict = operating_verdict(diagram, params, 90.0)
+    a = verdict["attractor"]
+    assert a["start"].startswith("the stable cycle") and a["regime"] != "no SEV"
+    assert verdict["sev_amplitude_x_m"] > 0.0 and verdict["frequency_hz"] > 0.0
+
+
+def test_divergence_listed_in_bifurcation_text(divergent_axle, capsys):
+    from polywear.cli.bifurcation_cmd import _print_summary
+
+    _print_summary(bifurcation_diagram(divergent_axle, (30.0, 70.0), extend=False).summary())
+    out = capsys.readouterr().out
+    assert any(line.strip().startswith("DIV") for line in out.splitlines())
+    assert "no self-excited vibration in the speed range" in out
