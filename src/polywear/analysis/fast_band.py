@@ -1,0 +1,451 @@
+"""The SEV band without the whole bifurcation diagram: the fast path of studies and fleets.
+
+A study or a fleet needs, per parameter set, only the bifurcation speeds and the bands
+(linear, SEV, hard) and perhaps the cycle amplitude at a few speeds, not every cycle of
+every branch. The full path (:func:`~polywear.analysis.bifurcation.bifurcation_diagram`)
+continues whole branches; the fast path solves the defining systems directly:
+
+1. **Hopf points**: equilibrium eigenvalues on a coarse grid (``n_grid`` speeds), each
+   sign change refined by Brent's method on the tracked eigenvalue, with the first
+   Lyapunov coefficient (:func:`~polywear.analysis.stability.stability_analysis`).
+2. **Folds of cycles**: each fold of a *reference* (a solved nearby parameter set) is
+   followed in the parameters along the straight line ``p(theta) = p_ref + theta (p -
+   p_ref)`` from ``theta = 0`` to 1: predictor ``V + dtheta dV/dtheta`` with the exact
+   derivative (left null vector of the collocation system,
+   :func:`~polywear.analysis.sensitivity.fold_speed_derivative`), corrector
+   Newton onto the new cycle branch, arclength probes on both sides until the speed
+   component of the tangent changes sign, then the continuation's bracketed secant. The first try is one step;
+   a step whose result misses the prediction by more than a fifth of the predicted
+   change is halved. At ``theta = 1`` the mesh is adapted to the fold orbit and the fold
+   re-located, as the continuation's mesh is adapted to its orbits.
+3. **Bands by label**: every end of the reference's SEV band, hard regions and
+   stable-cycle intervals is labelled by the special point it sits at (Hopf point k, fold
+   j, an end of the speed range); the sample's bands are the same intervals with its own
+   speeds at the labels.
+4. **Amplitudes** at chosen speeds: Newton at fixed speed
+   (:func:`~polywear.solvers.continuation.solve_at_speed`) from the reference's stable
+   cycle at that speed.
+
+The fast path applies only while the topology is the reference's. It falls back to the
+full continuation, and says why (``Band.path``, ``Band.reason``), when: the number of
+Hopf points or any criticality differs (a band closes or opens, a Bautin point is
+crossed), a real eigenvalue crosses, the growth rate has an extremum of the wrong sign
+between grid points (a narrow band may hide there), a fold cannot be followed or its
+amplitude shrinks below ``min_fold_amplitude`` of the reference's (towards a Bautin
+point), a fold leaves the speed range, the order of the special speeds changes, or a
+cycle at a chosen speed is not found or is unstable. A reference whose bands have an
+end that is not a Hopf point, fold or range end (a period doubling or torus bifurcation
+changes stability), or that has such bifurcations at all, is not used: every sample
+then takes the full path.
+
+What the fast path cannot see: a new pair of folds born on a branch (a cusp) without any
+change in the Hopf points, or a period doubling appearing on the stable branch. The
+agreement tests (``tests/test_fast_band.py``) compare both paths on random samples and
+count every difference as a failure.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..models import get_model
+from ..models.base import kmh_to_ms, ms_to_kmh
+from ..params import Params
+from ..solvers.continuation import BranchPoint, ContinuationSettings, solve_at_speed
+
+__all__ = ["Band", "BandReference", "FastBand", "band_from_diagram", "band_reference"]
+
+LABEL_TOL_KMH = 1e-9
+"""Largest distance [km/h] between a band end and the special point it is labelled with."""
+
+
+@dataclass(frozen=True)
+class Band:
+    """Bifurcation speeds [km/h], bands [km/h] and amplitudes [m] of one parameter set.
+
+    ``amplitude_x_m[i]`` is the largest tread amplitude (half peak-to-peak of ``x``) of a
+    stable cycle at the i-th chosen speed (0 where there is none). ``path`` is
+    ``"fast"`` or ``"full"``; ``reason`` says why the full path was taken.
+    """
+
+    hopf_kmh: tuple[float, ...]
+    hopf_criticality: tuple[str, ...]
+    folds_kmh: tuple[float, ...]
+    fold_amplitude_x_m: tuple[float, ...]
+    linear_band_kmh: tuple[tuple[float, float], ...]
+    sev_band_kmh: tuple[tuple[float, float], ...]
+    hard_regions_kmh: tuple[tuple[float, float], ...]
+    amplitude_speeds_kmh: tuple[float, ...] = ()
+    amplitude_x_m: tuple[float, ...] = ()
+    path: str = "full"
+    reason: str = ""
+
+    @property
+    def first_bifurcation_kmh(self) -> float:
+        """Lowest speed of the SEV band (NaN without a band)."""
+        return self.sev_band_kmh[0][0] if self.sev_band_kmh else np.nan
+
+    @property
+    def second_bifurcation_kmh(self) -> float:
+        """Highest speed of the SEV band (NaN without a band)."""
+        return self.sev_band_kmh[-1][1] if self.sev_band_kmh else np.nan
+
+    def summary(self) -> dict:
+        return {
+            "hopf_kmh": list(self.hopf_kmh),
+            "hopf_criticality": list(self.hopf_criticality),
+            "folds_kmh": list(self.folds_kmh),
+            "fold_amplitude_x_m": list(self.fold_amplitude_x_m),
+            "linear_band_kmh": [list(b) for b in self.linear_band_kmh],
+            "sev_band_kmh": [list(b) for b in self.sev_band_kmh],
+            "hard_regions_kmh": [list(b) for b in self.hard_regions_kmh],
+            "amplitude_speeds_kmh": list(self.amplitude_speeds_kmh),
+            "amplitude_x_m": list(self.amplitude_x_m),
+            "path": self.path,
+            "reason": self.reason,
+        }
+
+
+def _stable_amplitude(cycles, ix: int) -> float:
+    """Largest amplitude of state ``ix`` among the stable cycles (0 if none)."""
+    return max((float(c.amplitude[ix]) for c in cycles if c.stable), default=0.0)
+
+
+def band_from_diagram(diagram, amplitude_speeds_kmh=(), reason: str = "") -> Band:
+    """The :class:`Band` of a full bifurcation diagram (amplitudes by Newton at each speed)."""
+    ix = diagram.state_names.index("x")
+    speeds = tuple(float(v) for v in amplitude_speeds_kmh)
+    return Band(
+        hopf_kmh=tuple(h.speed_kmh for h in diagram.hopf_points),
+        hopf_criticality=tuple(h.criticality for h in diagram.hopf_points),
+        folds_kmh=tuple(ms_to_kmh(f.speed) for f in diagram.folds),
+        fold_amplitude_x_m=tuple(float(f.amplitude[ix]) for f in diagram.folds),
+        linear_band_kmh=tuple(tuple(b) for b in diagram.linear_band_kmh),
+        sev_band_kmh=tuple(tuple(b) for b in diagram.sev_band_kmh),
+        hard_regions_kmh=tuple(tuple(b) for b in diagram.hard_regions_kmh),
+        amplitude_speeds_kmh=speeds,
+        amplitude_x_m=tuple(_stable_amplitude(diagram.cycles_at(v), ix) for v in speeds),
+        path="full",
+        reason=reason,
+    )
+
+
+# -- the reference: a solved parameter set with its special points labelled -----------------------
+@dataclass(frozen=True)
+class BandReference:
+    """A solved parameter set the fast path starts from (picklable)."""
+
+    params: Params
+    p: np.ndarray
+    band: Band
+    folds: tuple[BranchPoint, ...]
+    scales: tuple[np.ndarray, ...]
+    """State scales of the continuation norm, per fold (those of its branch)."""
+    fold_gradients: tuple[np.ndarray, ...] = ()
+    """dV_fold/dp [m/s per unit of each kernel parameter], per fold (exact, left null vector)."""
+    sev_labels: tuple = ()
+    hard_labels: tuple = ()
+    stable_labels: tuple = ()
+    cycles: tuple = ()
+    """The stable cycle (PeriodicOrbit) of largest amplitude at each chosen speed, or None."""
+    unusable: str = ""
+    """Why the reference cannot serve the fast path ("" if it can)."""
+
+
+def _label(value: float, hopf: tuple, folds: tuple, speed_range) -> tuple | None:
+    for name, speeds in (("H", hopf), ("F", folds)):
+        for k, v in enumerate(speeds):
+            if abs(value - v) <= LABEL_TOL_KMH:
+                return (name, k)
+    for name, v in zip(("lo", "hi"), speed_range):
+        if abs(value - v) <= LABEL_TOL_KMH:
+            return (name, 0)
+    return None
+
+
+def _labelled(intervals, hopf, folds, speed_range) -> tuple | None:
+    out = []
+    for a, b in intervals:
+        la, lb = _label(a, hopf, folds, speed_range), _label(b, hopf, folds, speed_range)
+        if la is None or lb is None:
+            return None
+        out.append((la, lb))
+    return tuple(out)
+
+
+def band_reference(diagram, amplitude_speeds_kmh=()) -> BandReference:
+    """The :class:`BandReference` of a full diagram (its folds, labels and cycles)."""
+    model = get_model(diagram.params.model)
+    band = band_from_diagram(diagram, amplitude_speeds_kmh)
+    folds, scales = [], []
+    for branch in diagram.branches:
+        for label, point, _ in branch.special:
+            if label == "LP":
+                folds.append(point)
+                scales.append(branch.scales)
+    from .sensitivity import fold_speed_derivative
+
+    p = model.pack(diagram.params)
+    unit = np.eye(len(p))
+    gradients = tuple(np.array([fold_speed_derivative(model, p, f, e) for e in unit]) for f in folds)
+    ix = diagram.state_names.index("x")
+    cycles = []
+    for v in band.amplitude_speeds_kmh:
+        stable = [c for c in diagram.cycles_at(v) if c.stable]
+        cycles.append(max(stable, key=lambda c: c.amplitude[ix]).orbit if stable else None)
+    unusable = ""
+    if any(label in ("PD", "NS") for label, _ in diagram.special):
+        unusable = "period doubling or torus bifurcation in the reference"
+    if diagram.stability.real_crossings_kmh:
+        unusable = "real eigenvalue crossing in the reference"
+    labels = {}
+    for name, intervals in (("sev", band.sev_band_kmh), ("hard", band.hard_regions_kmh),
+                            ("stable", diagram.stable_cycle_intervals_kmh())):
+        labels[name] = _labelled(intervals, band.hopf_kmh, band.folds_kmh, diagram.speed_range_kmh)
+        if labels[name] is None and not unusable:
+            unusable = f"an end of the reference's {name} intervals is not a Hopf point, fold or range end"
+    return BandReference(
+        params=diagram.params,
+        p=p,
+        band=band,
+        folds=tuple(folds),
+        scales=tuple(scales),
+        fold_gradients=gradients,
+        sev_labels=labels["sev"] or (),
+        hard_labels=labels["hard"] or (),
+        stable_labels=labels["stable"] or (),
+        cycles=tuple(cycles),
+        unusable=unusable,
+    )
+
+
+# -- the fast path ------------------------------------------------------------------------------------
+class _Fallback(Exception):
+    """The fast path does not apply to this sample (the message says why)."""
+
+
+MARCH_STEP = 1e-2
+"""First arclength step [scaled] of the march from the corrected guess towards the fold."""
+MAX_MARCH = 40
+"""Largest number of march steps before the relocation gives up."""
+
+
+def _relocate_fold(model, p, guess: BranchPoint, speed: float, scales, settings) -> BranchPoint | None:
+    """The fold of cycles at ``p`` near ``guess`` (a fold at a nearby parameter vector).
+
+    Newton onto the cycle branch at ``p`` from the guess with its speed replaced by
+    ``speed`` [m/s]; then pseudo-arclength steps towards the fold (the side where the
+    speed component ``g = dV/ds`` of the tangent shrinks), each step sized by the secant
+    estimate of the remaining arclength (at most doubled), until ``g`` changes sign; then
+    the continuation's bracketed secant iteration to ``|g| < settings.fold_tol``. None if
+    it fails. (:func:`~polywear.solvers.continuation.fold_near` takes one fixed probe step
+    and unbracketed secant steps, which fail when the corrected guess lands further from
+    the fold than a Newton step reaches.)
+    """
+    from ..solvers.continuation import _fold_by_secant, _Stepper
+
+    orbit = guess.orbit
+    stepper = _Stepper(model, p, orbit.mesh, settings, scales, 0.1 * speed, orbit.period)
+    c = stepper.coll
+    X0 = c.pack(orbit)
+    X0[-1] = speed
+    out = stepper.correct(X0, stepper.unit(guess.tangent), 0.0, orbit)
+    if out is None:
+        return None
+    X, t, g = out[0], out[1], float(out[1][-1])
+    if abs(g) < settings.fold_tol:
+        return BranchPoint(c.unpack(X), out[3], t, out[2], "LP")
+    ds, direction = MARCH_STEP, 0.0
+    for _ in range(MAX_MARCH):
+        if abs(ds) < settings.ds_min:
+            return None
+        step = ds * (direction or 1.0)
+        start = c.unpack(X)
+        nxt = stepper.correct(X, t, step, start)
+        if nxt is None:
+            ds *= 0.5
+            continue
+        g_new = float(nxt[1][-1])
+        if np.sign(g_new) != np.sign(g):
+            return _fold_by_secant(stepper, X, t, start, 0.0, g, step, g_new, settings.fold_tol, bracketed=True)
+        if not direction:  # first step: go where |g| shrinks
+            direction = 1.0 if abs(g_new) < abs(g) else -1.0
+            if direction < 0:
+                continue  # the step went the wrong way: start again from X towards the other side
+        remaining = g_new * abs(step) / (g - g_new) if g != g_new else np.inf
+        X, t, g = nxt[0], nxt[1], g_new
+        ds = float(np.clip(1.2 * remaining, 0.5 * ds, 2.0 * ds)) if remaining > 0 else 2.0 * ds
+    return None
+
+
+def _adapted(model, p, fold: BranchPoint) -> BranchPoint:
+    """The fold's orbit and tangent on a mesh adapted to its orbit."""
+    from ..solvers.collocation import Collocation
+
+    c = Collocation(model, p, fold.orbit.mesh, fold.orbit.m)
+    mesh = c.adapted_mesh(fold.orbit)
+    new = Collocation(model, p, mesh, fold.orbit.m)
+    tangent = new.pack(c.unpack(fold.tangent).with_mesh(mesh))
+    return BranchPoint(fold.orbit.with_mesh(mesh), fold.multipliers, tangent, fold.newton_iterations, "LP")
+
+
+@dataclass(frozen=True)
+class FastBand:
+    """Picklable solver: ``FastBand(references, ...)(params) -> Band`` (fast path or fallback).
+
+    Parameters
+    ----------
+    references : solved parameter sets (:func:`band_reference`); the nearest one (relative
+        distance of the kernel parameter vectors) is the warm start.
+    speed_range_kmh : where Hopf points and cycles are searched [km/h].
+    amplitude_speeds_kmh : speeds [km/h] for ``Band.amplitude_x_m``; must be those the
+        references were made with.
+    n_grid : speeds of the eigenvalue grid of the Hopf search [-].
+    max_halvings : fold steps are halved at most this often before falling back [-].
+    min_fold_amplitude : fall back when a fold's amplitude drops below this fraction of
+        the reference's (a Bautin point is near) [-].
+    adapt_mesh : adapt the mesh to the sample's fold orbit and re-locate the fold.
+    """
+
+    references: tuple[BandReference, ...]
+    speed_range_kmh: tuple[float, float] = (20.0, 300.0)
+    amplitude_speeds_kmh: tuple[float, ...] = ()
+    n_grid: int = 48
+    max_halvings: int = 6
+    min_fold_amplitude: float = 0.1
+    adapt_mesh: bool = True
+    settings: ContinuationSettings = field(default_factory=ContinuationSettings)
+
+    def __call__(self, params: Params) -> Band:
+        """The band of ``params``: fast path, or the full continuation when it does not apply."""
+        model = get_model(params.model)
+        p = model.pack(params)
+        ref = self._nearest(p)
+        reason = ref.unusable if ref is not None else "no reference"
+        if not reason:
+            try:
+                return self._fast(model, params, p, ref)
+            except _Fallback as exc:
+                reason = str(exc)
+        return self.full(params, reason)
+
+    def full(self, params: Params, reason: str = "") -> Band:
+        """The full continuation's band (the fallback)."""
+        from .bifurcation import bifurcation_diagram
+
+        diagram = bifurcation_diagram(params, self.speed_range_kmh, self.settings)
+        return band_from_diagram(diagram, self.amplitude_speeds_kmh, reason)
+
+    def _nearest(self, p) -> BandReference | None:
+        candidates = [r for r in self.references if r.p.shape == p.shape]
+        if not candidates:
+            return None
+        return min(candidates, key=lambda r: float(np.sum(((p - r.p) / (np.abs(r.p) + 1e-12)) ** 2)))
+
+    # -- the steps --------------------------------------------------------------------------------
+    def _hopf(self, params, ref):
+        from .stability import stability_analysis
+
+        try:
+            stab = stability_analysis(params, self.speed_range_kmh, n_speeds=self.n_grid)
+        except RuntimeError as exc:
+            raise _Fallback(f"stability: {exc}") from exc
+        if stab.real_crossings_kmh:
+            raise _Fallback("real eigenvalue crossing")
+        crit = tuple(h.criticality for h in stab.hopf_points)
+        if crit != ref.band.hopf_criticality:
+            raise _Fallback(f"Hopf points {crit} differ from the reference's {ref.band.hopf_criticality}")
+        r = stab.eigenvalues.real.max(axis=1)
+        inner = r[1:-1]
+        peak = (inner >= r[:-2]) & (inner >= r[2:]) & (inner <= 0.0)
+        trough = (inner <= r[:-2]) & (inner <= r[2:]) & (inner > 0.0)
+        if np.any(peak | trough):
+            raise _Fallback("growth rate extremum of the wrong sign between grid points (narrow band?)")
+        return stab
+
+    def _fold(self, model, p, ref, j) -> BranchPoint:
+        """Fold j of the reference followed from ``ref.p`` to ``p``.
+
+        Predictor: the exact gradient of the reference's fold speed for the first step,
+        then the secant through the last two folds; a step whose fold misses the
+        prediction by more than a quarter of the predicted change (plus 1e-3 of the speed)
+        is halved, a good one doubled.
+        """
+        direction = p - ref.p
+        fold, scales = ref.folds[j], ref.scales[j]
+        slope = float(ref.fold_gradients[j] @ direction)  # dV/dtheta [m/s]
+        theta, h, halvings = 0.0, 1.0, 0
+        while theta < 1.0:
+            nxt = min(1.0, theta + h)
+            V_pred = fold.orbit.speed + (nxt - theta) * slope
+            new = _relocate_fold(model, ref.p + nxt * direction, fold, V_pred, scales, self.settings)
+            change = abs(V_pred - fold.orbit.speed)
+            if new is None or abs(new.orbit.speed - V_pred) > 0.25 * change + 1e-3 * fold.orbit.speed:
+                halvings += 1
+                if halvings > self.max_halvings:
+                    raise _Fallback(f"fold {j + 1} not followed to this sample (step halved {self.max_halvings} times)")
+                h *= 0.5
+                continue
+            slope = (new.orbit.speed - fold.orbit.speed) / (nxt - theta)
+            fold, theta, h = new, nxt, 2.0 * h
+        if self.adapt_mesh:
+            fold = _relocate_fold(model, p, _adapted(model, p, fold), fold.orbit.speed, scales, self.settings)
+            if fold is None:
+                raise _Fallback(f"fold {j + 1} lost after mesh adaptation")
+        return fold
+
+    def _fast(self, model, params, p, ref) -> Band:
+        lo, hi = self.speed_range_kmh
+        stab = self._hopf(params, ref)
+        hopf = tuple(h.speed_kmh for h in stab.hopf_points)
+        ix = model.index("x")
+        folds, fold_amp, fold_points = [], [], []
+        for j, ref_amp in enumerate(ref.band.fold_amplitude_x_m):
+            point = self._fold(model, p, ref, j)
+            amplitude = float(point.orbit.amplitude()[ix])
+            if amplitude < self.min_fold_amplitude * ref_amp:
+                raise _Fallback(f"fold {j + 1}: amplitude {amplitude:.3g} m, below "
+                                f"{self.min_fold_amplitude} of the reference's (Bautin point near?)")
+            V = ms_to_kmh(point.orbit.speed)
+            if not lo < V < hi:
+                raise _Fallback(f"fold {j + 1} at {V:.2f} km/h, outside the speed range")
+            folds.append(V)
+            fold_amp.append(amplitude)
+            fold_points.append(point)
+        order = lambda hs, fs: [k for _, k in sorted([(v, ("H", i)) for i, v in enumerate(hs)]
+                                                     + [(v, ("F", i)) for i, v in enumerate(fs)])]
+        if order(hopf, folds) != order(ref.band.hopf_kmh, ref.band.folds_kmh):
+            raise _Fallback("the order of Hopf and fold speeds differs from the reference's")
+        speed_of = {("H", k): v for k, v in enumerate(hopf)} | {("F", k): v for k, v in enumerate(folds)}
+        speed_of |= {("lo", 0): lo, ("hi", 0): hi}
+
+        def mapped(labels):
+            return tuple((speed_of[a], speed_of[b]) for a, b in labels)
+
+        stable = mapped(ref.stable_labels)
+        amplitudes = []
+        for v, guess in zip(self.amplitude_speeds_kmh, ref.cycles):
+            inside = any(a <= v <= b for a, b in stable)
+            if not inside:
+                amplitudes.append(0.0)
+                continue
+            if guess is None:
+                raise _Fallback(f"no reference cycle to start from at {v:g} km/h")
+            point = solve_at_speed(model, p, guess, kmh_to_ms(v), self.settings)
+            if point is None or not point.stable:
+                raise _Fallback(f"stable cycle at {v:g} km/h not found from the reference's")
+            amplitudes.append(float(point.orbit.amplitude()[ix]))
+        return Band(
+            hopf_kmh=hopf,
+            hopf_criticality=tuple(h.criticality for h in stab.hopf_points),
+            folds_kmh=tuple(folds),
+            fold_amplitude_x_m=tuple(fold_amp),
+            linear_band_kmh=tuple(tuple(b) for b in stab.unstable_intervals_kmh),
+            sev_band_kmh=mapped(ref.sev_labels),
+            hard_regions_kmh=mapped(ref.hard_labels),
+            amplitude_speeds_kmh=tuple(self.amplitude_speeds_kmh),
+            amplitude_x_m=tuple(amplitudes),
+            path="fast",
+        )

@@ -1,0 +1,83 @@
+"""Fast band path against the full continuation: every sample either takes the fast path
+and agrees with the full diagram (band edges to 1e-6 relative, same numbers of Hopf
+points and folds), or falls back (and then is the full diagram); the toe law of tread1dof
+(speeds scale as 1/sin(toe)) as a closed-form check of the fold relocation."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from polywear.analysis.bifurcation import bifurcation_diagram
+from polywear.analysis.fast_band import FastBand, band_reference
+from polywear.analysis.global_sensitivity import DEFAULT_KEYS, sample_params
+from polywear.params import Params, get_value, with_updates
+
+AMPLITUDE_SPEEDS = (80.0, 130.0)
+
+
+@pytest.fixture(scope="module")
+def tread_solver():
+    base = with_updates(Params(), {"model": "tread1dof"})
+    ref = band_reference(bifurcation_diagram(base), AMPLITUDE_SPEEDS)
+    return base, FastBand((ref,), amplitude_speeds_kmh=AMPLITUDE_SPEEDS)
+
+
+def _edges(band) -> np.ndarray:
+    return np.array([v for iv in band.linear_band_kmh + band.sev_band_kmh + band.hard_regions_kmh for v in iv]
+                    + list(band.hopf_kmh) + list(band.folds_kmh))
+
+
+def assert_agrees(fast, full, rtol=1e-6, amplitude_rtol=1e-4):
+    """Same structure, edges within rtol, amplitudes within amplitude_rtol of the largest.
+
+    Amplitudes are half peak-to-peak of the collocation polynomial sampled 16 times per
+    mesh interval with a parabola through the top three samples: this depends on the
+    mesh at ~1e-5, and the two paths solve the same cycle on different meshes."""
+    assert len(fast.hopf_kmh) == len(full.hopf_kmh)
+    assert len(fast.folds_kmh) == len(full.folds_kmh)
+    assert fast.hopf_criticality == full.hopf_criticality
+    for name in ("linear_band_kmh", "sev_band_kmh", "hard_regions_kmh"):
+        assert len(getattr(fast, name)) == len(getattr(full, name)), name
+    np.testing.assert_allclose(_edges(fast), _edges(full), rtol=rtol, atol=0.0)
+    scale = max(full.amplitude_x_m, default=0.0)
+    np.testing.assert_allclose(fast.amplitude_x_m, full.amplitude_x_m, rtol=0.0, atol=amplitude_rtol * scale)
+
+
+def test_reference_reproduces_itself(tread_solver):
+    base, solver = tread_solver
+    band = solver(base)
+    assert band.path == "fast", band.reason
+    assert_agrees(band, solver.references[0].band, rtol=1e-9)
+
+
+def test_toe_law_of_the_fold(tread_solver):
+    """tread1dof: V enters only as V sin(toe), so every speed scales with 1/sin(toe)."""
+    base, solver = tread_solver
+    ref = solver.references[0].band
+    for toe in (0.45, 0.56):
+        band = solver(with_updates(base, {"operating.toe_deg": toe}))
+        assert band.path == "fast", band.reason
+        ratio = math.sin(math.radians(0.5)) / math.sin(math.radians(toe))
+        np.testing.assert_allclose(band.folds_kmh, np.array(ref.folds_kmh) * ratio, rtol=1e-8)
+        np.testing.assert_allclose(band.hopf_kmh, np.array(ref.hopf_kmh) * ratio, rtol=1e-9)
+        # the cycle at a speed is the reference's at speed / ratio: same amplitude
+        assert band.amplitude_x_m[0] > 0.0
+
+
+@pytest.mark.slow
+def test_random_samples_agree_with_full_continuation(tread_solver):
+    """CI version of the 200-sample check (benchmarks/bench_fleet.py --agreement runs it in full)."""
+    base, solver = tread_solver
+    rng = np.random.default_rng(20261201)
+    nominal = np.array([get_value(base, k) for k in DEFAULT_KEYS])
+    paths = []
+    for _ in range(6):
+        params = sample_params(base, DEFAULT_KEYS, nominal * (1.0 + 0.1 * (2.0 * rng.random(len(nominal)) - 1.0)))
+        fast = solver(params)
+        full = solver.full(params)
+        paths.append(fast.path)
+        assert_agrees(fast, full)
+    assert paths.count("fast") >= 4, paths
