@@ -62,8 +62,14 @@ def excitation(
         diagram = bifurcation_diagram(params, (min([20.0, *(speed or [])]) * 0.5, max([300.0, *(speed or [])]) * 1.1),
                                       on_step=lambda b, v: advance(1))
     speeds = speed or default_speeds(diagram, params.operating.speed_kmh)
-    if not speeds:
-        raise UserError("no self-excited vibration in 10-330 km/h: give --speed")
+    if not speeds:  # the safe car: an answer, not an error
+        lo, hi = diagram.speed_range_kmh
+        note = f"no self-excited vibration in {lo:g}-{hi:g} km/h: no soft or hard speed to draw (give --speed)"
+        if json_:
+            emit_json({"model": params.model, "portraits": [], "note": note})
+        else:
+            typer.echo(note)
+        return
     info(f"excitation: simulating at {', '.join(f'{v:.1f}' for v in speeds)} km/h ...", quiet)
     with progress("excitation: simulations", total=None, enabled=not quiet) as advance:
         portraits = excitation_portraits(diagram, speeds, duration, on_run=advance)
