@@ -22,6 +22,9 @@ Entry points (each is the function or class named in brackets):
 - ``design`` [analysis.design.clear_operating_range]
 - ``excitation`` [analysis.excitation.excitation_portraits]
 - ``report`` [report.run_report]
+- ``wear_map`` [analysis.wear_map.wear_map]: linear wear stability over speed and order
+- ``calibrate``, ``read_observations`` [analysis.calibration]: fit parameters to observations
+- ``read_tir``, ``load_with_tir`` [tir]: tyre property files (.tir) and parameters from them
 - ``friction`` (LuGre curves, loops and fits), ``models``, ``solvers``: modules.
 """
 
@@ -45,6 +48,11 @@ _ENTRY_POINTS: dict[str, tuple[str, str | None]] = {
     "design": ("polywear.analysis.design", "clear_operating_range"),
     "excitation": ("polywear.analysis.excitation", "excitation_portraits"),
     "report": ("polywear.report", "run_report"),
+    "wear_map": ("polywear.analysis.wear_map", "wear_map"),
+    "calibrate": ("polywear.analysis.calibration", "calibrate"),
+    "read_observations": ("polywear.analysis.calibration", "read_observations"),
+    "read_tir": ("polywear.tir", "read_tir"),
+    "load_with_tir": ("polywear.tir", "load_with_tir"),
     "friction": ("polywear.analysis.friction", None),
     "models": ("polywear.models", None),
     "solvers": ("polywear.solvers", None),
