@@ -121,6 +121,26 @@ def _sentence(v: dict) -> str:
     return s
 
 
+def text_summary(summary: dict) -> list[str]:
+    """The report's result as lines of text: the verdict, the SEV band (``open`` at an open
+    edge), and the bifurcations besides Hopf points and folds (PD, NS, static divergence)."""
+    b = summary["bifurcation"]
+    lines = [_sentence(summary["operating"])]
+    if b["sev_band_kmh"]:
+        first, second = b["first_bifurcation_speed_kmh"], b["second_bifurcation_speed_kmh"]
+        lo, hi = b["speed_range_kmh"]
+        lines.append(
+            "SEV band (first/second bifurcation speed): "
+            f"{f'{first:.1f}' if first is not None else f'open below {lo:g}'} - "
+            f"{f'{second:.1f}' if second is not None else f'open above {hi:g}'} km/h"
+        )
+    for name, key in (("period doubling", "period_doublings"), ("torus bifurcation", "torus_bifurcations"),
+                      ("static divergence (real eigenvalue crossing)", "real_eigenvalue_crossings_kmh")):
+        if b.get(key):
+            lines.append(f"{name} at {', '.join(f'{v:.1f}' for v in b[key])} km/h")
+    return lines
+
+
 def _motion(a: dict) -> str:
     """One attractor (an ``Attractor.summary()``) in words."""
     if a["regime"] == "static divergence":

@@ -33,18 +33,15 @@ def report(
         raise UserError(f"--speed-range {speed_range[0]} {speed_range[1]}: need 0 < low < high [km/h]")
     if operating_range is not None and not operating_range[0] < operating_range[1]:
         raise UserError(f"--operating-range {operating_range[0]} {operating_range[1]}: need low < high [km/h]")
-    from ..report import _sentence, run_report
+    from ..report import run_report, text_summary
 
     result = run_report(params, out, tuple(speed_range), operating_range,
                         progress=lambda message: info(f"polywear report: {message} ...", quiet))
     if json_:
         emit_json(result.summary)
         return
-    typer.echo(_sentence(result.summary["operating"]))
-    b = result.summary["bifurcation"]
-    if b["sev_band_kmh"]:
-        typer.echo(
-            f"SEV band (first/second bifurcation speed): {b['first_bifurcation_speed_kmh']:.1f} - "
-            f"{b['second_bifurcation_speed_kmh']:.1f} km/h"
-        )
+    for warning in result.summary["bifurcation"].get("warnings", []):
+        typer.echo(f"warning: {warning}", err=True)
+    for line in text_summary(result.summary):
+        typer.echo(line)
     typer.echo(f"report: {out / 'report.html'}")
