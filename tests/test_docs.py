@@ -26,6 +26,43 @@ def test_docs_stand_alone():
     assert not hits, hits
 
 
+def _table_defaults(text: str) -> dict[str, str]:
+    """``| `key` | default | ...`` rows of a Markdown table: key -> default as written."""
+    rows = re.findall(r"^\| `([a-z_]+(?:\.[a-z0-9_]+)?)` \| ([^|]+) \|", text, flags=re.MULTILINE)
+    return {key: default.strip() for key, default in rows}
+
+
+def _as_written(value) -> str | float | tuple:
+    """A default in the form the table writes it (numbers compared as floats)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return f'`"{value}"`'
+    if isinstance(value, tuple):
+        return tuple(float(v) for v in value)
+    return float(value)
+
+
+def test_model_page_lists_every_key_with_its_default():
+    """docs/model.md section 6 has a row for every configuration key, with the code's default."""
+    from polywear.params import Params, flat_items
+
+    documented = _table_defaults((ROOT / "docs" / "model.md").read_text())
+    for key, value, _ in flat_items(Params()):
+        if isinstance(value, tuple) and (not value or not isinstance(value[0], (int, float))):
+            assert f"[[{key}]]" in (ROOT / "docs" / "model.md").read_text(), key  # array of tables
+            continue
+        assert key in documented, f"{key} is not documented in docs/model.md section 6"
+        written = documented[key]
+        expected = _as_written(value)
+        if isinstance(expected, float):
+            assert float(written) == expected, (key, written, value)
+        elif isinstance(expected, tuple):
+            assert tuple(float(v) for v in written.strip("[]").split(",")) == expected, (key, written, value)
+        else:
+            assert written == expected, (key, written, value)
+
+
 def test_api_reference_lists_every_entry_point():
     """Each ``pw.<name>`` function or class has its own entry in docs/api.md."""
     api = (ROOT / "docs" / "api.md").read_text()
