@@ -57,6 +57,18 @@ from ..solvers.continuation import BranchPoint, ContinuationSettings, solve_at_s
 
 __all__ = ["Band", "BandReference", "FastBand", "band_from_diagram", "band_reference"]
 
+def _fixed_range() -> dict:
+    """Keyword that keeps the full diagram on the given speed range (where it can widen it):
+    both paths must answer on the same range; choose the range wide enough instead."""
+    import inspect
+
+    from .bifurcation import bifurcation_diagram
+
+    return {"extend": False} if "extend" in inspect.signature(bifurcation_diagram).parameters else {}
+
+
+_FIXED_RANGE = _fixed_range()
+
 LABEL_TOL_KMH = 1e-9
 """Largest distance [km/h] between a band end and the special point it is labelled with."""
 
@@ -335,7 +347,7 @@ class FastBand:
         """The full continuation's band (the fallback)."""
         from .bifurcation import bifurcation_diagram
 
-        diagram = bifurcation_diagram(params, self.speed_range_kmh, self.settings)
+        diagram = bifurcation_diagram(params, self.speed_range_kmh, self.settings, **_FIXED_RANGE)
         return band_from_diagram(diagram, self.amplitude_speeds_kmh, reason)
 
     def _nearest(self, p) -> BandReference | None:

@@ -1,0 +1,464 @@
+"""Fleet risk: the share of built cars whose SEV band reaches the speeds customers drive.
+
+The fleet spec (a TOML file, :class:`FleetSpec`) gives the distributions of the
+parameters that vary from car to car (normal, uniform, truncated normal, lognormal,
+discrete mixtures such as road types or load cases), a correlation matrix between them
+(applied through a Gaussian copula: correlated standard normals ``z = L e`` with
+``L L^T = R``, then each marginal by its inverse CDF of ``Phi(z)``; ``R`` is the
+correlation of the normal scores), the usage profile (share of the distance by speed),
+the sample size and the seed.
+
+Per car the band comes from :class:`~polywear.analysis.fast_band.FastBand` (fast path
+from the nominal car, full continuation as fallback). A car is *at risk* when its SEV
+band (hard regions included) contains a speed of the usage profile with a positive
+share; it has *hard excitation* when such a speed lies in a hard region (stable rolling
+there, but a disturbance starts SEV). The risk probability gets an exact binomial
+(Clopper-Pearson) interval over the cars that were evaluated.
+
+Reproducibility: all samples are drawn in the calling process from
+``numpy.random.SeedSequence(seed)`` before any evaluation, and every car is evaluated
+independently of the others (warm start from the fixed nominal reference), so the
+result does not depend on the backend, the number of workers or on resuming from a
+checkpoint: it is bit-identical.
+
+Drivers of the risk: first-order (main-effect) indices of the risk indicator from the
+same samples, by the given-data binning estimator ``Var(E[Y | X_i]) / Var(Y)`` with
+``X_i`` cut into equal-probability bins. With correlated parameters a main effect
+includes what the correlated partners carry (e.g. toe and camber).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from .. import __version__
+from ..params import ADHESION_SCALE, Params, ParameterError, get_value, to_toml
+
+__all__ = ["FleetParameter", "FleetUsage", "FleetSpec", "load_fleet_spec", "sample_fleet", "FleetEvaluator",
+           "FleetResult", "fleet_risk"]
+
+OUTPUTS = ("first_bifurcation_kmh", "second_bifurcation_kmh", "at_risk", "hard_at_usage", "fast_path")
+N_BINS = 20
+"""Equal-probability bins of the main-effect estimator."""
+
+
+class _Spec(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class FleetParameter(_Spec):
+    """Distribution of one parameter over the fleet (units of the key)."""
+
+    key: str
+    distribution: Literal["normal", "uniform", "truncnormal", "lognormal", "discrete"]
+    mean: float | None = None
+    std: float | None = Field(None, gt=0.0)
+    low: float | None = None
+    high: float | None = None
+    values: tuple[float, ...] = ()
+    weights: tuple[float, ...] = ()
+
+    @model_validator(mode="after")
+    def _complete(self):
+        where = f"fleet.parameter {self.key}"
+        need = {"normal": ("mean", "std"), "lognormal": ("mean", "std"), "uniform": ("low", "high"),
+                "truncnormal": ("mean", "std", "low", "high"), "discrete": ()}[self.distribution]
+        for name in need:
+            if getattr(self, name) is None:
+                raise ParameterError(f"{where}: {self.distribution} needs {name}")
+        if self.low is not None and self.high is not None and not self.low < self.high:
+            raise ParameterError(f"{where}: low = {self.low} must be below high = {self.high}")
+        if self.distribution == "lognormal" and self.mean <= 0.0:
+            raise ParameterError(f"{where}: lognormal needs mean > 0")
+        if self.distribution == "discrete":
+            if not self.values or len(self.weights) != len(self.values):
+                raise ParameterError(f"{where}: discrete needs values and as many weights")
+            if min(self.weights) < 0.0 or not sum(self.weights) > 0.0:
+                raise ParameterError(f"{where}: weights must be >= 0 with a positive sum")
+        return self
+
+    @property
+    def center(self) -> float:
+        """Value of the nominal car (the warm start): mean, or the weighted mean of discrete values."""
+        if self.distribution == "discrete":
+            return float(np.average(self.values, weights=self.weights))
+        if self.distribution == "uniform":
+            return 0.5 * (self.low + self.high)
+        return float(self.mean)
+
+    def ppf(self, u: np.ndarray) -> np.ndarray:
+        """Inverse CDF at probabilities ``u`` in (0, 1)."""
+        from scipy import stats
+
+        if self.distribution == "normal":
+            return stats.norm.ppf(u, self.mean, self.std)
+        if self.distribution == "uniform":
+            return self.low + u * (self.high - self.low)
+        if self.distribution == "truncnormal":
+            a, b = (self.low - self.mean) / self.std, (self.high - self.mean) / self.std
+            return stats.truncnorm.ppf(u, a, b, loc=self.mean, scale=self.std)
+        if self.distribution == "lognormal":  # mean and std of the value itself
+            s2 = math.log1p((self.std / self.mean) ** 2)
+            return stats.lognorm.ppf(u, math.sqrt(s2), scale=self.mean * math.exp(-0.5 * s2))
+        cdf = np.cumsum(self.weights) / np.sum(self.weights)
+        return np.asarray(self.values)[np.minimum(np.searchsorted(cdf, u, side="right"), len(cdf) - 1)]
+
+
+class FleetUsage(_Spec):
+    """Share of the distance driven at a speed."""
+
+    speed_kmh: float = Field(gt=0.0, le=1000.0)
+    share: float = Field(ge=0.0, le=1.0)
+
+
+class FleetCorrelation(_Spec):
+    """Correlation matrix of the normal scores of some parameters (Gaussian copula)."""
+
+    keys: tuple[str, ...]
+    matrix: tuple[tuple[float, ...], ...]
+
+
+class FleetSpec(_Spec):
+    """The ``[fleet]`` table of a fleet spec file."""
+
+    samples: int = Field(10000, ge=1, le=10_000_000)
+    seed: int = Field(0, ge=0)
+    checkpoint_every: int = Field(2000, ge=1)
+    parameter: tuple[FleetParameter, ...]
+    usage: tuple[FleetUsage, ...]
+    correlation: FleetCorrelation | None = None
+    speed_range_kmh: tuple[float, float] = (10.0, 600.0)
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        keys = [q.key for q in self.parameter]
+        if not keys:
+            raise ParameterError("fleet.parameter: give at least one [[fleet.parameter]]")
+        if len(set(keys)) != len(keys):
+            raise ParameterError("fleet.parameter: a key is given twice")
+        if not self.usage or not sum(u.share for u in self.usage) > 0.0:
+            raise ParameterError("fleet.usage: give [[fleet.usage]] speeds with a positive total share")
+        lo, hi = self.speed_range_kmh
+        if not 0.0 < lo < hi:
+            raise ParameterError(f"fleet.speed_range_kmh = [{lo}, {hi}]: need 0 < low < high")
+        for u in self.usage:
+            if not lo <= u.speed_kmh <= hi:
+                raise ParameterError(f"fleet.usage: speed_kmh = {u.speed_kmh} outside speed_range_kmh [{lo}, {hi}]")
+        if self.correlation is not None:
+            c = self.correlation
+            unknown = [k for k in c.keys if k not in keys]
+            if unknown:
+                raise ParameterError(f"fleet.correlation: key {unknown[0]} has no [[fleet.parameter]]")
+            R = np.asarray(c.matrix, dtype=float)
+            if R.shape != (len(c.keys), len(c.keys)):
+                raise ParameterError(f"fleet.correlation: matrix must be {len(c.keys)} x {len(c.keys)}")
+            if not np.allclose(R, R.T) or not np.allclose(np.diag(R), 1.0) or np.any(np.abs(R) > 1.0):
+                raise ParameterError("fleet.correlation: matrix must be symmetric with unit diagonal and |r| <= 1")
+            if np.linalg.eigvalsh(R).min() <= 0.0:
+                raise ParameterError("fleet.correlation: matrix is not positive definite")
+        return self
+
+    def correlation_matrix(self) -> np.ndarray:
+        """Full correlation matrix of the normal scores, in parameter order."""
+        keys = [q.key for q in self.parameter]
+        R = np.eye(len(keys))
+        if self.correlation is not None:
+            idx = [keys.index(k) for k in self.correlation.keys]
+            R[np.ix_(idx, idx)] = np.asarray(self.correlation.matrix, dtype=float)
+        return R
+
+
+def load_fleet_spec(path, params: Params) -> FleetSpec:
+    """Read and validate the ``[fleet]`` table; every problem is one ParameterError line."""
+    import tomllib
+
+    try:
+        data = tomllib.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise ParameterError(f"fleet spec {path}: no such file") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ParameterError(f"fleet spec {path}: not valid TOML: {exc}") from None
+    if "fleet" not in data:
+        raise ParameterError(f"fleet spec {path}: no [fleet] table")
+    try:
+        spec = FleetSpec.model_validate(data["fleet"])
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        where = "fleet." + ".".join(str(x) for x in err["loc"])
+        msg = err["msg"].removeprefix("Value error, ")
+        raise ParameterError(msg if msg.startswith("fleet") else f"{where}: {msg}") from None
+    for q in spec.parameter:
+        if q.key != ADHESION_SCALE:
+            try:
+                get_value(params, q.key)
+            except Exception:
+                raise ParameterError(f"fleet.parameter: unknown key {q.key}") from None
+    return spec
+
+
+def sample_fleet(spec: FleetSpec) -> np.ndarray:
+    """(samples, parameters) values from the copula, drawn from ``SeedSequence(spec.seed)``."""
+    from scipy.stats import norm
+
+    rng = np.random.default_rng(np.random.SeedSequence(spec.seed))
+    L = np.linalg.cholesky(spec.correlation_matrix())
+    z = rng.standard_normal((spec.samples, len(spec.parameter))) @ L.T
+    u = np.clip(norm.cdf(z), 1e-15, 1.0 - 1e-15)
+    return np.column_stack([q.ppf(u[:, j]) for j, q in enumerate(spec.parameter)])
+
+
+@dataclass(frozen=True)
+class FleetEvaluator:
+    """One car: (first, second bifurcation [km/h], at risk, hard at a usage speed, fast path) and a status."""
+
+    params: Params
+    keys: tuple[str, ...]
+    solver: object  # FastBand
+    usage_speeds_kmh: tuple[float, ...]
+
+    def __call__(self, values) -> tuple[tuple[float, ...], str]:
+        from .global_sensitivity import sample_params
+
+        try:
+            band = self.solver(sample_params(self.params, self.keys, values))
+        except Exception as exc:  # invalid parameters or a numerical failure: recorded, never dropped
+            return (np.nan,) * len(OUTPUTS), f"failed: {type(exc).__name__}: {exc}"
+        inside = lambda intervals: any(a <= v <= b for v in self.usage_speeds_kmh for a, b in intervals)
+        return (band.first_bifurcation_kmh, band.second_bifurcation_kmh, float(inside(band.sev_band_kmh)),
+                float(inside(band.hard_regions_kmh)), float(band.path == "fast")), "ok"
+
+
+def _spec_hash(params: Params, spec: FleetSpec) -> str:
+    text = to_toml(params) + spec.model_dump_json()
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def main_effects(X: np.ndarray, y: np.ndarray, n_bins: int = N_BINS) -> np.ndarray:
+    """Var(E[y | x_i]) / Var(y) per column of X, with x_i cut into equal-probability bins."""
+    var = np.var(y)
+    out = np.zeros(X.shape[1])
+    if var == 0.0:
+        return out
+    for i in range(X.shape[1]):
+        ranks = np.argsort(np.argsort(X[:, i], kind="stable"), kind="stable")
+        bins = ranks * n_bins // len(y)
+        means = np.array([y[bins == b].mean() for b in range(n_bins) if np.any(bins == b)])
+        counts = np.array([np.sum(bins == b) for b in range(n_bins) if np.any(bins == b)])
+        out[i] = np.sum(counts * (means - y.mean()) ** 2) / len(y) / var
+    return out
+
+
+@dataclass
+class FleetResult:
+    """Samples, per-car outputs and statuses, and the fleet statistics."""
+
+    params: Params
+    spec: FleetSpec
+    samples: np.ndarray
+    values: np.ndarray  # (samples, len(OUTPUTS))
+    status: list[str]
+    confidence: float = 0.95
+    settings: dict = field(default_factory=dict)
+
+    @property
+    def keys(self) -> list[str]:
+        return [q.key for q in self.spec.parameter]
+
+    @property
+    def ok(self) -> np.ndarray:
+        return np.array([s == "ok" for s in self.status])
+
+    def risk_ci(self, mask=None) -> tuple[int, int, float, float]:
+        """(cars at risk, cars evaluated, Clopper-Pearson lower, upper) among ``mask``."""
+        from scipy.stats import binomtest
+
+        sel = self.ok if mask is None else self.ok & mask
+        n, k = int(sel.sum()), int(np.nansum(self.values[sel, 2]))
+        if n == 0:
+            return 0, 0, np.nan, np.nan
+        ci = binomtest(k, n).proportion_ci(self.confidence, method="exact")
+        return k, n, float(ci.low), float(ci.high)
+
+    def risk_against_tolerance(self, key: str, n: int = 8) -> list[dict]:
+        """Risk among the cars whose ``key`` lies within +-tol of its centre, for growing tol.
+
+        Conditioning on the samples within tolerance is the fleet built to that tolerance
+        (the distribution truncated there), with the same samples."""
+        j = self.keys.index(key)
+        dev = np.abs(self.samples[:, j] - self.spec.parameter[j].center)
+        rows = []
+        for tol in np.quantile(dev, np.linspace(1.0 / n, 1.0, n)):
+            k, m, lo, hi = self.risk_ci(dev <= tol)
+            rows.append({"tolerance": float(tol), "cars": m, "risk": k / m if m else np.nan, "ci": [lo, hi]})
+        return rows
+
+    def summary(self) -> dict:
+        ok = self.ok
+        k, n, lo, hi = self.risk_ci()
+        v = self.values[ok]
+
+        def quantiles(col):
+            x = v[:, col][np.isfinite(v[:, col])]
+            return {f"p{q}": float(np.percentile(x, q)) for q in (5, 50, 95)} | {"n": int(x.size)} if x.size else {}
+
+        hard = int(np.nansum(v[:, 3])) if n else 0
+        hard_ci = (np.nan, np.nan)
+        if n:
+            from scipy.stats import binomtest
+
+            c = binomtest(hard, n).proportion_ci(self.confidence, method="exact")
+            hard_ci = (float(c.low), float(c.high))
+        drivers = main_effects(self.samples[ok], v[:, 2]) if n > 2 * N_BINS else np.full(len(self.keys), np.nan)
+        failures: dict[str, int] = {}
+        for s in self.status:
+            if s != "ok":
+                failures[s.split(":")[1].strip() if ":" in s else s] = failures.get(s, 0) + 1
+        return {
+            "model": self.params.model,
+            "n_samples": len(self.status),
+            "n_evaluated": n,
+            "failed_samples": len(self.status) - n,
+            "failures": failures,
+            "risk_probability": k / n if n else None,
+            "risk_ci": [lo, hi],
+            "confidence": self.confidence,
+            "hard_excitation_share": hard / n if n else None,
+            "hard_excitation_ci": list(hard_ci),
+            "first_bifurcation_kmh": quantiles(0),
+            "second_bifurcation_kmh": quantiles(1),
+            "fast_path_share": float(np.mean(v[:, 4])) if n else None,
+            "drivers_main_effect": {key: (None if not np.isfinite(d) else float(d)) for key, d in
+                                    zip(self.keys, drivers)},
+            "usage": [u.model_dump() for u in self.spec.usage],
+            "wear_share": None,
+            "settings": self.settings,
+        }
+
+    def to_dataset(self):
+        import xarray as xr
+
+        return xr.Dataset(
+            {"sample": (("car", "param"), self.samples), "value": (("car", "output"), self.values),
+             "status": ("car", np.array(self.status, dtype=str))},
+            coords={"param": self.keys, "output": list(OUTPUTS)},
+            attrs={"model": self.params.model, "params_toml": to_toml(self.params),
+                   "fleet_spec_json": self.spec.model_dump_json(), "polywear_version": __version__,
+                   "summary_json": json.dumps(self.summary())},
+        )
+
+    def save(self, path) -> None:
+        """netCDF (.nc: every car), CSV (.csv: one row per car) or JSON (the summary)."""
+        path = str(path)
+        if path.endswith(".nc"):
+            self.to_dataset().to_netcdf(path, engine="h5netcdf")
+        elif path.endswith(".csv"):
+            import pandas as pd
+
+            df = pd.DataFrame(self.samples, columns=self.keys)
+            for j, name in enumerate(OUTPUTS):
+                df[name] = self.values[:, j]
+            df["status"] = self.status
+            df.to_csv(path, index=False)
+        else:
+            with open(path, "w") as fh:
+                json.dump({**self.summary(), "polywear_version": __version__}, fh, indent=2)
+
+    def plot(self, ax=None):
+        """Histograms of the first and second bifurcation speeds and the usage speeds. Returns artists."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 3.5))
+        v = self.values[self.ok]
+        artists = []
+        for col, label in ((0, "first bifurcation speed"), (1, "second bifurcation speed")):
+            x = v[:, col][np.isfinite(v[:, col])]
+            if x.size:
+                artists.append(ax.hist(x, bins=40, alpha=0.6, label=label)[2])
+        for u in self.spec.usage:
+            if u.share > 0:
+                artists.append(ax.axvline(u.speed_kmh, color="k", ls="--", lw=1))
+        k, n, lo, hi = self.risk_ci()
+        ax.set_title(f"{self.params.model}: risk {k}/{n} = {k / max(n, 1):.3f} [{lo:.3f}, {hi:.3f}]", fontsize=10)
+        ax.set_xlabel("speed [km/h]")
+        ax.set_ylabel("cars")
+        ax.legend(fontsize=8)
+        return artists
+
+    def figure(self, tolerance_key: str | None = None):
+        """Speed histograms, and the risk against the tolerance of ``tolerance_key`` (toe if varied)."""
+        import matplotlib.pyplot as plt
+
+        key = tolerance_key or next((k for k in self.keys if "toe" in k), self.keys[0])
+        fig, (a, b) = plt.subplots(1, 2, figsize=(11, 3.8))
+        self.plot(a)
+        rows = self.risk_against_tolerance(key)
+        tol = [r["tolerance"] for r in rows]
+        b.errorbar(tol, [r["risk"] for r in rows],
+                   yerr=np.abs(np.array([[r["risk"] - r["ci"][0], r["ci"][1] - r["risk"]] for r in rows]).T),
+                   marker="o", capsize=3)
+        b.set_xlabel(f"tolerance of {key} (+- around its centre)")
+        b.set_ylabel("risk probability")
+        b.set_title("risk of a fleet built to that tolerance", fontsize=10)
+        fig.tight_layout()
+        return fig
+
+
+def _checkpoint_path(out_dir: Path) -> Path:
+    return Path(out_dir) / "fleet_checkpoint.npz"
+
+
+def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", workers=None, scheduler=None,
+               batch_size=None, checkpoint_dir=None, resume: bool = False, on_progress=None,
+               reference=None) -> FleetResult:
+    """Evaluate the fleet; with ``checkpoint_dir`` save every ``spec.checkpoint_every`` cars
+    (``resume`` continues from the checkpoint, which must belong to the same params and spec)."""
+    from ..parallel import map_batched
+    from .bifurcation import bifurcation_diagram
+    from .fast_band import _FIXED_RANGE, FastBand, band_reference
+    from .global_sensitivity import sample_params
+
+    keys = tuple(q.key for q in spec.parameter)
+    X = sample_fleet(spec)
+    if reference is None:
+        nominal = sample_params(params, keys, [q.center for q in spec.parameter])
+        reference = band_reference(bifurcation_diagram(nominal, spec.speed_range_kmh, **_FIXED_RANGE))
+    solver = FastBand((reference,), speed_range_kmh=tuple(spec.speed_range_kmh))
+    usage = tuple(u.speed_kmh for u in spec.usage if u.share > 0)
+    evaluator = FleetEvaluator(params, keys, solver, usage)
+    values = np.full((spec.samples, len(OUTPUTS)), np.nan)
+    status: list[str] = []
+    digest = _spec_hash(params, spec)
+    ckpt = _checkpoint_path(checkpoint_dir) if checkpoint_dir else None
+    if resume and ckpt is not None and ckpt.exists():
+        data = np.load(ckpt, allow_pickle=False)
+        if str(data["digest"]) != digest:
+            raise ParameterError(f"{ckpt}: checkpoint of another parameter set or spec; remove it or drop --resume")
+        done = int(data["done"])
+        values[:done] = data["values"][:done]
+        status = [str(s) for s in data["status"][:done]]
+        if on_progress:
+            on_progress(done)
+    for start in range(len(status), spec.samples, spec.checkpoint_every):
+        chunk = X[start:start + spec.checkpoint_every]
+        results = map_batched(evaluator, list(chunk), backend=backend, workers=workers, scheduler=scheduler,
+                              batch_size=batch_size, on_progress=on_progress)
+        values[start:start + len(chunk)] = [r[0] for r in results]
+        status += [r[1] for r in results]
+        if ckpt is not None:
+            from ..io import atomic_path
+
+            with atomic_path(ckpt) as tmp:
+                with open(tmp, "wb") as fh:
+                    np.savez(fh, digest=digest, done=len(status), values=values, status=np.array(status, dtype=str))
+    return FleetResult(params=params, spec=spec, samples=X, values=values, status=status,
+                       settings={"backend": backend, "seed": spec.seed, "samples": spec.samples,
+                                 "reference_unusable": reference.unusable or None})

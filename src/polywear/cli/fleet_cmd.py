@@ -1,0 +1,97 @@
+"""``polywear fleet``: the share of a built fleet whose SEV band reaches the customers' speeds."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from .common import (
+    PLOT_SUFFIXES,
+    ConfigOpt,
+    JsonOpt,
+    PlotOpt,
+    QuietOpt,
+    SetOpt,
+    UserError,
+    emit_json,
+    info,
+    load,
+    output_file,
+    progress,
+    write_figure,
+    write_output,
+)
+from .study_cmd import Backend, _connect_timeout, _probe_scheduler
+
+
+def fleet(
+    spec: Annotated[Path, typer.Option("--spec", help="Fleet spec TOML with a [fleet] table (docs/fleet.md).")],
+    config: ConfigOpt = None,
+    set_: SetOpt = None,
+    backend: Annotated[
+        Optional[Backend],
+        typer.Option("--backend", help="processes (default), serial, or dask (implied by --scheduler)."),
+    ] = None,
+    scheduler: Annotated[
+        Optional[str], typer.Option("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786.")
+    ] = None,
+    workers: Annotated[
+        Optional[int], typer.Option("--workers", "-w", min=1, help="Local worker processes (default: all CPUs).")
+    ] = None,
+    checkpoint: Annotated[
+        Optional[Path], typer.Option("--checkpoint", help="Folder for the checkpoint (fleet_checkpoint.npz).")
+    ] = None,
+    resume: Annotated[bool, typer.Option("--resume", help="Continue from the checkpoint in --checkpoint.")] = False,
+    json_: JsonOpt = False,
+    plot: PlotOpt = None,
+    out: Annotated[
+        Optional[Path], typer.Option("--out", "-o", help="Write the result: .nc (every car), .csv or .json.")
+    ] = None,
+    quiet: QuietOpt = False,
+) -> None:
+    """Fleet risk: probability that the SEV band overlaps the usage speeds, with an exact CI (docs/fleet.md)."""
+    output_file(out, "--out", (".nc", ".csv", ".json"))
+    output_file(plot, "--plot", PLOT_SUFFIXES)
+    if resume and checkpoint is None:
+        raise UserError("--resume needs --checkpoint FOLDER")
+    if checkpoint is not None and not checkpoint.is_dir():
+        raise UserError(f"--checkpoint {checkpoint}: not a folder")
+    params = load(config, set_)
+    from ..analysis.fleet import fleet_risk, load_fleet_spec
+
+    fleet_spec = load_fleet_spec(spec, params)
+    chosen = backend.value if backend else ("dask" if scheduler else "processes")
+    if chosen == "dask" and not scheduler:
+        raise UserError("--backend dask: give --scheduler tcp://host:port")
+    if scheduler and chosen != "dask":
+        raise UserError(f"--scheduler needs the dask backend, not {chosen}")
+    if chosen == "dask":
+        _probe_scheduler(scheduler, 5.0)
+    info(f"fleet of {fleet_spec.samples} {params.model} cars, {len(fleet_spec.parameter)} parameters, on {chosen}",
+         quiet)
+    with progress("fleet", total=fleet_spec.samples, enabled=not quiet) as advance, _connect_timeout(
+        5.0 if chosen == "dask" else None
+    ):
+        result = fleet_risk(params, fleet_spec, backend=chosen, workers=workers, scheduler=scheduler,
+                            checkpoint_dir=checkpoint, resume=resume, on_progress=advance)
+    if out:
+        write_output(out, result.save, quiet)
+    if plot:
+        write_figure(plot, result.figure, quiet)
+    s = result.summary()
+    if json_:
+        emit_json(s)
+    else:
+        typer.echo(f"{s['model']}: {s['n_evaluated']} of {s['n_samples']} cars evaluated "
+                   f"({s['failed_samples']} failed), fast path {s['fast_path_share']:.1%}")
+        typer.echo(f"risk probability {s['risk_probability']:.4f}, {s['confidence']:.0%} CI "
+                   f"[{s['risk_ci'][0]:.4f}, {s['risk_ci'][1]:.4f}] (Clopper-Pearson)")
+        typer.echo(f"hard excitation at a usage speed: {s['hard_excitation_share']:.4f}")
+        for name in ("first_bifurcation_kmh", "second_bifurcation_kmh"):
+            q = s[name]
+            if q:
+                typer.echo(f"{name}: 5 % {q['p5']:.1f}, median {q['p50']:.1f}, 95 % {q['p95']:.1f}")
+        typer.echo("drivers (main effect on the risk): " + ", ".join(
+            f"{k} {v:.3f}" for k, v in s["drivers_main_effect"].items() if v is not None))
