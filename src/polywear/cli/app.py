@@ -39,6 +39,7 @@ def _register() -> None:
         calibrate_cmd,
         design_cmd,
         excitation_cmd,
+        fleet_cmd,
         friction_cmd,
         map_cmd,
         params_cmd,
@@ -57,6 +58,7 @@ def _register() -> None:
     app.command("simulate")(simulate_cmd.simulate)
     app.command("sensitivity")(sensitivity_cmd.sensitivity)
     app.command("study")(study_cmd.study)
+    app.command("fleet")(fleet_cmd.fleet)
     app.command("map")(map_cmd.map_)
     app.command("excitation")(excitation_cmd.excitation)
     app.command("design")(design_cmd.design)
