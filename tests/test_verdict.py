@@ -229,3 +229,23 @@ def test_divergence_listed_in_bifurcation_text(divergent_axle, capsys):
     out = capsys.readouterr().out
     assert any(line.strip().startswith("DIV") for line in out.splitlines())
     assert "no self-excited vibration in the speed range" in out
+
+
+def test_failed_extension_keeps_the_edge_open(monkeypatch):
+    """If the wider diagram cannot be computed (e.g. no equilibrium at the new low speeds),
+    the last diagram is kept and its cut end is reported open, never as a bifurcation speed."""
+    import polywear.analysis.bifurcation as bif
+
+    real = bif.stability_analysis
+
+    def failing_below_20(params, speed_range_kmh, **kw):
+        if speed_range_kmh[0] < 20.0:
+            raise RuntimeError("no equilibrium below 20 km/h (test)")
+        return real(params, speed_range_kmh, **kw)
+
+    monkeypatch.setattr(bif, "stability_analysis", failing_below_20)
+    diagram = bifurcation_diagram(_toe(5.0), (20.0, 300.0))
+    s = diagram.summary()
+    assert s["speed_range_kmh"] == [20.0, 300.0] and s["open_at"] == "lower"
+    assert s["first_bifurcation_speed_kmh"] is None and s["sev_band_kmh"][0][0] is None
+    assert "range not widened to 1-300 km/h: no equilibrium below 20 km/h" in s["range_notes"][-1]

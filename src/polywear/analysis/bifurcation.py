@@ -662,9 +662,18 @@ def _extended_diagram(params, speed_range_kmh, settings, n_speeds, on_step) -> B
     if (lo, hi) != requested:
         notes.append(f"range widened to {lo:g}-{hi:g} km/h to hold the operating speed {op:g} km/h")
     spacing = (requested[1] - requested[0]) / max(n_speeds - 1, 1)
+    diagram = None
     while True:
         n = min(max(n_speeds, int(np.ceil((hi - lo) / spacing)) + 1), 4 * n_speeds)
-        diagram = bifurcation_diagram(params, (lo, hi), settings, n, on_step, extend=False)
+        try:
+            wider = bifurcation_diagram(params, (lo, hi), settings, n, on_step, extend=False)
+        except (RuntimeError, ValueError, ArithmeticError) as exc:
+            if diagram is None:
+                raise
+            # e.g. no equilibrium at the new low speeds: keep the last diagram, its cut end stays open
+            notes[-1] = f"range not widened to {lo:g}-{hi:g} km/h: {exc}"
+            break
+        diagram = wider
         cut = _cut_ends(diagram)
         new_lo = SPEED_FLOOR_KMH if "lower" in cut and lo > SPEED_FLOOR_KMH else lo
         new_hi = min(round(2.0 * hi, 6), SPEED_CEILING_KMH) if "upper" in cut and hi < SPEED_CEILING_KMH else hi
