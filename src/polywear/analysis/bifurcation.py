@@ -392,9 +392,15 @@ class BifurcationDiagram:
                 artists.append(ax.annotate(label, (ms_to_kmh(p.speed), p.amplitude[i] * scale), fontsize=8))
         sev = self.sev_band_kmh
         if sev:
+            open_at = self.open_edges
+            first = f"below {sev[0][0]:g} (open)" if "lower" in open_at else f"{sev[0][0]:.1f}"
+            second = f"above {sev[-1][1]:g} (open)" if "upper" in open_at else f"{sev[-1][1]:.1f}"
             ax.set_title(
-                f"{self.params.model}: SEV from {sev[0][0]:.1f} to {sev[-1][1]:.1f} km/h "
+                f"{self.params.model}: SEV from {first} to {second} km/h "
                 f"(first/second bifurcation speeds)", fontsize=10)
+        else:
+            lo, hi = self.speed_range_kmh
+            ax.set_title(f"{self.params.model}: no SEV in {lo:g}-{hi:g} km/h", fontsize=10)
         ax.set_xlabel("speed [km/h]")
         ax.set_ylabel(f"amplitude of {state} [{unit}]" if unit else f"amplitude of {state}")
         ax.set_xlim(*self.speed_range_kmh)

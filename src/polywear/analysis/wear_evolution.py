@@ -1,0 +1,487 @@
+"""Nonlinear wear evolution: the worn profile over distance, at one speed or a drive cycle.
+
+Fast dynamics and slow wear alternate (``docs/wear.md``). For a distance step ``h``:
+
+1. **Window.** At each speed of the cycle the coupled model (profile -> load,
+   :mod:`polywear.models.profile`) runs with the current profile, from where the last
+   window at that speed ended, until the transient has died out, then for ``M`` whole
+   revolutions. Each revolution ``k`` writes harmonics ``D_k`` (:func:`~.wear_law.written_harmonics`).
+2. **Locking and coherence.** The dominant frequency of the tread velocity gives the
+   vibration's order ``nu = f / f_rot``. A spectral line at order ``nu`` writes, on every
+   harmonic, a contribution that turns by ``r = exp(2 pi i nu)`` per revolution. The
+   per-revolution writes are fitted (least squares, known ratios) as
+   ``D_k = S + sum_j C_j r_j^k`` with ``r_j = exp(+-2 pi i j nu)``, ``j = 1..J``: ``S`` is
+   what every revolution writes in the same place (the locked or forced part), the
+   ``C_j`` what drifts. Over the ``N`` revolutions of the step the drifting parts add up
+   to ``C_j r_j^M (1 - r_j^N)/(1 - r_j)``, whose size relative to N coherent writes is
+   ``|sin(pi eps N)/(N sin pi eps)|`` (eps = distance of j nu to the nearest integer):
+   the cancellation is computed over the whole step, not over the simulated window. A
+   vibration whose order is an integer to within ``LOCK_TOLERANCE`` is *locked*.
+3. **Update.** Unlocked, the coherent write of harmonic n is proportional to ``W_n``
+   (the response to harmonic n lands on harmonic n only), so it is integrated exactly
+   as ``W_n exp(N S_n / W_n)``; locked, the cycle writes its own pattern at a rate that
+   does not depend on ``W``, and ``W + N S`` is exact. Harmonics below ``1e-6`` of the
+   profile's RMS, or an exponent above 1 in a step, take the additive form.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..models import get_model
+from ..models.base import kmh_to_ms
+from ..models.profile import coupled_model, patch_sinc, profile_vector
+from ..params import Params, to_toml
+from ..solvers.integrate import integrate
+from .wear import rolling_frequency
+from .wear_law import energetic_rate, friction_power, profile_samples
+
+__all__ = ["WindowWear", "window_wear", "EvolutionResult", "evolve", "initial_roughness", "coherence",
+           "LOCK_TOLERANCE"]
+
+LOCK_TOLERANCE = 1e-6
+"""A vibration whose order is this close to an integer is locked [-]."""
+VIBRATION_RMS = 0.01
+"""The tread vibrates (self-excited) when the RMS of its velocity fluctuation exceeds this
+[m/s]: 10 um at 150 Hz, far above the response to a worn profile of a tenth of a
+millimetre and far below the SEV of a vibrating tire (0.1-0.3 m/s)."""
+RESOLVABLE = 0.25
+"""A drifting line is separated in a window of M revolutions when eps M >= this [-]."""
+SIDEBANDS = 2
+"""Harmonics j of the vibration whose drifting writes are separated (j = +-1..+-SIDEBANDS)."""
+_RTOL = 1e-8
+_ATOL_FRACTION = 1e-9
+
+
+def coherence(eps: float, revolutions: float) -> float:
+    """``|sin(pi eps M)/(M sin pi eps)|``: the fraction of M coherent writes that a
+    pattern drifting by ``eps`` of a period per revolution keeps after M revolutions."""
+    s = math.sin(math.pi * eps)
+    if abs(s) < 1e-15:
+        return 1.0
+    return abs(math.sin(math.pi * eps * revolutions) / (revolutions * s))
+
+
+def initial_roughness(params: Params) -> np.ndarray:
+    """Seeded random harmonics W_n [m], n = 1..max_order, of RMS ``initial_roughness_um``
+    (complex normal, phases uniform; numpy SeedSequence(seed))."""
+    K = params.wear.max_order
+    rng = np.random.default_rng(np.random.SeedSequence(params.wear.seed))
+    W = rng.standard_normal(K) + 1j * rng.standard_normal(K)
+    rms = math.sqrt(0.5 * float(np.sum(np.abs(W) ** 2)))
+    return W * (params.wear.initial_roughness_um * 1e-6 / rms)
+
+
+def _dominant_order(t, signal, f_rot: float) -> float:
+    """Order nu = f / f_rot of the dominant spectral line of ``signal``."""
+    x = signal - signal.mean()
+    dt = t[1] - t[0]
+    n = x.size
+    pad = 8 * n
+    xw = x * np.hanning(n)  # low leakage: neighbouring lines one order away barely bias the peak
+    spectrum = np.abs(np.fft.rfft(xw, pad))
+    k = int(np.argmax(spectrum[1:])) + 1
+    from scipy.optimize import minimize_scalar
+
+    def minus_power(f):
+        return -abs(np.dot(xw, np.exp(-2j * math.pi * f * t)))
+
+    df = 1.0 / (pad * dt)
+    best = minimize_scalar(minus_power, bracket=None, bounds=((k - 2) * df, (k + 2) * df), method="bounded",
+                           options={"xatol": 1e-10 * k * df})
+    return float(best.x) / f_rot
+
+
+@dataclass
+class WindowWear:
+    """What one simulated window writes per revolution, split into coherent and drifting parts."""
+
+    coherent: np.ndarray
+    """S_n (K,) written in the same place every revolution [m per revolution]"""
+    drifting: np.ndarray
+    """C_j (2J, K) drifting parts at revolution 0 of the window [m]"""
+    ratios: np.ndarray
+    """r_j (2J,) turn of each drifting part per revolution"""
+    mean_per_rev: float
+    """uniform wear per revolution [m]"""
+    revolutions: int
+    order: float
+    """order nu of the dominant vibration (NaN if none)"""
+    locked: bool
+    end_state: np.ndarray
+    energy_per_rev: float
+    """friction energy per revolution [J]"""
+
+    def written(self, revolutions: float) -> np.ndarray:
+        """Harmonics written over ``revolutions`` following the window [m] (coherent + drifting)."""
+        out = revolutions * self.coherent
+        for r, c in zip(self.ratios, self.drifting):
+            geometric = (1.0 - r ** revolutions) / (1.0 - r)
+            out = out + c * r ** self.revolutions * geometric
+        return out
+
+
+def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float, revolutions: int = 8,
+                base=None) -> WindowWear:
+    """Simulate ``settle_s`` [s] then ``revolutions`` at speed V [m/s] with profile ``W``
+    from ``state`` (coupled-model state) and split what each revolution writes."""
+    base = base or get_model(params.model)
+    coupled = coupled_model(base)
+    R = params.operating.rolling_radius_m
+    K = W.size
+    sinc = patch_sinc(np.arange(1, K + 1), params.tire.contact_length_m, R)
+    p = profile_vector(base, params, V, sinc * W.real, -sinc * W.imag)
+    T = 2.0 * math.pi * R / V
+    state = np.array(state, dtype=float)
+    state[-1] = math.fmod(state[-1], 2.0 * math.pi)
+    scale = np.maximum(np.abs(base.equilibrium(V, base.pack(params))), 1e-6)
+    atol = np.append(_ATOL_FRACTION * scale, 1e-9)
+    t_end = settle_s + revolutions * T
+    run = integrate(coupled, state, V, p, t_end, rtol=_RTOL, atol=atol, dense_from=settle_s)
+    per_rev = max(32 * K, int(T * 8000.0))
+    t = settle_s + np.arange(revolutions * per_rev + 1) * (T / per_rev)
+    t[-1] = min(t[-1], t_end)
+    u = run.dense(t)
+    power = friction_power(coupled, u, V, p)
+    D, mean = _per_revolution(t, power, u[:, -1], per_rev, revolutions, params, K)
+    xdot = u[:, base.index("xdot")]
+    vibrating = float(np.std(xdot)) > VIBRATION_RMS
+    nu = _dominant_order(t, xdot, 1.0 / T) if vibrating else math.nan
+    eps = [abs(j * nu - round(j * nu)) for j in range(1, SIDEBANDS + 1)] if vibrating else []
+    locked = vibrating and eps[0] < LOCK_TOLERANCE
+    coherent, drifting, ratios = _split(D, nu, eps, revolutions)
+    energy = float(np.dot(power[:-1], np.diff(t))) / revolutions
+    return WindowWear(coherent=coherent, drifting=drifting, ratios=ratios, mean_per_rev=mean,
+                      revolutions=revolutions, order=nu, locked=bool(locked), end_state=run.u_end.copy(),
+                      energy_per_rev=energy)
+
+
+def _split(D, nu, eps, revolutions):
+    """Coherent part S (K,), drifting parts C (R, K) and their ratios r (R,) of the
+    per-revolution writes D (M, K) of a vibration at order nu (see module notes).
+
+    A line whose pattern turns by at least RESOLVABLE of a period over the window is
+    separated by least squares with its known ratio. A slower one cannot be told apart
+    from a coherent write within the window; it writes essentially on its nearest
+    harmonic m = round(j nu) only, where the vibration's own write dominates the
+    response to the profile, so the whole write at m is counted as drifting (turning by
+    r per revolution) and the step sum bounds it by 1/|sin(pi eps)|."""
+    M, K = D.shape
+    k = np.arange(M)
+    fast, slow = [], []
+    for j in range(1, len(eps) + 1):
+        if eps[j - 1] < LOCK_TOLERANCE:
+            continue
+        (fast if eps[j - 1] * M >= RESOLVABLE else slow).append(j)
+    ratios = [np.exp(sign * 2j * math.pi * j * nu) for j in fast for sign in (1, -1)]
+    A = np.column_stack([np.ones(M)] + [r ** k for r in ratios])
+    coef = np.linalg.lstsq(A, D, rcond=None)[0]
+    coherent, drifting = coef[0].copy(), [c for c in coef[1:]]
+    for j in slow:
+        m = int(round(j * nu))
+        if not 1 <= m <= K:
+            continue
+        r = np.exp(2j * math.pi * j * nu)
+        c = np.zeros(K, dtype=complex)
+        c[m - 1] = np.mean(D[:, m - 1] * r ** -k)
+        coherent[m - 1] = 0.0
+        for other in drifting:
+            other[m - 1] = 0.0
+        drifting.append(c)
+        ratios.append(r)
+    return coherent, np.array(drifting).reshape(len(drifting), K), np.array(ratios)
+
+
+def _per_revolution(t, power, angle, per_rev, revolutions, params, K):
+    """Harmonics written in each revolution (revolutions, K) and the mean wear per revolution.
+
+    The contact angle advances uniformly (phi_c' = V/R), so the samples of one revolution
+    sit at phi_0 + 2 pi j / per_rev and the projection of :func:`~.wear_law.written_harmonics`
+    is a DFT of the trapezoid-weighted power (the closing sample folds onto j = 0)."""
+    dt = t[1] - t[0]
+    D = np.empty((revolutions, K), dtype=complex)
+    mean = 0.0
+    R, b_w = params.operating.rolling_radius_m, params.tire.tread_width_m
+    k_e = energetic_rate(params)
+    sinc = patch_sinc(np.arange(1, K + 1), params.tire.contact_length_m, R)
+    for k in range(revolutions):
+        seg = power[k * per_rev : (k + 1) * per_rev + 1] * dt
+        folded = seg[:-1].copy()
+        folded[0] = 0.5 * (seg[0] + seg[-1])
+        spectrum = np.fft.rfft(folded)[1 : K + 1]
+        phi0 = angle[k * per_rev]
+        integral = spectrum * np.exp(-1j * np.arange(1, K + 1) * phi0)
+        D[k] = (k_e / (math.pi * R * b_w)) * sinc * integral
+        mean += k_e / (2.0 * math.pi * R * b_w) * float(folded.sum()) / revolutions
+    return D, mean
+
+
+def _settle_times(base, params, V: float) -> tuple[float, float, bool]:
+    """(first, next) settling times [s] from the slowest decay (or growth) rate of steady
+    rolling, and whether steady rolling is unstable (the tread vibrates)."""
+    p = base.pack(params)
+    q = base.prepared(V, p)
+    lam = np.linalg.eigvals(base.jacobian(base.equilibrium(V, q), V, q))
+    rate = max(float(np.min(np.abs(lam.real))), 1.0)
+    T = 2.0 * math.pi * params.operating.rolling_radius_m / V
+    first = min(max(30.0 / rate, 0.5), 6.0)
+    return first, min(first, max(4.0 * T, 8.0 / rate)), bool(np.max(lam.real) > 0.0)
+
+
+def _update(W: np.ndarray, written_coherent: np.ndarray, locked: bool) -> np.ndarray:
+    """W after a step whose coherent writes total ``written_coherent`` (see module notes)."""
+    if locked:
+        return W + written_coherent
+    rms = math.sqrt(0.5 * float(np.sum(np.abs(W) ** 2)))
+    out = W + written_coherent
+    big = np.abs(W) > 1e-6 * rms
+    rate = np.zeros_like(W)
+    rate[big] = written_coherent[big] / W[big]
+    exp_ok = big & (np.abs(rate) <= 1.0)
+    out[exp_ok] = W[exp_ok] * np.exp(rate[exp_ok])
+    return out
+
+
+def peak_to_valley(W: np.ndarray, points: int) -> float:
+    """Peak-to-valley depth of the profile with harmonics W [m]."""
+    w = profile_samples(W, points)
+    return float(w.max() - w.min())
+
+
+@dataclass
+class EvolutionResult:
+    """Worn profile against distance."""
+
+    params: Params
+    distance_km: np.ndarray
+    """(D,) [km]"""
+    harmonics: np.ndarray
+    """(D, K) complex W_n [m]"""
+    mean_depth_m: np.ndarray
+    """(D,) uniform wear [m]"""
+    cycle: tuple[tuple[float, float], ...]
+    """(speed [km/h], share) of the drive cycle"""
+    vibration_order: np.ndarray
+    """(D-1, S) order nu of the vibration per step and speed (NaN: none)"""
+    locked: np.ndarray
+    """(D-1, S) bool"""
+    friction_energy_j: np.ndarray
+    """(D,) cumulative friction energy [J]"""
+    settings: dict = field(default_factory=dict)
+
+    @property
+    def orders(self) -> np.ndarray:
+        return np.arange(1, self.harmonics.shape[1] + 1)
+
+    @property
+    def depth_mm(self) -> np.ndarray:
+        """Peak-to-valley depth [mm] (D,)."""
+        pts = self.params.wear.profile_points
+        return np.array([peak_to_valley(W, pts) for W in self.harmonics]) * 1e3
+
+    @property
+    def dominant_order(self) -> np.ndarray:
+        """Order of the largest harmonic (D,)."""
+        return self.orders[np.argmax(np.abs(self.harmonics), axis=1)]
+
+    @property
+    def visible_km(self) -> float | None:
+        """Distance at which the depth first reaches ``wear.visible_depth_mm`` [km]
+        (log-linear interpolation between steps); None if it does not."""
+        d = self.depth_mm
+        limit = self.params.wear.visible_depth_mm
+        above = np.flatnonzero(d >= limit)
+        if not above.size:
+            return None
+        i = int(above[0])
+        if i == 0:
+            return 0.0
+        lo, hi = math.log(d[i - 1]), math.log(d[i])
+        x = (math.log(limit) - lo) / (hi - lo) if hi > lo else 1.0
+        return float(self.distance_km[i - 1] + x * (self.distance_km[i] - self.distance_km[i - 1]))
+
+    def profile(self, with_mean: bool = True) -> np.ndarray:
+        """w(distance, angle) [m] (D, profile_points)."""
+        pts = self.params.wear.profile_points
+        mean = self.mean_depth_m if with_mean else np.zeros(len(self.distance_km))
+        return np.array([profile_samples(W, pts, m) for W, m in zip(self.harmonics, mean)])
+
+    def summary(self) -> dict:
+        depth = self.depth_mm
+        visible = self.visible_km
+        per_speed = []
+        for j, (v, share) in enumerate(self.cycle):
+            nu = self.vibration_order[:, j]
+            finite = nu[np.isfinite(nu)]
+            per_speed.append({
+                "speed_kmh": v, "share": share,
+                "vibration_order_end": float(finite[-1]) if finite.size else None,
+                "locked_fraction": float(np.mean(self.locked[:, j])) if self.locked.size else None,
+            })
+        return {
+            "model": self.params.model,
+            "distance_km": float(self.distance_km[-1]),
+            "cycle": per_speed,
+            "initial_depth_mm": float(depth[0]),
+            "final_depth_mm": float(depth[-1]),
+            "dominant_order": int(self.dominant_order[-1]),
+            "visible_depth_mm": self.params.wear.visible_depth_mm,
+            "visible_km": visible,
+            "mean_wear_mm": float(self.mean_depth_m[-1] * 1e3),
+            "energetic_rate_mm3_per_j": self.params.wear.energetic_rate_mm3_per_j,
+            "distances_scale_as": "1/k_e",
+        }
+
+    def to_dataset(self):
+        import xarray as xr
+
+        from .. import __version__
+
+        pts = self.params.wear.profile_points
+        angle = np.degrees(2.0 * math.pi * np.arange(pts) / pts)
+        return xr.Dataset(
+            {
+                "w": (("distance_km", "angle_deg"), self.profile() * 1e3, {"units": "mm", "long_name": "worn depth"}),
+                "harmonic_amplitude": (("distance_km", "order"), np.abs(self.harmonics) * 1e3, {"units": "mm"}),
+                "harmonic_phase": (("distance_km", "order"), np.angle(self.harmonics), {"units": "rad"}),
+                "depth_ptv": ("distance_km", self.depth_mm, {"units": "mm"}),
+                "mean_depth": ("distance_km", self.mean_depth_m * 1e3, {"units": "mm"}),
+                "friction_energy": ("distance_km", self.friction_energy_j, {"units": "J"}),
+            },
+            coords={"distance_km": self.distance_km, "angle_deg": angle, "order": self.orders},
+            attrs={"model": self.params.model, "params_toml": to_toml(self.params), "polywear_version": __version__,
+                   "note": "distances scale as 1/k_e", **{k: str(v) for k, v in self.settings.items()}},
+        )
+
+    def save(self, path) -> None:
+        self.to_dataset().to_netcdf(path, engine="h5netcdf")
+
+    def plot(self, ax=None):
+        """Peak-to-valley depth (log) and dominant order against distance. Returns artists."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 4))
+        artists = ax.semilogy(self.distance_km, self.depth_mm, color="tab:red", label="peak-to-valley depth")
+        artists.append(ax.axhline(self.params.wear.visible_depth_mm, color="0.4", ls="--", lw=0.8,
+                                  label="visible"))
+        ax.set_xlabel("distance [km] (scales as 1/k_e)")
+        ax.set_ylabel("depth [mm]")
+        twin = ax.twinx()
+        artists += twin.plot(self.distance_km, self.dominant_order, ".", color="tab:blue", ms=3,
+                             label="dominant order")
+        twin.set_ylabel("dominant order")
+        visible = self.visible_km
+        title = f"{self.params.model}: polygon " + (f"visible after {visible:,.0f} km" if visible is not None
+                                                    else "not visible")
+        ax.set_title(title)
+        ax.legend(loc="upper left", fontsize=7)
+        return artists
+
+    def plot_polar(self, ax=None, distances_km=None, exaggeration: float | None = None):
+        """The worn tire in polar form at chosen distances (radius minus exaggerated depth)."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(subplot_kw={"projection": "polar"}, figsize=(5, 5))
+        d = self.distance_km
+        chosen = distances_km if distances_km is not None else d[np.linspace(0, d.size - 1, 4).astype(int)]
+        pts = self.params.wear.profile_points
+        phi = 2.0 * math.pi * np.arange(pts + 1) / pts
+        depth = self.depth_mm
+        scale = exaggeration or (0.3 / max(float(depth.max()), 1e-12))  # deepest shown as 30 % of the radius
+        artists = []
+        for dist in chosen:
+            i = int(np.argmin(np.abs(d - dist)))
+            w = profile_samples(self.harmonics[i], pts) * 1e3
+            r = 1.0 - scale * (w - w.min())
+            artists += ax.plot(phi, np.append(r, r[0]), lw=1.0, label=f"{d[i]:,.0f} km")
+        ax.set_yticklabels([])
+        ax.set_title(f"worn tread (depth x{scale:.3g} of the radius per mm)", fontsize=9)
+        ax.legend(fontsize=7, loc="lower right")
+        return artists
+
+    def plot_waterfall(self, ax=None):
+        """Order amplitudes over distance (log colour). Returns the mesh."""
+        import matplotlib.pyplot as plt
+        from matplotlib.colors import LogNorm
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 4))
+        amp = np.abs(self.harmonics) * 1e3
+        mesh = ax.pcolormesh(self.orders, self.distance_km, amp, shading="nearest",
+                             norm=LogNorm(vmin=max(amp.max() * 1e-4, 1e-12), vmax=max(amp.max(), 1e-11)))
+        ax.figure.colorbar(mesh, ax=ax, label="harmonic amplitude [mm]")
+        ax.set_xlabel("order n")
+        ax.set_ylabel("distance [km]")
+        ax.set_title("order amplitudes over distance")
+        return mesh
+
+
+def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000.0, revolutions: int = 16,
+           on_step=None) -> EvolutionResult:
+    """Worn profile from seeded roughness over ``distance_km`` [km] on a drive cycle.
+
+    ``cycle``: ((speed [km/h], share), ...), default ``params.wear.cycle_shares()``;
+    ``step_km``: distance step; ``revolutions``: simulated revolutions per window where
+    the tread vibrates (3 where steady rolling is stable: nothing drifts there);
+    ``on_step(distance_km)`` after every step.
+    """
+    if not (math.isfinite(distance_km) and distance_km > 0):
+        raise ValueError(f"distance {distance_km!r} km: must be positive")
+    if not (math.isfinite(step_km) and step_km > 0):
+        raise ValueError(f"step {step_km!r} km: must be positive")
+    cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
+    base = get_model(params.model)
+    coupled = coupled_model(base)
+    R = params.operating.rolling_radius_m
+    k_e = energetic_rate(params)
+    n_steps = max(1, math.ceil(distance_km / step_km - 1e-9))
+    steps = np.full(n_steps, distance_km / n_steps)
+    W = initial_roughness(params)
+    states, settles, windows = [], [], []
+    for v_kmh, _ in cycle:
+        V = float(kmh_to_ms(v_kmh))
+        first, nxt, unstable = _settle_times(base, params, V)
+        windows.append(revolutions if unstable else min(revolutions, 3))
+        u0 = coupled.equilibrium(V, profile_vector(base, params, V))
+        u0[base.index("x")] += 1e-5  # a small disturbance: steady rolling as a car drives
+        states.append(u0)
+        settles.append([first, nxt])
+    history, means, energies = [W.copy()], [0.0], [0.0]
+    orders_hist, locked_hist = [], []
+    mean = energy = 0.0
+    for h in steps:
+        coherent_total = np.zeros_like(W)
+        drifting_total = np.zeros_like(W)
+        any_locked = False
+        nus, locks = [], []
+        for j, (v_kmh, share) in enumerate(cycle):
+            V = float(kmh_to_ms(v_kmh))
+            win = window_wear(params, V, W, states[j], settles[j][0], windows[j], base)
+            settles[j][0] = settles[j][1]
+            states[j] = win.end_state
+            n_rev = share * h * 1000.0 / (2.0 * math.pi * R)
+            coherent_total += n_rev * win.coherent
+            drifting_total += win.written(n_rev) - n_rev * win.coherent
+            mean += n_rev * win.mean_per_rev
+            energy += n_rev * win.energy_per_rev
+            any_locked |= win.locked and math.isfinite(win.order)
+            nus.append(win.order)
+            locks.append(win.locked and math.isfinite(win.order))
+        W = _update(W, coherent_total, any_locked) + drifting_total
+        history.append(W.copy())
+        means.append(mean)
+        energies.append(energy)
+        orders_hist.append(nus)
+        locked_hist.append(locks)
+        if on_step is not None:
+            on_step(float(np.sum(steps[: len(history) - 1])))
+    distance = np.concatenate(([0.0], np.cumsum(steps)))
+    return EvolutionResult(params=params, distance_km=distance, harmonics=np.array(history),
+                           mean_depth_m=np.array(means), cycle=cycle, vibration_order=np.array(orders_hist),
+                           locked=np.array(locked_hist), friction_energy_j=np.array(energies),
+                           settings={"step_km": float(steps[0]), "revolutions": revolutions, "k_e_m3_per_j": k_e})

@@ -1,0 +1,145 @@
+"""Nonlinear wear evolution (analysis/wear_evolution.py): independent checks of the
+bookkeeping, the coherence treatment, the linear limit, scalings and convergence."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from polywear.analysis.wear_evolution import (
+    _per_revolution,
+    _split,
+    coherence,
+    evolve,
+    initial_roughness,
+)
+from polywear.analysis.wear_law import written_harmonics
+from polywear.analysis.wear_map import wear_map
+from polywear.params import Params, with_updates
+
+SLOW = ((40.0, 1.0),)  # steady rolling stable: the linear regime
+
+
+def _brute_force_profile(t, power, angle, params, points=3600):
+    """Delta w(phi) = (k_e / A_c) int P [phi in the patch] dt, by visiting every sample."""
+    R, a = params.operating.rolling_radius_m, 0.5 * params.tire.contact_length_m
+    k_e = params.wear.energetic_rate_mm3_per_j * 1e-9
+    area = 2 * a * params.tire.tread_width_m
+    phi = 2 * np.pi * (np.arange(points) + 0.5) / points
+    w = np.zeros(points)
+    dt = t[1] - t[0]
+    weights = np.full(t.size, dt)
+    weights[[0, -1]] *= 0.5
+    for p_i, th, wt in zip(power, angle, weights):
+        inside = np.abs((phi - th + np.pi) % (2 * np.pi) - np.pi) <= a / R
+        w[inside] += k_e / area * p_i * wt
+    return phi, w
+
+
+def test_bookkeeping_worn_volume_and_harmonics_by_brute_force():
+    params = Params()
+    R, b_w = params.operating.rolling_radius_m, params.tire.tread_width_m
+    T = 0.1
+    per_rev = 4000
+    t = np.arange(2 * per_rev + 1) * (T / per_rev)
+    angle = 0.3 + 2 * np.pi * t / T
+    rng = np.random.default_rng(5)
+    power = 500 + 80 * np.cos(2 * np.pi * 7.3 * t / T + 0.4) + 30 * np.sin(2 * np.pi * 3 * t / T) \
+        + rng.uniform(0, 1, t.size) * 0 + 20 * np.cos(2 * np.pi * 11 * t / T)
+    phi, w = _brute_force_profile(t, power, angle, params)
+    energy = np.trapezoid(power, t)
+    volume = np.sum(w) * (2 * np.pi / phi.size) * R * b_w
+    assert volume == pytest.approx(params.wear.energetic_rate_mm3_per_j * 1e-9 * energy, rel=1e-3)
+    orders = np.arange(1, 16)
+    W, mean = written_harmonics(t, power, angle, orders, params)
+    ref = 2 * np.mean(w[None, :] * np.exp(-1j * orders[:, None] * phi[None, :]), axis=1)
+    np.testing.assert_allclose(W, ref, atol=2e-3 * np.abs(ref).max())
+    assert mean == pytest.approx(np.mean(w), rel=1e-3)
+    D, mean_rev = _per_revolution(t, power, angle, per_rev, 2, params, 15)
+    np.testing.assert_allclose(D.sum(axis=0), W, rtol=1e-9, atol=1e-12 * np.abs(W).max())
+    assert 2 * mean_rev == pytest.approx(mean, rel=1e-12)
+
+
+@pytest.mark.parametrize("eps", [0.013, 0.07, 0.31])
+def test_coherence_of_a_drifting_vibration(eps):
+    """P at (n + eps) f_rot writes |sin(pi eps M)/(M sin pi eps)| of M coherent writes; the
+    split of a short window predicts the write of a long run (N revolutions) exactly."""
+    params = Params()
+    n, per_rev, M, N = 9, 512, 16, 200
+    T = 0.05
+    t = np.arange(N * per_rev + 1) * (T / per_rev)
+    angle = 2 * np.pi * t / T
+    power = 400 + 50 * np.cos(2 * np.pi * (n + eps) * t / T + 0.2) + 5 * np.cos(2 * np.pi * 4 * t / T)
+    D, _ = _per_revolution(t, power, angle, per_rev, N, params, 12)
+    single = abs(D[0, n - 1])
+    for m in (M, N):
+        assert abs(D[:m, n - 1].sum()) == pytest.approx(single * m * coherence(eps, m), rel=0.02)
+    nu = n + eps
+    coherent, drifting, ratios = _split(D[:M], nu, [abs(j * nu - round(j * nu)) for j in (1, 2)], M)
+    predicted = M * coherent + sum(c * (1 - r ** M) / (1 - r) for c, r in zip(drifting, ratios))
+    # exact when the drift is resolved in the window; otherwise the slow line's write on its
+    # harmonic is taken whole (its mirror line, 1/(2n) as large and turning the other way, with it)
+    tol = 1e-9 if eps * M >= 0.25 else 1e-3
+    np.testing.assert_allclose(predicted, D[:M].sum(axis=0), atol=tol * np.abs(D).max() * M)
+    later = (N - M) * coherent + sum(c * r ** M * (1 - r ** (N - M)) / (1 - r) for c, r in zip(drifting, ratios))
+    total = D.sum(axis=0)
+    if eps * M >= 0.25:  # resolvable in the window: the long run follows exactly
+        np.testing.assert_allclose(D[:M].sum(axis=0) + later, total, atol=1e-6 * np.abs(total).max())
+
+
+def test_evolution_follows_the_linear_map_at_small_amplitude():
+    params = Params()
+    result = evolve(params, 4000.0, cycle=SLOW, step_km=2000.0)
+    m = wear_map(params, [40.0])
+    k = int(m.most_unstable()[0])
+    factor = result.harmonics[-1, k] / result.harmonics[0, k]
+    revs = 4000.0 * m.revolutions_per_km
+    growth_km = math.log(abs(factor)) / 4000.0
+    assert 1.0 / growth_km == pytest.approx(m.efold_km[0, k], rel=0.02)
+    drift = -math.degrees(np.angle(factor)) / (k + 1) / revs
+    assert drift == pytest.approx(m.drift_deg_per_rev[0, k], rel=0.02)
+    assert not result.locked.any() and np.isnan(result.vibration_order).all()
+
+
+def test_distances_scale_as_one_over_k_e_and_seed_changes_phase_only():
+    params = Params()
+    base = evolve(params, 4000.0, cycle=SLOW, step_km=2000.0)
+    fast = evolve(with_updates(params, {"wear.energetic_rate_mm3_per_j": 2e-3}), 2000.0, cycle=SLOW,
+                  step_km=1000.0)
+    np.testing.assert_allclose(fast.harmonics, base.harmonics, rtol=1e-6, atol=1e-6 * np.abs(base.harmonics).max())
+    np.testing.assert_allclose(2 * fast.distance_km, base.distance_km)
+    other = evolve(with_updates(params, {"wear.seed": 7}), 4000.0, cycle=SLOW, step_km=2000.0)
+    g_base = np.abs(base.harmonics[-1] / base.harmonics[0])
+    g_other = np.abs(other.harmonics[-1] / other.harmonics[0])
+    growing = g_base > 1.0  # the orders that make the polygon
+    assert growing.sum() >= 5
+    np.testing.assert_allclose(g_other[growing], g_base[growing], rtol=1e-3)
+    assert np.argmax(g_other) == np.argmax(g_base)
+    assert np.max(np.abs(np.angle(other.harmonics[0] / base.harmonics[0]))) > 1.0
+
+
+def test_halving_the_distance_step_changes_the_depth_by_less_than_2_percent():
+    params = Params()
+    coarse = evolve(params, 6000.0, cycle=SLOW, step_km=2000.0)
+    fine = evolve(params, 6000.0, cycle=SLOW, step_km=1000.0)
+    assert fine.depth_mm[-1] == pytest.approx(coarse.depth_mm[-1], rel=0.02)
+
+
+@pytest.mark.slow
+def test_vibrating_regime_step_halving():
+    """In the linear band the vibration writes its own pattern and locks; still < 2 %."""
+    params = Params()
+    coarse = evolve(params, 6000.0, cycle=((120.0, 1.0),), step_km=1000.0)
+    fine = evolve(params, 6000.0, cycle=((120.0, 1.0),), step_km=500.0)
+    assert np.isfinite(coarse.vibration_order).all()
+    assert fine.depth_mm[-1] == pytest.approx(coarse.depth_mm[-1], rel=0.02)
+    assert fine.dominant_order[-1] == coarse.dominant_order[-1]
+
+
+def test_initial_roughness_has_the_requested_rms():
+    params = with_updates(Params(), {"wear.initial_roughness_um": 2.5, "wear.max_order": 40})
+    W = initial_roughness(params)
+    assert W.size == 40
+    assert math.sqrt(0.5 * np.sum(np.abs(W) ** 2)) == pytest.approx(2.5e-6, rel=1e-12)
