@@ -101,3 +101,15 @@ def test_quick_start_bifurcation_equals_cli_json():
     diagram = pw.bifurcation(pw.load_params())
     assert _round_trip(diagram.summary()) == json.loads(out)
     assert diagram.summary()["second_bifurcation_speed_kmh"] > diagram.summary()["first_bifurcation_speed_kmh"]
+
+
+def test_lower_layers_reachable_as_attributes():
+    code = (
+        "import polywear as pw; "
+        "print(pw.solvers.integrate.integrate.__name__, pw.solvers.continuation.ContinuationSettings.__name__, "
+        "pw.models.tread1dof.MODEL.name, pw.models.base.Model.__name__, 'integrate' in dir(pw.solvers))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["integrate", "ContinuationSettings", "tread1dof", "Model", "True"]
+    with pytest.raises(AttributeError):
+        pw.solvers.no_such_solver  # noqa: B018

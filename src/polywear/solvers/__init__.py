@@ -1,0 +1,21 @@
+"""Numerical solvers: time integration, periodic orbits, bordered linear algebra, continuation.
+
+The submodules are imported on first attribute access (``pw.solvers.integrate``), so
+``import polywear.solvers`` stays light.
+"""
+
+from __future__ import annotations
+
+_SUBMODULES = ("bordered", "collocation", "continuation", "integrate")
+
+
+def __getattr__(name: str) -> object:
+    if name in _SUBMODULES:
+        from importlib import import_module
+
+        return import_module(f"{__name__}.{name}")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_SUBMODULES})
