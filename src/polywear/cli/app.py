@@ -91,22 +91,25 @@ def _interrupted(exc: BaseException | None) -> bool:
     return False
 
 
-class _CtrlC:
-    """SIGINT handler of the command line: the first Ctrl-C raises KeyboardInterrupt (the
-    command unwinds, temporary files are removed) and is remembered, so that it ends the
-    command with 130 even where a library swallowed the exception; a second one exits at once."""
+def _exit_on_ctrl_c(signum, frame) -> None:
+    """SIGINT handler of the command line: remove the files being written, stop local
+    worker processes, say "interrupted" and exit 130 at once.
 
-    def __init__(self) -> None:
-        self.pressed = False
+    Exiting here rather than raising KeyboardInterrupt is deliberate: raised while a
+    compiled numba function hands back its result, the exception becomes a SystemError
+    or even a segmentation fault, and broad ``except`` clauses in libraries can swallow it.
+    """
+    import os
 
-    def __call__(self, signum, frame) -> None:
-        if self.pressed:
-            import os
+    from ..io import remove_partial
 
-            os.write(2, b"\ninterrupted\n")
-            os._exit(130)
-        self.pressed = True
-        raise KeyboardInterrupt
+    remove_partial()
+    multiprocessing = sys.modules.get("multiprocessing")
+    if multiprocessing is not None:
+        for child in multiprocessing.active_children():
+            child.terminate()
+    os.write(2, b"\ninterrupted\n")
+    os._exit(130)
 
 
 def main() -> None:
@@ -118,13 +121,10 @@ def main() -> None:
     import signal
     import threading
 
-    ctrl_c = _CtrlC()
     main_thread = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGINT, ctrl_c) if main_thread else None
+    previous = signal.signal(signal.SIGINT, _exit_on_ctrl_c) if main_thread else None
     try:
         app(standalone_mode=False)
-        if ctrl_c.pressed:
-            raise KeyboardInterrupt
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
     except (KeyboardInterrupt, typer.Abort) as exc:

@@ -137,3 +137,115 @@ def _sev_band(params, speed_range, quiet) -> tuple[float, float] | None:
     info("wear map: bifurcation diagram for the SEV band ...", quiet)
     bands = bifurcation_diagram(params, speed_range).sev_band_kmh
     return (bands[0][0], bands[-1][1]) if bands else None
+
+
+def parse_cycle(text: str) -> tuple[tuple[float, float], ...]:
+    """``"120:0.3,80:0.4,50:0.3"`` -> ((speed [km/h], share), ...), shares normalised
+    (they must sum to 1 within the tolerance of ``[[wear.cycle]]``)."""
+    from ..params import CYCLE_SHARE_TOLERANCE
+
+    pairs = []
+    for item in (s for s in text.split(",") if s.strip()):
+        speed, sep, share = item.partition(":")
+        try:
+            pairs.append((float(speed), float(share) if sep else math.nan))
+        except ValueError:
+            raise UserError(f"--cycle {text!r}: expected speed:share pairs, e.g. 120:0.3,80:0.4,50:0.3") from None
+    if not pairs or any(math.isnan(s) for _, s in pairs):
+        raise UserError(f"--cycle {text!r}: expected speed:share pairs, e.g. 120:0.3,80:0.4,50:0.3")
+    for v, s in pairs:
+        if not (math.isfinite(v) and 0.0 < v <= MAX_SPEED_KMH):
+            raise UserError(f"--cycle {text!r}: speed {v:g} must be in (0, {MAX_SPEED_KMH:g}] km/h")
+        if not (math.isfinite(s) and 0.0 < s <= 1.0):
+            raise UserError(f"--cycle {text!r}: share {s:g} must be in (0, 1]")
+    if len({v for v, _ in pairs}) != len(pairs):
+        raise UserError(f"--cycle {text!r}: a speed is given more than once")
+    total = math.fsum(s for _, s in pairs)
+    if abs(total - 1.0) > CYCLE_SHARE_TOLERANCE:
+        raise UserError(f"--cycle {text!r}: shares sum to {total:.6g}, must sum to 1")
+    return tuple((v, s / total) for v, s in pairs)
+
+
+@app.command("evolve")
+def evolve_(
+    config: ConfigOpt = None,
+    set_: SetOpt = None,
+    distance_km: Annotated[float, typer.Option("--distance-km", help="Distance to drive [km].")] = 60000.0,
+    cycle: Annotated[
+        Optional[str],
+        typer.Option("--cycle", help="Drive cycle speed:share,... e.g. 120:0.3,80:0.4,50:0.3 (default [[wear.cycle]])."),
+    ] = None,
+    speed: Annotated[
+        Optional[float], typer.Option("--speed", help="One speed for the whole distance [km/h] (instead of a cycle).")
+    ] = None,
+    step_km: Annotated[float, typer.Option("--step-km", help="Distance step between simulated windows [km].")] = 1000.0,
+    revolutions: Annotated[int, typer.Option("--revolutions", help="Simulated revolutions per window where the tread vibrates.")] = 16,
+    json_: JsonOpt = False,
+    plot: PlotOpt = None,
+    polar: Annotated[Optional[Path], typer.Option("--polar", help="Polar figure of the worn tire (png, pdf, svg).")] = None,
+    waterfall: Annotated[Optional[Path], typer.Option("--waterfall", help="Order amplitudes over distance (png, pdf, svg).")] = None,
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write w(distance, angle) and the harmonics (.nc).")] = None,
+    quiet: QuietOpt = False,
+) -> None:
+    """Worn profile over distance from seeded roughness: depth, polygon order, visible distance."""
+    output_file(out, "--out", (".nc",))
+    for path, option in ((plot, "--plot"), (polar, "--polar"), (waterfall, "--waterfall")):
+        output_file(path, option, PLOT_SUFFIXES)
+    if not (math.isfinite(distance_km) and 0.0 < distance_km <= 1e7):
+        raise UserError(f"--distance-km {distance_km:g}: must be in (0, 1e7]")
+    if not (math.isfinite(step_km) and 0.0 < step_km <= distance_km):
+        raise UserError(f"--step-km {step_km:g}: must be positive and at most --distance-km")
+    if distance_km / step_km > 10_000:
+        raise UserError(f"--step-km {step_km:g}: more than 10000 steps; use a longer step")
+    check_count(revolutions, "--revolutions", 6, 1000)
+    if speed is not None and cycle is not None:
+        raise UserError("--speed and --cycle: give one of them")
+    if speed is not None and not (math.isfinite(speed) and 0.0 < speed <= MAX_SPEED_KMH):
+        raise UserError(f"--speed {speed:g}: must be in (0, {MAX_SPEED_KMH:g}] km/h")
+    params = load(config, set_)
+    pairs = ((float(speed), 1.0),) if speed is not None else (parse_cycle(cycle) if cycle else None)
+    from ..analysis.wear_evolution import evolve
+    from .common import progress
+
+    with progress("wear evolve", total=distance_km, enabled=not quiet) as advance:
+        done = [0.0]
+
+        def on_step(distance):
+            advance(distance - done[0])
+            done[0] = distance
+
+        try:
+            result = evolve(params, distance_km, pairs, step_km, revolutions, on_step=on_step)
+        except (ValueError, RuntimeError, ArithmeticError) as exc:
+            raise UserError(f"wear evolve: {exc}") from None
+    if out:
+        write_output(out, result.save, quiet)
+    if plot:
+        write_figure(plot, lambda: one_axes(result.plot, (8, 4.5)), quiet)
+    if polar:
+        write_figure(polar, lambda: _polar_figure(result), quiet)
+    if waterfall:
+        write_figure(waterfall, lambda: one_axes(result.plot_waterfall, (8, 4.5)), quiet)
+    summary = result.summary()
+    if json_:
+        emit_json(summary)
+        return
+    visible = summary["visible_km"]
+    typer.echo(f"model {summary['model']}: {summary['distance_km']:,.0f} km; distances scale as 1/k_e")
+    for row in summary["cycle"]:
+        state = ("no vibration" if row["vibration_order_end"] is None else
+                 f"vibrating at order {row['vibration_order_end']:.4f}"
+                 + (" (locked)" if row["locked_fraction"] else " (not locked)"))
+        typer.echo(f"  {row['speed_kmh']:6.1f} km/h, share {row['share']:.2f}: {state}")
+    typer.echo(f"depth {summary['initial_depth_mm']:.4f} -> {summary['final_depth_mm']:.4f} mm peak-to-valley, "
+               f"dominant order {summary['dominant_order']}, mean wear {summary['mean_wear_mm']:.2f} mm")
+    typer.echo(f"polygon visible ({summary['visible_depth_mm']} mm) after {visible:,.0f} km" if visible is not None
+               else f"polygon not visible ({summary['visible_depth_mm']} mm) within the distance")
+
+
+def _polar_figure(result):
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure(figsize=(5.5, 5.5))
+    result.plot_polar(fig.add_subplot(projection="polar"))
+    return fig
