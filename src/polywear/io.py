@@ -18,7 +18,21 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
 
-__all__ = ["atomic_path", "write_text", "fresh_directory"]
+__all__ = ["atomic_path", "write_text", "fresh_directory", "remove_partial"]
+
+_PARTIAL: set[Path] = set()
+"""Temporary files and folders being written now (removed by :func:`remove_partial`)."""
+
+
+def remove_partial() -> None:
+    """Delete every temporary file or folder still being written (for an immediate exit:
+    the command line's Ctrl-C handler calls it before ``os._exit``)."""
+    for path in list(_PARTIAL):
+        if path.is_dir():
+            shutil.rmtree(path, ignore_errors=True)
+        else:
+            path.unlink(missing_ok=True)
+        _PARTIAL.discard(path)
 
 
 def _umask() -> int:
@@ -45,6 +59,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     fd, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=f".part{path.suffix}")
     os.close(fd)
     tmp = Path(name)
+    _PARTIAL.add(tmp)
     try:
         yield tmp
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the usual permissions
@@ -52,6 +67,8 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+    finally:
+        _PARTIAL.discard(tmp)
 
 
 def write_text(path: str | Path, text: str) -> None:
@@ -69,6 +86,7 @@ def fresh_directory(path: str | Path) -> Iterator[Path]:
     """
     path = Path(path)
     new = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.new-"))
+    _PARTIAL.add(new)
     old: Path | None = None
     try:
         yield new
@@ -83,5 +101,6 @@ def fresh_directory(path: str | Path) -> Iterator[Path]:
         shutil.rmtree(new, ignore_errors=True)
         raise
     finally:
+        _PARTIAL.discard(new)
         if old is not None:
             shutil.rmtree(old, ignore_errors=True)

@@ -103,15 +103,33 @@ def _gather(completed, futures: dict, batches: list[list], report) -> list:
     return [value for batch in results for value in batch]
 
 
+def _ignore_interrupt() -> None:
+    """Worker initializer: Ctrl-C is the parent's to handle (no traceback per worker)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _processes(func, items, workers, batch_size, report) -> list:
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     batches = _batches(items, batch_size or default_batch_size(len(items), workers))
     context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=min(workers, len(batches)), mp_context=context) as pool:
+    before = set(multiprocessing.active_children())
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(batches)), mp_context=context,
+                               initializer=_ignore_interrupt)
+    try:
         futures = {pool.submit(run_batch, func, batch): i for i, batch in enumerate(batches)}
         return _gather(as_completed(futures), futures, batches, report)
+    except BaseException:
+        # interrupted or failed: stop the pool's workers now instead of waiting for their batches
+        pool.shutdown(wait=False, cancel_futures=True)
+        for child in set(multiprocessing.active_children()) - before:
+            child.terminate()
+        raise
+    finally:
+        pool.shutdown(wait=True)
 
 
 def _dask(func, items, scheduler, batch_size, report) -> list:
