@@ -249,3 +249,24 @@ def test_failed_extension_keeps_the_edge_open(monkeypatch):
     assert s["speed_range_kmh"] == [20.0, 300.0] and s["open_at"] == "lower"
     assert s["first_bifurcation_speed_kmh"] is None and s["sev_band_kmh"][0][0] is None
     assert "range not widened to 1-300 km/h: no equilibrium below 20 km/h" in s["range_notes"][-1]
+
+
+def test_sweep_band_reaching_the_grid_end_is_open():
+    """The brute-force sweep: a band that reaches the last grid speed has no second
+    bifurcation speed (null, open_at "upper"), one inside the grid keeps both."""
+    from types import SimpleNamespace
+
+    from polywear.analysis.bifurcation import sweep_bands
+
+    speeds = [20.0, 40.0, 60.0, 80.0]
+
+    def result(flags):
+        runs = [SimpleNamespace(outcome="cycle" if f else "equilibrium", steady=True) for f in flags]
+        return SimpleNamespace(speeds_kmh=speeds, params=Params(),
+                               runs={k: runs for k in ("small", "large", "up", "down")})
+
+    s = sweep_bands(result([False, True, True, True]))
+    assert s["open_at"] == "upper" and s["second_bifurcation_speed_kmh"] is None
+    assert s["first_bifurcation_speed_kmh"] == 40.0 and s["warnings"]
+    s = sweep_bands(result([False, True, True, False]))
+    assert s["open_at"] is None and (s["first_bifurcation_speed_kmh"], s["second_bifurcation_speed_kmh"]) == (40.0, 60.0)
