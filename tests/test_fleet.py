@@ -1,0 +1,232 @@
+"""Fleet risk: spec validation (one-line errors), distributions and the copula against
+scipy and closed forms, exact binomial intervals that cover, risk against the toe law of
+tread1dof, bit-identical resume, and the same numbers on serial, processes and Dask."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from polywear.analysis.bifurcation import bifurcation_diagram
+from polywear.analysis.fast_band import _FIXED_RANGE, band_reference
+from polywear.analysis.fleet import FleetResult, FleetSpec, fleet_risk, load_fleet_spec, main_effects, sample_fleet
+from polywear.params import Params, ParameterError
+
+from .cli_runner import run_main
+
+TOE_SPEC = """
+[fleet]
+samples = {samples}
+seed = {seed}
+checkpoint_every = {every}
+speed_range_kmh = [10.0, 600.0]
+[[fleet.parameter]]
+key = "operating.toe_deg"
+distribution = "normal"
+mean = 0.5
+std = 0.08
+[[fleet.usage]]
+speed_kmh = 110
+share = 0.7
+[[fleet.usage]]
+speed_kmh = 60
+share = 0.3
+"""
+
+
+def _spec(tmp_path, samples=12, seed=3, every=5, text=TOE_SPEC):
+    path = tmp_path / "fleet.toml"
+    path.write_text(text.format(samples=samples, seed=seed, every=every))
+    return load_fleet_spec(path, Params())
+
+
+@pytest.fixture(scope="module")
+def reference():
+    """The nominal car's diagram (toe 0.5 deg), shared by the evaluations below."""
+    return band_reference(bifurcation_diagram(Params(), (10.0, 600.0), **_FIXED_RANGE))
+
+
+# -- spec validation ---------------------------------------------------------------------------
+BAD_SPECS = [
+    ("[other]\nx = 1\n", "no [fleet] table"),
+    ("[fleet\n", "not valid TOML"),
+    ('[fleet]\n[[fleet.parameter]]\nkey = "operating.toe_deg"\ndistribution = "normal"\nmean = 0.3\n'
+     '[[fleet.usage]]\nspeed_kmh = 100\nshare = 1\n', "normal needs std"),
+    ('[fleet]\n[[fleet.parameter]]\nkey = "operating.nope"\ndistribution = "uniform"\nlow = 0\nhigh = 1\n'
+     '[[fleet.usage]]\nspeed_kmh = 100\nshare = 1\n', "unknown key operating.nope"),
+    ('[fleet]\n[[fleet.parameter]]\nkey = "operating.toe_deg"\ndistribution = "gamma"\n'
+     '[[fleet.usage]]\nspeed_kmh = 100\nshare = 1\n', "fleet.parameter.0.distribution"),
+    ('[fleet]\n[[fleet.parameter]]\nkey = "operating.toe_deg"\ndistribution = "uniform"\nlow = 0.2\nhigh = 0.4\n'
+     '[[fleet.usage]]\nspeed_kmh = 100\nshare = 0\n', "positive total share"),
+    ('[fleet]\n[[fleet.parameter]]\nkey = "operating.toe_deg"\ndistribution = "uniform"\nlow = 0.2\nhigh = 0.4\n'
+     '[[fleet.parameter]]\nkey = "operating.camber_deg"\ndistribution = "normal"\nmean = -1\nstd = 0.2\n'
+     '[fleet.correlation]\nkeys = ["operating.toe_deg", "operating.camber_deg"]\nmatrix = [[1, 1.2], [1.2, 1]]\n'
+     '[[fleet.usage]]\nspeed_kmh = 100\nshare = 1\n', "fleet.correlation"),
+    ('[fleet]\n[[fleet.parameter]]\nkey = "operating.vertical_load_n"\ndistribution = "discrete"\n'
+     'values = [3000, 4000]\nweights = [1]\n[[fleet.usage]]\nspeed_kmh = 100\nshare = 1\n', "as many weights"),
+]
+
+
+@pytest.mark.parametrize("text, fragment", BAD_SPECS)
+def test_bad_specs_are_one_line_errors(tmp_path, text, fragment):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    code, out, err = run_main(["fleet", "--spec", str(path), "--backend", "serial", "-q"])
+    assert code == 2 and out == ""
+    assert fragment in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+
+
+# -- sampling ------------------------------------------------------------------------------------
+MARGINALS = [
+    {"key": "tread.mass_kg", "distribution": "normal", "mean": 0.1, "std": 0.01},
+    {"key": "operating.toe_deg", "distribution": "truncnormal", "mean": 0.3, "std": 0.1, "low": 0.2, "high": 0.5},
+    {"key": "operating.vertical_load_n", "distribution": "lognormal", "mean": 4000.0, "std": 600.0},
+    {"key": "tread.lateral_damping_ns_per_m", "distribution": "uniform", "low": 60.0, "high": 100.0},
+    {"key": "friction.mu_static", "distribution": "discrete", "values": [0.6, 0.8, 1.0], "weights": [1, 2, 1]},
+]
+
+
+def _frozen(q):
+    if q["distribution"] == "normal":
+        return stats.norm(q["mean"], q["std"])
+    if q["distribution"] == "truncnormal":
+        a, b = (q["low"] - q["mean"]) / q["std"], (q["high"] - q["mean"]) / q["std"]
+        return stats.truncnorm(a, b, loc=q["mean"], scale=q["std"])
+    if q["distribution"] == "lognormal":
+        s2 = math.log1p((q["std"] / q["mean"]) ** 2)
+        return stats.lognorm(math.sqrt(s2), scale=q["mean"] * math.exp(-0.5 * s2))
+    return stats.uniform(q["low"], q["high"] - q["low"])
+
+
+def test_marginals_follow_their_distributions():
+    rho = 0.6
+    spec = FleetSpec(samples=20000, seed=11, parameter=MARGINALS, usage=[{"speed_kmh": 100.0, "share": 1.0}],
+                     correlation={"keys": ["tread.mass_kg", "operating.toe_deg"], "matrix": [[1, rho], [rho, 1]]})
+    X = sample_fleet(spec)
+    for j, q in enumerate(MARGINALS[:4]):
+        assert stats.kstest(X[:, j], _frozen(q).cdf).pvalue > 1e-3, q["key"]
+    lognormal = X[:, 2]
+    assert abs(lognormal.mean() - 4000.0) < 4 * 600.0 / math.sqrt(len(lognormal))
+    truncated = X[:, 1]
+    assert truncated.min() >= 0.2 and truncated.max() <= 0.5
+    counts = np.array([np.sum(X[:, 4] == v) for v in (0.6, 0.8, 1.0)])
+    assert counts.sum() == len(X)
+    assert stats.chisquare(counts, len(X) * np.array([0.25, 0.5, 0.25])).pvalue > 1e-3
+    # Gaussian copula: Spearman's rho of the pair is (6 / pi) asin(rho / 2) whatever the marginals
+    expected = 6.0 / math.pi * math.asin(rho / 2.0)
+    assert abs(stats.spearmanr(X[:, 0], X[:, 1]).statistic - expected) < 0.02
+    # uncorrelated pairs stay uncorrelated
+    assert abs(stats.spearmanr(X[:, 2], X[:, 3]).statistic) < 0.03
+    # a seed gives the same samples; another seed others
+    np.testing.assert_array_equal(X, sample_fleet(spec))
+    assert not np.array_equal(X, sample_fleet(spec.model_copy(update={"seed": 12})))
+
+
+def test_clopper_pearson_intervals_cover():
+    """Exact binomial intervals of the risk cover the true probability at least 95 % of the time."""
+    spec = FleetSpec(samples=60, parameter=MARGINALS[:1], usage=[{"speed_kmh": 100.0, "share": 1.0}])
+    rng = np.random.default_rng(5)
+    p_true, covered, trials = 0.17, 0, 400
+    for _ in range(trials):
+        values = np.zeros((60, 5))
+        values[:, 2] = rng.random(60) < p_true
+        result = FleetResult(Params(), spec, np.zeros((60, 1)), values, ["ok"] * 60)
+        _, _, lo, hi = result.risk_ci()
+        covered += lo <= p_true <= hi
+    assert covered / trials >= 0.95 - 3 * math.sqrt(0.05 * 0.95 / trials)
+
+
+def test_main_effects_find_the_driver():
+    rng = np.random.default_rng(2)
+    X = rng.random((4000, 3))
+    y = (X[:, 1] > 0.7).astype(float)  # only the second column matters: Var(E[y|x2]) / Var(y) = 1
+    effects = main_effects(X, y)
+    assert effects[1] > 0.95 and max(effects[0], effects[2]) < 0.02
+
+
+# -- evaluation ----------------------------------------------------------------------------------
+@pytest.mark.slow
+def test_risk_matches_the_toe_law(tmp_path, reference):
+    """tread1dof: every speed scales as 1/sin(toe), so the cars at risk are those with toe in a
+    closed-form interval; the exact interval of the sampled risk must cover that probability."""
+    spec = _spec(tmp_path, samples=40, seed=4, every=40)
+    result = fleet_risk(Params(), spec, backend="serial", reference=reference)
+    assert result.summary()["failed_samples"] == 0
+    band = reference.band
+    v1, v2 = band.first_bifurcation_kmh, band.second_bifurcation_kmh
+    s0 = math.sin(math.radians(0.5))
+    toe = stats.norm(0.5, 0.08)
+
+    def p_in_band(v):  # V1(toe) <= v <= V2(toe)  <=>  s0 v1 / v <= sin(toe) <= s0 v2 / v
+        lo = math.degrees(math.asin(s0 * v1 / v))
+        hi = math.degrees(math.asin(min(s0 * v2 / v, 1.0)))
+        return lo, hi
+
+    (a1, b1), (a2, b2) = p_in_band(110.0), p_in_band(60.0)
+    lo, hi = min(a1, a2), max(b1, b2)  # the two toe intervals overlap for these speeds
+    assert max(a1, a2) <= min(b1, b2)
+    expected = toe.cdf(hi) - toe.cdf(lo)
+    k, n, ci_lo, ci_hi = result.risk_ci()
+    assert ci_lo <= expected <= ci_hi, (k, n, expected)
+    # each car individually: at risk exactly when its toe lies in [lo, hi]
+    np.testing.assert_array_equal(result.values[:, 2] == 1.0, (result.samples[:, 0] >= lo) & (result.samples[:, 0] <= hi))
+
+
+@pytest.mark.slow
+def test_resume_is_bit_identical(tmp_path, reference):
+    spec = _spec(tmp_path, samples=10, every=4)
+    whole = fleet_risk(Params(), spec, backend="serial", reference=reference)
+    seen = []
+
+    def interrupt(n):  # after the second chunk is computed, before its checkpoint is written
+        seen.append(n)
+        if sum(seen) >= 8:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        fleet_risk(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path,
+                   on_progress=interrupt, batch_size=4)
+    assert int(np.load(tmp_path / "fleet_checkpoint.npz")["done"]) == 4
+    resumed = fleet_risk(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path,
+                         resume=True)
+    np.testing.assert_array_equal(whole.values, resumed.values)
+    assert whole.status == resumed.status
+    other = _spec(tmp_path, samples=10, every=4, seed=99)
+    with pytest.raises(ParameterError, match="checkpoint of another"):
+        fleet_risk(Params(), other, backend="serial", reference=reference, checkpoint_dir=tmp_path, resume=True)
+
+
+@pytest.mark.slow
+def test_same_numbers_on_serial_processes_and_dask(tmp_path, reference):
+    from distributed import LocalCluster
+
+    spec = _spec(tmp_path, samples=8, every=8)
+    serial = fleet_risk(Params(), spec, backend="serial", reference=reference)
+    processes = fleet_risk(Params(), spec, backend="processes", workers=2, reference=reference)
+    np.testing.assert_array_equal(serial.values, processes.values)
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1", dashboard_address=None,
+                           processes=True)
+    try:
+        dask = fleet_risk(Params(), spec, backend="dask", scheduler=cluster.scheduler_address, reference=reference,
+                          batch_size=1)
+    finally:
+        cluster.close()
+    np.testing.assert_array_equal(serial.values, dask.values)
+    assert serial.status == processes.status == dask.status
+
+
+def test_cli_json_summary(tmp_path):
+    path = tmp_path / "fleet.toml"
+    path.write_text(TOE_SPEC.format(samples=3, seed=1, every=3))
+    code, out, err = run_main(["fleet", "--spec", str(path), "--backend", "serial", "--json", "-q",
+                               "--out", str(tmp_path / "fleet.nc")])
+    assert code == 0, err
+    import json
+
+    s = json.loads(out)
+    assert s["n_samples"] == 3 and s["failed_samples"] == 0
+    assert 0.0 <= s["risk_ci"][0] <= s["risk_probability"] <= s["risk_ci"][1] <= 1.0
+    assert (tmp_path / "fleet.nc").exists()
