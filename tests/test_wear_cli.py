@@ -52,3 +52,37 @@ def test_wear_map_bad_input_is_one_line_exit_2(args, fragment):
     assert code == 2 and out == ""
     lines = err.strip().splitlines()
     assert len(lines) == 1 and fragment in lines[0], err
+
+
+def test_wear_evolve_json_and_files(tmp_path):
+    nc, png = tmp_path / "e.nc", tmp_path / "polar.png"
+    code, out, err = run_main(["wear", "evolve", "--speed", "40", "--distance-km", "2000", "--step-km", "1000",
+                               "--json", "-q", "-o", str(nc), "--polar", str(png)])
+    assert code == 0, err
+    summary = json.loads(out)
+    assert summary["distance_km"] == 2000.0 and summary["distances_scale_as"] == "1/k_e"
+    assert summary["cycle"] == [{"speed_kmh": 40.0, "share": 1.0, "vibration_order_end": None, "locked_fraction": 0.0}]
+    assert summary["final_depth_mm"] > summary["initial_depth_mm"] > 0 and summary["visible_km"] is None
+    import xarray as xr
+
+    with xr.open_dataset(nc, engine="h5netcdf") as ds:
+        assert ds["w"].dims == ("distance_km", "angle_deg") and ds.sizes["angle_deg"] == 720
+    assert png.stat().st_size > 0
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["--cycle", "120:0.5,80:0.4"], "sum to 1"),
+    (["--cycle", "120"], "speed:share"),
+    (["--cycle", "120:0.5,120:0.5"], "more than once"),
+    (["--cycle", "0:1"], "speed 0"),
+    (["--speed", "50", "--cycle", "50:1"], "one of them"),
+    (["--distance-km", "-5"], "--distance-km"),
+    (["--step-km", "0"], "--step-km"),
+    (["--revolutions", "2"], "--revolutions"),
+    (["--polar", "x.gif"], "--polar"),
+])
+def test_wear_evolve_bad_input(args, fragment):
+    code, out, err = run_main(["wear", "evolve", *args])
+    assert code == 2 and out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and fragment in lines[0], err
