@@ -40,6 +40,14 @@ __all__ = [
 ]
 
 
+MAX_SPEED_KMH = 1000.0
+"""Highest speed any key or option accepts [km/h]."""
+MAX_STUDY_BASE = 65536
+"""Largest study.n_base (sobol: N (2D + 2) runs, already about a million for D = 7)."""
+MAX_BOOTSTRAP = 100_000
+"""Most bootstrap resamples of a study."""
+
+
 class ParameterError(ValueError):
     """A configuration value is unknown, of the wrong type or out of range (one line)."""
 
@@ -56,7 +64,7 @@ def _f(default: float, description: str, **rules: float) -> Any:
 class Operating(_Table):
     """Operating point of the wheel on the drum."""
 
-    speed_kmh: float = _f(110.0, "vehicle (drum) speed V [km/h]", gt=0.0, le=1000.0)
+    speed_kmh: float = _f(110.0, "vehicle (drum) speed V [km/h]", gt=0.0, le=MAX_SPEED_KMH)
     toe_deg: float = _f(0.5, "static toe-in per wheel [deg]", gt=-20.0, lt=20.0)
     camber_deg: float = _f(-1.0, "static camber, positive top outward [deg]", gt=-20.0, lt=20.0)
     vertical_load_n: float = _f(4000.0, "static vertical load N0 [N]", gt=0.0)
@@ -174,7 +182,7 @@ CYCLE_SHARE_TOLERANCE = 0.01
 class WearCycleEntry(_Table):
     """One speed of the drive cycle and the share of the distance driven at it."""
 
-    speed_kmh: float = Field(description="vehicle speed [km/h]", gt=0.0, le=1000.0)
+    speed_kmh: float = Field(description="vehicle speed [km/h]", gt=0.0, le=MAX_SPEED_KMH)
     share: float = Field(description="share of the distance driven at this speed [-]", gt=0.0, le=1.0)
 
     _to_float = field_validator("speed_kmh", "share", mode="before")(_number)
@@ -331,16 +339,18 @@ class Study(_Table):
             raise ParameterError(f"study.n_base = {n!r}: sobol needs a power of 2, at least 8")
         if self.method == "morris" and n < 4:
             raise ParameterError(f"study.n_base = {n!r}: morris needs at least 4 trajectories")
+        if n > MAX_STUDY_BASE:
+            raise ParameterError(f"study.n_base = {n!r}: at most {MAX_STUDY_BASE}")
         if self.morris_levels < 2:
             raise ParameterError(f"study.morris_levels = {self.morris_levels!r}: must be at least 2")
         if self.seed < 0:
             raise ParameterError(f"study.seed = {self.seed!r}: must be >= 0")
-        if self.bootstrap < 10:
-            raise ParameterError(f"study.bootstrap = {self.bootstrap!r}: must be at least 10")
+        if not 10 <= self.bootstrap <= MAX_BOOTSTRAP:
+            raise ParameterError(f"study.bootstrap = {self.bootstrap!r}: must be between 10 and {MAX_BOOTSTRAP}")
         for name in ("speed_range_kmh", "operating_range_kmh"):
             lo, hi = getattr(self, name)
-            if not 0.0 < lo < hi:
-                raise ParameterError(f"study.{name} = [{lo!r}, {hi!r}]: need 0 < low < high")
+            if not 0.0 < lo < hi <= MAX_SPEED_KMH:
+                raise ParameterError(f"study.{name} = [{lo!r}, {hi!r}]: need 0 < low < high <= {MAX_SPEED_KMH:g}")
         keys = [q.key for q in self.parameters]
         duplicates = sorted({k for k in keys if keys.count(k) > 1})
         if duplicates:
