@@ -3,7 +3,7 @@
 #
 #   scripts/bootstrap.sh [EXTRAS]      e.g. scripts/bootstrap.sh test
 #
-# Idempotent: reinstalls only when pyproject.toml or the requested extras changed.
+# Idempotent: installs only when pyproject.toml changed or a requested extra is missing.
 # Needs Python >= 3.11 as $PYTHON (default: python3). Status lines go to stderr.
 set -euo pipefail
 
@@ -22,12 +22,25 @@ if [ ! -x "$venv/bin/python" ]; then
     "$venv/bin/python" -m pip install --quiet --upgrade pip >&2
 fi
 
+# The stamp records what is installed: pyproject.toml's hash and the extras. pip runs
+# only when pyproject.toml changed or an extra is wanted that is not installed yet (then
+# with the union of the old and the new extras); otherwise nothing touches the network,
+# so `./run.sh` after `./test.sh` neither reinstalls nor needs to be online.
 stamp="$venv/.polywear-install"
-want="$(cat "$repo/pyproject.toml" | sha256sum | cut -c1-16) extras=[$extras]"
-if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
+hash="$(sha256sum < "$repo/pyproject.toml" | cut -c1-16)"
+old_hash=""
+old_extras=""
+if [ -f "$stamp" ]; then
+    old_hash="$(sed -n 's/^pyproject=//p' "$stamp")"
+    old_extras="$(sed -n 's/^extras=//p' "$stamp")"
+    [ -n "$old_hash" ] || old_extras="$(sed -n 's/.* extras=\[\(.*\)\]$/\1/p' "$stamp")"  # older one-line stamp
+fi
+# union of the installed and the requested extras, sorted, comma-separated
+all_extras="$(printf '%s\n' ${old_extras//,/ } ${extras//,/ } | sed '/^$/d' | sort -u | paste -sd, -)"
+if [ "$hash" != "$old_hash" ] || [ "$all_extras" != "$old_extras" ]; then
     spec="$repo"
-    [ -n "$extras" ] && spec="$repo[$extras]"
-    say "installing polywear${extras:+[$extras]} into $venv (first time: a minute or two)"
+    [ -n "$all_extras" ] && spec="$repo[$all_extras]"
+    say "installing polywear${all_extras:+[$all_extras]} into $venv (a minute or two the first time)"
     "$venv/bin/python" -m pip install --quiet -e "$spec" >&2
-    echo "$want" > "$stamp"
+    printf 'pyproject=%s\nextras=%s\n' "$hash" "$all_extras" > "$stamp"
 fi
