@@ -279,7 +279,7 @@ class StudyEvaluator:
         for info in diagram.branch_info:
             if info["end_reason"].startswith(("step size underflow", "maximum number")):
                 return (np.nan,) * 4, f"failed: continuation from {info['from_hopf_kmh']:.2f} km/h: {info['end_reason']}"
-        band, status = _band_outputs(diagram.sev_band_kmh, self.speed_range_kmh)
+        band, status = _band_outputs(diagram.sev_band_kmh, diagram.speed_range_kmh)  # the range as widened
         amplitude = max_stable_amplitude(diagram, self.operating_range_kmh) * 1e3
         return (*band, amplitude), status
 
