@@ -13,7 +13,7 @@ app = typer.Typer(help="Show or write parameter sets (TOML).", no_args_is_help=T
 
 
 @app.command("show")
-def show(config: ConfigOpt = None, set_: SetOpt = None, json_: JsonOpt = False) -> None:
+def show(config: ConfigOpt = None, set_: SetOpt = None, json_: JsonOpt = False, quiet: QuietOpt = False) -> None:
     """Print the resolved parameter set (defaults, file, --set) as TOML."""
     from ..params import to_toml
 
@@ -28,6 +28,7 @@ def show(config: ConfigOpt = None, set_: SetOpt = None, json_: JsonOpt = False) 
 def init(
     path: Annotated[Path, typer.Argument(help="File to write.")],
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
+    quiet: QuietOpt = False,
 ) -> None:
     """Write a commented TOML file with every key at its default."""
     from ..params import default_toml
@@ -36,7 +37,7 @@ def init(
     output_file(path, "params init", (".toml",))
     if path.exists() and not force:
         raise UserError(f"{path}: exists (use --force to overwrite)")
-    write_output(path, lambda tmp: tmp.write_text(default_toml(), encoding="utf-8"))
+    write_output(path, lambda tmp: tmp.write_text(default_toml(), encoding="utf-8"), quiet)
 
 
 @app.command("from-tir")
