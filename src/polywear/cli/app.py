@@ -42,6 +42,7 @@ def _register() -> None:
         fleet_cmd,
         friction_cmd,
         map_cmd,
+        measure_cmd,
         params_cmd,
         report_cmd,
         sensitivity_cmd,
@@ -65,6 +66,7 @@ def _register() -> None:
     app.command("report")(report_cmd.report)
     app.add_typer(wear_cmd.app, name="wear")
     app.command("calibrate")(calibrate_cmd.calibrate)
+    app.add_typer(measure_cmd.app, name="measure")
 
 
 _register()

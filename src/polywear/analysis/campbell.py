@@ -1,0 +1,713 @@
+"""Measured run-ups and coast-downs as a Campbell map, with automatic SEV detection.
+
+A run (time, vehicle or wheel speed, one or more acceleration channels) becomes a
+spectrogram per channel (Hann windows, ``scipy.signal.spectrogram``), each time slice
+placed at its mean speed: the Campbell map. On it:
+
+* **Features.** Spectral peaks that stand ``peak_db`` above the slice's spectral floor (a
+  running median over ``FLOOR_BINS`` frequency bins) are linked from slice to slice into
+  ridges. A ridge is classified by the
+  slope of ``ln f`` against ``ln V``: about 1, an *order-tracking* feature (a worn polygon,
+  an imbalance: ``f = n V / (2 pi R)``, with its order ``n``); about 0, a
+  *constant-frequency* feature (SEV, or a structural mode excited by the road).
+* **SEV** is a constant-frequency feature that switches on within the run and stands
+  ``sev_db`` above the floor. Its onset and offset speeds come from the envelope of the
+  band-passed signal (``|hilbert|``, smoothed over 10 periods): the last upward crossing of
+  the floor + 20 dB before the SEV is fully developed, and the first downward crossing
+  after it; uncertainty: half the speed between the +14 dB and +26 dB crossings. Its
+  frequency at onset from the phase of the analytic signal over the first second
+  (uncertainty from the scatter of the phase fit), its amplitude as sqrt(2) x RMS of the
+  band over the developed part (uncertainty: scatter over 1 s blocks).
+* **Ramp delay.** A run-up passes a slowly moving Hopf point late: the amplitude needs
+  time to grow from the disturbance level to the detection threshold. :func:`ramp_delay`
+  simulates the model along the measured ramp through its nearest Hopf point, the tread
+  kicked by random displacements every 20 ms, and runs the same detector on the
+  simulated tread acceleration: delay = ``V_onset,sim - V_Hopf``. The kick size is matched
+  to the measurement: the ratio of the floor to the SEV level 10 km/h after the onset is
+  made the same (the floor is linear in the kicks, the developed SEV is not). The
+  measured onset is corrected by the delay; its uncertainty adds half the spread of the
+  delays for kicks 3x smaller and 3x larger. Sensor noise raises the measured floor and
+  so makes the matched kicks, and the correction, an underestimate.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..params import ParameterError, Params
+
+__all__ = [
+    "MeasurementError",
+    "Run",
+    "CampbellResult",
+    "read_run",
+    "campbell",
+    "ramp_delay",
+    "order_frequency_hz",
+]
+
+
+class MeasurementError(ParameterError):
+    """A measurement file cannot be read or used (one line)."""
+
+
+_TIME_UNITS = {"s": 1.0, "sec": 1.0, "second": 1.0, "seconds": 1.0, "ms": 1e-3}
+_SPEED_UNITS = {"km/h": 1.0, "kmh": 1.0, "kph": 1.0, "m/s": 3.6, "mph": 1.609344}
+_WHEEL_UNITS = {"rad/s": 1.0, "rpm": 2.0 * math.pi / 60.0, "1/min": 2.0 * math.pi / 60.0}
+_HEADER = re.compile(r"^\s*(.*?)\s*[\[(]\s*([^\])]*?)\s*[\])]\s*$")
+
+
+def order_frequency_hz(order: float, speed_kmh, radius_m: float):
+    """Frequency of wheel order n at vehicle speed V: ``n V / (2 pi R)`` [Hz]."""
+    return order * np.asarray(speed_kmh) / 3.6 / (2.0 * math.pi * radius_m)
+
+
+@dataclass
+class Run:
+    """A measured run: ``t`` [s] (uniform), ``speed_kmh``, channels name -> (samples, unit)."""
+
+    source: str
+    t: np.ndarray
+    speed_kmh: np.ndarray
+    channels: dict[str, tuple[np.ndarray, str]]
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def sample_rate_hz(self) -> float:
+        return 1.0 / float(np.median(np.diff(self.t)))
+
+
+def _split_header(name: str) -> tuple[str, str]:
+    match = _HEADER.match(str(name))
+    return (match.group(1), match.group(2).strip()) if match else (str(name).strip(), "")
+
+
+def _columns_from_csv(path: Path):
+    import pandas as pd
+
+    try:
+        frame = pd.read_csv(path, sep=None, engine="python", comment="#") if path.stat().st_size < 1_000_000 \
+            else pd.read_csv(path, comment="#")
+    except (OSError, UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+        raise MeasurementError(f"{path}: not a readable CSV run ({type(exc).__name__}: {str(exc).splitlines()[0]})") \
+            from None
+    out = {}
+    for column in frame.columns:
+        values = pd.to_numeric(frame[column], errors="coerce").to_numpy(dtype=float)
+        name, unit = _split_header(column)
+        out[name] = (values, unit)
+    return out
+
+
+def _columns_from_mdf(path: Path):
+    try:
+        from asammdf import MDF
+    except ImportError:
+        raise MeasurementError(
+            f"{path}: reading MDF files needs the optional extra: pip install 'polywear[measure]' (asammdf)"
+        ) from None
+    mdf = MDF(str(path))
+    frame = mdf.to_dataframe(time_from_zero=True)
+    out = {"time": (frame.index.to_numpy(dtype=float), "s")}
+    for column in frame.columns:
+        try:
+            unit = mdf.get(column).unit or ""
+        except Exception:  # noqa: BLE001 - asammdf raises several kinds for ambiguous names
+            unit = ""
+        out[str(column)] = (frame[column].to_numpy(dtype=float), unit)
+    return out
+
+
+def _pick(columns: dict, wanted: str | None, pattern: str, what: str, path: Path) -> str:
+    if wanted is not None:
+        if wanted not in columns:
+            raise MeasurementError(f"{path}: no column {wanted!r} (columns: {', '.join(columns)})")
+        return wanted
+    found = [c for c in columns if re.search(pattern, c, re.I)]
+    if not found:
+        raise MeasurementError(f"{path}: no {what} column found (name it e.g. '{what} [unit]', or give --{what}-column)")
+    return found[0]
+
+
+def read_run(
+    path: str | Path,
+    time_column: str | None = None,
+    speed_column: str | None = None,
+    channels: list[str] | tuple[str, ...] = (),
+    rolling_radius_m: float | None = None,
+) -> Run:
+    """Read a run from CSV (units in the header: ``time [s]``, ``speed [km/h]``, ...) or MDF4.
+
+    Time in s or ms; vehicle speed in km/h, m/s or mph, or wheel speed in rad/s or rpm
+    (converted with ``rolling_radius_m``). Channels: the named ones, else every other
+    numeric column. Rows with a missing value are dropped; a non-uniform time base is
+    interpolated onto a uniform one (noted).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise MeasurementError(f"{path}: no such file")
+    columns = _columns_from_mdf(path) if path.suffix.lower() in (".mf4", ".mdf", ".dat") else _columns_from_csv(path)
+    t_name = _pick(columns, time_column, r"^(t|time|zeit)\b", "time", path)
+    v_name = _pick(columns, speed_column, r"speed|velocity|geschw|^v\b", "speed", path)
+    t, t_unit = columns[t_name]
+    v, v_unit = columns[v_name]
+    if t_unit.lower() not in _TIME_UNITS:
+        raise MeasurementError(f"{path}: time column {t_name!r} has unit {t_unit!r}: use s or ms in the header")
+    unit = v_unit.lower()
+    if unit in _SPEED_UNITS:
+        speed = v * _SPEED_UNITS[unit]
+    elif unit in _WHEEL_UNITS:
+        if rolling_radius_m is None:
+            raise MeasurementError(f"{path}: wheel speed in {v_unit} needs the rolling radius")
+        speed = v * _WHEEL_UNITS[unit] * rolling_radius_m * 3.6
+    else:
+        raise MeasurementError(f"{path}: speed column {v_name!r} has unit {v_unit!r}: "
+                               f"use one of {', '.join([*_SPEED_UNITS, *_WHEEL_UNITS])}")
+    names = list(channels) or [c for c in columns if c not in (t_name, v_name)]
+    for name in names:
+        if name not in columns:
+            raise MeasurementError(f"{path}: no channel {name!r} (columns: {', '.join(columns)})")
+    if not names:
+        raise MeasurementError(f"{path}: no acceleration channel besides {t_name!r} and {v_name!r}")
+    data = np.column_stack([t * _TIME_UNITS[t_unit.lower()], speed] + [columns[n][0] for n in names])
+    good = np.all(np.isfinite(data), axis=1)
+    notes = []
+    if not np.all(good):
+        notes.append(f"{int(np.sum(~good))} rows with missing or non-numeric values dropped")
+    data = data[good]
+    if len(data) < 64:
+        raise MeasurementError(f"{path}: only {len(data)} usable rows")
+    order = np.argsort(data[:, 0], kind="stable")
+    data = data[order]
+    dt = np.diff(data[:, 0])
+    if not np.all(dt > 0):
+        raise MeasurementError(f"{path}: time column {t_name!r} has repeated values")
+    step = float(np.median(dt))
+    if np.max(np.abs(dt - step)) > 0.01 * step:
+        grid = np.arange(data[0, 0], data[-1, 0], step)
+        data = np.column_stack([grid] + [np.interp(grid, data[:, 0], data[:, k]) for k in range(1, data.shape[1])])
+        notes.append(f"non-uniform time base: interpolated onto {1 / step:.6g} Hz")
+    return Run(str(path), data[:, 0] - data[0, 0], data[:, 1],
+               {n: (data[:, 2 + i], columns[n][1]) for i, n in enumerate(names)}, notes)
+
+
+# -- features -----------------------------------------------------------------------------
+@dataclass
+class _Ridge:
+    segments: list[int]
+    freqs: list[float]
+    levels: list[float]
+
+
+_GAP = 4
+"""Slices a ridge may miss and still continue."""
+FLOOR_BINS = 51
+"""Width of the running median over frequency that gives each slice's spectral floor
+(narrow peaks do not move it; a coloured background does)."""
+
+
+def _predicted(ridge: _Ridge, speed: float, speeds) -> tuple[float, ...]:
+    """Where the ridge's next peak is expected at ``speed``: along its own trend of
+    ln f against ln V once it has 4 points, else as a constant or as an order."""
+    f_last, v_last = ridge.freqs[-1], speeds[ridge.segments[-1]]
+    if len(ridge.segments) >= 4:
+        v = np.log(speeds[ridge.segments[-6:]])
+        if np.ptp(v) > 1e-9:
+            slope = np.polyfit(v, np.log(ridge.freqs[-6:]), 1)[0]
+            return (f_last * (speed / v_last) ** slope,)
+    return (f_last, f_last * speed / v_last)
+
+
+def _track(freqs, level_db, peak_db, f_lo, f_hi, speeds) -> list[_Ridge]:
+    """Peaks per slice (level above the slice's floor) linked into ridges that follow
+    their own trend (so an order line crossing a constant-frequency feature does not
+    join it)."""
+    from scipy.signal import find_peaks
+
+    df = freqs[1] - freqs[0]
+    band = (freqs >= f_lo) & (freqs <= f_hi)
+    active: list[_Ridge] = []
+    done: list[_Ridge] = []
+    for k in range(level_db.shape[1]):
+        column = np.where(band, level_db[:, k], -np.inf)
+        peaks, props = find_peaks(column, height=peak_db, distance=3)
+        fpk = []  # parabolic interpolation of the peak frequency
+        for i in peaks:
+            a, b, c = level_db[i - 1, k], level_db[i, k], level_db[min(i + 1, len(freqs) - 1), k]
+            denom = a - 2 * b + c
+            fpk.append(freqs[i] + (0.5 * (a - c) / denom * df if denom < 0 else 0.0))
+        used = set()
+        for f, h in sorted(zip(fpk, props["peak_heights"]), key=lambda fh: -fh[1]):
+            best, miss = None, math.inf
+            for r in active:
+                if id(r) in used or k - r.segments[-1] > _GAP:
+                    continue
+                off = min(abs(g - f) for g in _predicted(r, speeds[k], speeds))
+                if off <= max(2.0 * df, 0.015 * f) and off < miss:
+                    best, miss = r, off
+            if best is None:
+                best = _Ridge([], [], [])
+                active.append(best)
+            best.segments.append(k)
+            best.freqs.append(float(f))
+            best.levels.append(float(h))
+            used.add(id(best))
+        still = []
+        for r in active:
+            (still if k - r.segments[-1] <= _GAP else done).append(r)
+        active = still
+    return done + active
+
+
+def _split(ridge: _Ridge, speeds, min_segments: int) -> list[_Ridge]:
+    """A ridge cut where its trend of ln f against ln V changes (an order line that ran
+    into a constant-frequency feature where their peaks merged), recursively."""
+    n = len(ridge.segments)
+    if n < 2 * min_segments:
+        return [ridge]
+    x, y = np.log(speeds[ridge.segments]), np.log(ridge.freqs)
+
+    def fit(a, b):
+        if np.ptp(x[a:b]) < 1e-9:
+            return 0.0, 0.0
+        coef, res = np.polyfit(x[a:b], y[a:b], 1, full=True)[:2]
+        return float(coef[0]), float(res[0]) if len(res) else 0.0
+
+    whole = fit(0, n)[1]
+    best = None
+    for i in range(min_segments, n - min_segments + 1):
+        (s1, r1), (s2, r2) = fit(0, i), fit(i, n)
+        if abs(s1 - s2) > 0.5 and r1 + r2 < 0.25 * whole and (best is None or r1 + r2 < best[1]):
+            best = (i, r1 + r2)
+    if best is None:
+        return [ridge]
+    i = best[0]
+    parts = (_Ridge(ridge.segments[:i], ridge.freqs[:i], ridge.levels[:i]),
+             _Ridge(ridge.segments[i:], ridge.freqs[i:], ridge.levels[i:]))
+    return [piece for part in parts for piece in _split(part, speeds, min_segments)]
+
+
+def _fundamental(strongest, candidates):
+    """The lowest candidate of which ``strongest`` is a harmonic (a strongly nonlinear cycle
+    can put more power into 2f or 3f than into f), overlapping it in time; else itself."""
+    f0 = np.median(strongest[1].freqs)
+    span = set(strongest[1].segments)
+    below = [(f, r) for f, r in candidates if np.median(r.freqs) < 0.75 * f0 and span & set(r.segments)
+             and abs(f0 / np.median(r.freqs) - round(f0 / np.median(r.freqs))) < 0.03 * f0 / np.median(r.freqs)]
+    return min(below, key=lambda fr: np.median(fr[1].freqs)) if below else strongest
+
+
+def _classify(ridge: _Ridge, speeds, radius_m, min_segments) -> dict | None:
+    if len(ridge.segments) < min_segments:
+        return None
+    v = speeds[ridge.segments]
+    f = np.array(ridge.freqs)
+    feature = {
+        "speed_from_kmh": float(v.min()), "speed_to_kmh": float(v.max()),
+        "frequency_from_hz": float(f.min()), "frequency_to_hz": float(f.max()),
+        "level_db": float(np.max(ridge.levels)), "slices": len(ridge.segments),
+    }
+    if v.max() / v.min() < 1.05:
+        feature.update(kind="unclassified", slope=None, reason="speed changes too little along it")
+        return feature
+    slope = float(np.polyfit(np.log(v), np.log(f), 1)[0])
+    feature["slope"] = slope
+    if abs(slope - 1.0) < 0.3:
+        feature.update(kind="order", order=float(np.median(f * 2.0 * math.pi * radius_m / (v / 3.6))))
+    elif abs(slope) < 0.3:
+        feature["kind"] = "constant_frequency"
+    else:
+        feature["kind"] = "unclassified"
+    return feature
+
+
+# -- envelope onset ------------------------------------------------------------------------
+def _envelope(x, fs, f0, bandwidth):
+    from scipy.signal import butter, hilbert, sosfiltfilt
+
+    lo, hi = max(f0 - bandwidth, 1.0), min(f0 + bandwidth, 0.45 * fs)
+    sos = butter(4, [lo, hi], btype="bandpass", fs=fs, output="sos")
+    y = sosfiltfilt(sos, x - np.mean(x))
+    analytic = hilbert(y)
+    n = max(1, int(round(10.0 * fs / f0)))
+    env = np.convolve(np.abs(analytic), np.ones(n) / n, mode="same")
+    return y, analytic, env
+
+
+def _remove_orders(x, speed_kmh, fs, orders, radius_m, bandwidth_hz=1.0):
+    """``x`` without the order-tracking components ``orders`` (wheel orders, float).
+
+    Each order is demodulated along its own phase ``2 pi n int V/(2 pi R) dt``, low-passed
+    to ``bandwidth_hz`` and subtracted (order tracking in the manner of a Vold-Kalman
+    filter, with a Butterworth low-pass): what follows the wheel is removed, what keeps its
+    frequency while the speed changes stays.
+    """
+    from scipy.signal import butter, sosfiltfilt
+
+    sos = butter(2, bandwidth_hz, fs=fs, output="sos")
+    out = np.asarray(x, dtype=float) - np.mean(x)
+    base = 2.0 * math.pi * np.cumsum(order_frequency_hz(1.0, speed_kmh, radius_m)) / fs
+    for n in orders:
+        rotor = np.exp(-1j * n * base)
+        slow = sosfiltfilt(sos, out * rotor)
+        out = out - 2.0 * np.real(slow * np.conj(rotor))
+    return out
+
+
+def _crossing(env, start, stop, level, backward):
+    """Index where ``env`` crosses ``level`` going outwards from the developed part."""
+    idx = range(start, -1, -1) if backward else range(stop, len(env))
+    for i in idx:
+        if env[i] < level:
+            return i
+    return None
+
+
+def _onset_offset(t, speed, env, on_index, off_index, floor):
+    """Onset/offset speeds at floor + 20 dB with threshold uncertainty (+14/+26 dB)."""
+    out = {}
+    for name, backward, anchor in (("onset", True, on_index), ("offset", False, off_index)):
+        hits = {db: _crossing(env, on_index, off_index, floor * 10 ** (db / 20), backward) for db in (14, 20, 26)}
+        if hits[20] is None:
+            out[name] = None
+            continue
+        spread = [speed[i] for i in hits.values() if i is not None]
+        out[name] = {"speed_kmh": float(speed[hits[20]]), "time_s": float(t[hits[20]]),
+                     "uncertainty_kmh": float(0.5 * (max(spread) - min(spread)))}
+    return out
+
+
+DEVELOPED_DB = 30.0
+"""SEV counts as developed where its band envelope first stands this far above the quiet
+level (10th percentile before the feature), or reaches half its 90th percentile."""
+FLOOR_WINDOW_KMH = (15.0, 5.0)
+"""The floor of the SEV band is the median envelope from 15 to 5 km/h before the SEV is
+developed (the same window in a measurement and in the ramp simulation)."""
+
+
+def _sev_from_envelope(t, speed, x, fs, f0, t_start, t_end, reference_kmh=None):
+    """Onset, offset, frequency and amplitude of a constant-frequency feature near ``f0``
+    present from ``t_start`` to ``t_end``; with ``reference_kmh`` also the floor over the
+    envelope there (``floor_ratio``)."""
+    bandwidth = max(0.05 * f0, 5.0)
+    y, analytic, env = _envelope(x, fs, f0, bandwidth)
+    inside = (t >= t_start) & (t <= t_end)
+    if not np.any(inside) or np.all(inside):
+        return None
+    quiet = env[t < t_start]
+    level = 10 ** (DEVELOPED_DB / 20) * np.percentile(quiet, 10) if quiet.size >= 16 else math.inf
+    developed = np.flatnonzero(inside & (env >= min(level, 0.5 * np.percentile(env[inside], 90))))
+    if developed.size == 0:
+        return None
+    on_index, off_index = int(developed[0]), int(developed[-1])
+    before = np.arange(on_index)
+    v_dev = speed[on_index]
+    direction = math.copysign(1.0, v_dev - speed[0]) if on_index > 0 else 1.0
+    distance = direction * (v_dev - speed[before])
+    window = before[(distance <= FLOOR_WINDOW_KMH[0]) & (distance >= FLOOR_WINDOW_KMH[1])]
+    if window.size < 16:
+        window = np.flatnonzero(~inside & (t < t_start))
+    if window.size < 16:
+        return None
+    floor = float(np.median(env[window]))
+    result = _onset_offset(t, speed, env, on_index, off_index, floor)
+    result["floor"] = floor
+    if reference_kmh is not None:
+        near = inside & (np.abs(speed - reference_kmh) <= 1.0)
+        result["floor_ratio"] = float(floor / np.median(env[near])) if np.any(near) else None
+    # frequency at onset: slope of the unwrapped phase over one second after the onset
+    start = np.searchsorted(t, result["onset"]["time_s"]) if result.get("onset") else on_index
+    window = slice(start, min(start + int(fs), off_index + 1))
+    phase = np.unwrap(np.angle(analytic[window]))
+    tt = t[window]
+    if tt.size > 64:
+        slope = np.polyfit(tt, phase, 1)[0]
+        quarters = [np.polyfit(a, b, 1)[0] for a, b in zip(np.array_split(tt, 4), np.array_split(phase, 4))]
+        result["frequency_hz"] = float(slope / (2 * math.pi))
+        # scatter of the four quarter-second estimates: noise and the drift with speed
+        result["frequency_uncertainty_hz"] = float(np.std(quarters, ddof=1) / 2.0 / (2 * math.pi))
+    developed_part = slice(on_index, off_index + 1)
+    blocks = [y[i:i + int(fs)] for i in range(on_index, off_index + 1 - int(fs), int(fs))]
+    rms = [math.sqrt(float(np.mean(b**2))) for b in blocks] or [math.sqrt(float(np.mean(y[developed_part] ** 2)))]
+    result["amplitude"] = float(math.sqrt(2.0) * np.mean(rms))
+    result["amplitude_uncertainty"] = float(math.sqrt(2.0) * np.std(rms)) if len(rms) > 1 else None
+    return result
+
+
+def ramp_delay(
+    params: Params,
+    hopf_speed_kmh: float,
+    frequency_hz: float,
+    rate_kmh_per_s: float,
+    disturbance_m: float,
+    reference_kmh: float | None = None,
+    span_kmh: float = 30.0,
+    seed: int = 0,
+) -> tuple[float | None, float | None]:
+    """Delay [km/h] with which the onset detector sees SEV after a ramp passes a Hopf point.
+
+    The model is simulated from 15 km/h before the Hopf speed to ``span_kmh`` after it (signed ``rate_kmh_per_s``: negative for a coast-down), its tread kicked by
+    Gaussian displacements of ``disturbance_m`` every 20 ms, and the tread acceleration
+    goes through the same detector as a measurement.
+
+    Returns
+    -------
+    (delay_kmh, floor_ratio)
+        The delay (None: no onset within the span) and the floor divided by the SEV
+        envelope at ``reference_kmh`` (None if not asked or not reached).
+    """
+    from .runup import simulate_ramp
+
+    direction = 1.0 if rate_kmh_per_s > 0 else -1.0
+    start = hopf_speed_kmh - direction * FLOOR_WINDOW_KMH[0]
+    end = hopf_speed_kmh + direction * span_kmh
+    fs = max(8.0 * frequency_hz, 500.0)
+    run = simulate_ramp(params, start, end, abs(rate_kmh_per_s), fs, kick_m=disturbance_m, seed=seed)
+    t_hopf = abs(hopf_speed_kmh - start) / abs(rate_kmh_per_s)
+    sev = _sev_from_envelope(run.t, run.speed_kmh, run.acceleration, fs, frequency_hz, t_hopf, run.t[-1] + 1.0,
+                             reference_kmh)
+    if sev is None or sev.get("onset") is None:
+        return None, None
+    return direction * (sev["onset"]["speed_kmh"] - hopf_speed_kmh), sev.get("floor_ratio")
+
+
+# -- the analysis ----------------------------------------------------------------------------
+@dataclass
+class CampbellResult:
+    """Campbell map of a run, detected features, SEV and the model's prediction over it."""
+
+    run: Run
+    frequencies_hz: np.ndarray
+    times_s: np.ndarray
+    speeds_kmh: np.ndarray
+    power_db: np.ndarray  # (channel, frequency, slice), channel-summed in [0] if several
+    channel_names: list[str]
+    features: list[dict]
+    sev: dict | None
+    prediction: dict
+    radius_m: float
+    settings: dict
+
+    def summary(self) -> dict:
+        return {
+            "source": self.run.source,
+            "sample_rate_hz": self.run.sample_rate_hz,
+            "speed_range_kmh": [float(self.run.speed_kmh.min()), float(self.run.speed_kmh.max())],
+            "channels": {n: u for n, (_, u) in self.run.channels.items()},
+            "features": self.features,
+            "sev": self.sev,
+            "prediction": self.prediction,
+            "notes": self.run.notes,
+        }
+
+    def to_dataset(self):
+        import xarray as xr
+
+        ds = xr.Dataset(
+            {"power_db": (("channel", "frequency_hz", "time_s"), self.power_db)},
+            coords={"channel": self.channel_names, "frequency_hz": self.frequencies_hz, "time_s": self.times_s,
+                    "speed_kmh": ("time_s", self.speeds_kmh)},
+            attrs={"source": self.run.source, "polywear_version": __version__, "rolling_radius_m": self.radius_m,
+                   **{k: str(v) for k, v in self.settings.items()}},
+        )
+        ds["power_db"].attrs["units"] = "dB (re 1 channel unit^2)"
+        return ds
+
+    def save(self, path) -> None:
+        """netCDF (.nc) of the map; the summary as JSON next to it (.json)."""
+        import json
+
+        self.to_dataset().to_netcdf(path, engine="h5netcdf")
+        Path(path).with_suffix(".json").write_text(json.dumps(self.summary(), indent=2, allow_nan=False))
+
+    def plot(self, ax=None, channel: int = 0, orders: tuple[int, ...] = tuple(range(1, 31))):
+        """Frequency against speed in dB, order rays, Hopf points, SEV band, detected SEV."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(8, 5))
+        level = self.power_db[channel]
+        order = np.argsort(self.speeds_kmh)
+        mesh = ax.pcolormesh(self.speeds_kmh[order], self.frequencies_hz, level[:, order], shading="nearest",
+                             cmap="magma", vmin=np.percentile(level, 5), vmax=np.max(level))
+        plt.colorbar(mesh, ax=ax, label="power [dB]")
+        v = np.linspace(self.speeds_kmh.min(), self.speeds_kmh.max(), 50)
+        fmax = self.frequencies_hz[-1]
+        for n in orders:
+            f = order_frequency_hz(n, v, self.radius_m)
+            if f[0] < fmax:
+                ax.plot(v, f, color="w", lw=0.4, alpha=0.35)
+        for lo, hi in self.prediction.get("sev_band_kmh", []):
+            ax.axvspan(lo, hi, ymin=0.97, ymax=1.0, color="tab:cyan", label="predicted SEV band")
+            for edge in (lo, hi):
+                ax.axvline(edge, color="tab:cyan", lw=0.8, ls=":")
+        for h in self.prediction.get("hopf_points", []):
+            ax.plot(h["speed_kmh"], h["frequency_hz"], "c^", ms=7, label="predicted Hopf point")
+        if self.sev and self.sev.get("onset"):
+            on = self.sev["onset"]
+            ax.axvline(on["speed_kmh"], color="tab:green", ls="--", label="detected SEV onset")
+            if on.get("corrected_speed_kmh") is not None:
+                ax.axvline(on["corrected_speed_kmh"], color="tab:green", label="onset, ramp-corrected")
+        handles, labels = ax.get_legend_handles_labels()
+        unique = dict(zip(labels, handles))
+        if unique:
+            ax.legend(unique.values(), unique.keys(), fontsize=7, loc="upper left")
+        ax.set_xlim(self.speeds_kmh.min(), self.speeds_kmh.max())
+        ax.set_ylim(0, fmax)
+        ax.set_xlabel("speed [km/h]")
+        ax.set_ylabel("frequency [Hz]")
+        return mesh
+
+
+def _prediction(params: Params, speed_range) -> dict:
+    from .bifurcation import bifurcation_diagram
+
+    diagram = bifurcation_diagram(params, speed_range)
+    return {
+        "hopf_points": [h.summary() for h in diagram.hopf_points],
+        "sev_band_kmh": [list(b) for b in diagram.sev_band_kmh],
+        "linear_band_kmh": [list(b) for b in getattr(diagram, "linear_band_kmh", [])],
+    }
+
+
+def campbell(
+    run: Run,
+    params: Params,
+    window_s: float = 0.5,
+    overlap: float = 0.75,
+    f_range_hz: tuple[float, float] | None = None,
+    peak_db: float = 15.0,
+    sev_db: float = 20.0,
+    predict: bool = True,
+    correct_ramp: bool = True,
+    disturbance_m: float = 1e-6,
+) -> CampbellResult:
+    """Campbell map of ``run`` with features, SEV and (``predict``) the model's band over it.
+
+    Parameters
+    ----------
+    run : Run
+    params : Params
+        The model's parameters: rolling radius for the order rays, the prediction and the
+        ramp-delay simulation.
+    window_s, overlap : float
+        Spectrogram window [s] (frequency resolution 1/window_s) and its overlap [-].
+    f_range_hz : (float, float), optional
+        Frequencies searched for features [Hz]; default 10 Hz to 0.4 fs.
+    peak_db, sev_db : float
+        Peak prominence over the bin's median level, and the level SEV must reach [dB].
+    predict : bool
+        Hopf points and SEV band of the model (a continuation) over the map.
+    correct_ramp : bool
+        Simulate the ramp through the nearest destabilizing Hopf point and correct the onset.
+    disturbance_m : float
+        Tread disturbance of the ramp simulation [m] (see :func:`ramp_delay`).
+    """
+    from scipy.ndimage import median_filter
+    from scipy.signal import spectrogram
+
+    fs = run.sample_rate_hz
+    n = int(round(window_s * fs))
+    if n < 16 or n > len(run.t) // 2:
+        raise MeasurementError(f"window of {window_s} s is {n} samples: need 16 to half the run ({len(run.t)} samples)")
+    f_lo, f_hi = f_range_hz or (10.0, 0.4 * fs)
+    power = []
+    for x, _ in run.channels.values():
+        freqs, times, sxx = spectrogram(x, fs, window="hann", nperseg=n, noverlap=int(overlap * n),
+                                        detrend="constant", scaling="spectrum")
+        power.append(sxx)
+    total = np.sum(power, axis=0)
+    tiny = np.finfo(float).tiny
+    stack = [total] + power if len(power) > 1 else power
+    power_db = 10.0 * np.log10(np.maximum(np.array(stack), tiny))
+    speeds = np.interp(times, run.t, run.speed_kmh)
+    level = power_db[0] - median_filter(power_db[0], size=(FLOOR_BINS, 1), mode="nearest")
+    radius = params.operating.rolling_radius_m
+    ridges = [piece for r in _track(freqs, level, peak_db, f_lo, f_hi, speeds) for piece in _split(r, speeds, 6)]
+    classified = [(f, r) for r in ridges for f in [_classify(r, speeds, radius, 6)] if f is not None]
+    for feature, _ in classified:
+        feature["sev"] = False
+    # SEV: constant frequency, strong, and switching on or off within the run
+    candidates = [(f, r) for f, r in classified if f["kind"] == "constant_frequency" and f["level_db"] >= sev_db
+                  and (r.segments[0] > 1 or r.segments[-1] < len(times) - 2)]
+    sev = None
+    if candidates:
+        feature, ridge = _fundamental(max(candidates, key=lambda fr: fr[0]["level_db"]), candidates)
+        feature["sev"] = True
+        for f, r in candidates:
+            ratio = np.median(r.freqs) / np.median(ridge.freqs)
+            if r is not ridge and round(ratio) >= 2 and abs(ratio - round(ratio)) < 0.03 * ratio:
+                f["harmonic_of_sev"] = int(round(ratio))
+        f0 = float(np.median(ridge.freqs))
+        strongest = max(run.channels, key=lambda name: float(np.sum(
+            np.array(power[list(run.channels).index(name)])[np.abs(freqs - f0) < 2 * (freqs[1] - freqs[0])])))
+        orders = [f["order"] for f, _ in classified if f["kind"] == "order"]
+        x = _remove_orders(run.channels[strongest][0], run.speed_kmh, fs, orders, radius) if orders \
+            else run.channels[strongest][0]
+        t_start, t_end = times[ridge.segments[0]] - window_s / 2, times[ridge.segments[-1]] + window_s / 2
+        sev = _sev_from_envelope(run.t, run.speed_kmh, x, fs, f0, t_start, t_end)
+        if sev is not None and sev.get("onset"):  # the level 10 km/h on, for the ramp correction
+            direction = math.copysign(1.0, float(np.polyfit(run.t, run.speed_kmh, 1)[0]))
+            reference = sev["onset"]["speed_kmh"] + 10.0 * direction
+            sev = _sev_from_envelope(run.t, run.speed_kmh, x, fs, f0, t_start, t_end, reference)
+        if sev is not None:
+            sev.update(channel=strongest, unit=run.channels[strongest][1], ridge_frequency_hz=f0,
+                       orders_removed=orders,
+                       frequency_range_hz=[feature["frequency_from_hz"], feature["frequency_to_hz"]])
+    prediction = _prediction(params, (max(5.0, 0.5 * run.speed_kmh.min()), max(300.0, 1.2 * run.speed_kmh.max()))) \
+        if predict else {}
+    if sev is not None and sev.get("onset") and correct_ramp:
+        _correct_onset(sev, run, params, disturbance_m)
+    features = sorted((f for f, _ in classified), key=lambda f: -f["level_db"])
+    return CampbellResult(run, freqs, times, speeds, power_db,
+                          (["sum"] if len(power) > 1 else []) + list(run.channels), features, sev, prediction,
+                          radius, {"window_s": window_s, "overlap": overlap, "peak_db": peak_db, "sev_db": sev_db,
+                                   "disturbance_m": disturbance_m})
+
+
+def _correct_onset(sev: dict, run: Run, params: Params, disturbance_m: float) -> None:
+    """Ramp rate at the onset, the model's nearest destabilizing Hopf point, the delay."""
+    from .stability import stability_analysis
+
+    onset = sev["onset"]
+    near = np.abs(run.t - onset["time_s"]) <= 2.0
+    rate = float(np.polyfit(run.t[near], run.speed_kmh[near], 1)[0])
+    onset["ramp_rate_kmh_per_s"] = rate
+    if abs(rate) < 0.05:
+        onset["correction"] = "not corrected: the speed is not ramping at the onset"
+        return
+    hopfs = stability_analysis(params, (5.0, max(300.0, 1.5 * run.speed_kmh.max())), n_speeds=300).hopf_points
+    entering = [h for h in hopfs if (h.dre_dspeed > 0) == (rate > 0)]
+    if not entering:
+        onset["correction"] = "not corrected: the model has no Hopf point entering instability in this direction"
+        return
+    hopf = min(entering, key=lambda h: abs(h.speed_kmh - onset["speed_kmh"]))
+    reference = onset["speed_kmh"] + math.copysign(10.0, rate)
+    measured_ratio = sev.get("floor_ratio")
+    delay, ratio = ramp_delay(params, hopf.speed_kmh, hopf.frequency_hz, rate, disturbance_m, reference)
+    if delay is None:
+        onset["correction"] = "not corrected: the simulated ramp shows no onset within 30 km/h of the Hopf point"
+        return
+    matched = disturbance_m * measured_ratio / ratio if measured_ratio and ratio else disturbance_m
+    delays = [ramp_delay(params, hopf.speed_kmh, hopf.frequency_hz, rate, matched * f)[0] for f in (1.0, 1 / 3, 3.0)]
+    if delays[0] is None:
+        delays[0] = delay
+        matched = disturbance_m
+    spread = [d for d in delays if d is not None]
+    onset.update(
+        hopf_speed_kmh=hopf.speed_kmh,
+        ramp_delay_kmh=delays[0],
+        disturbance_m=matched,
+        corrected_speed_kmh=onset["speed_kmh"] - math.copysign(delays[0], rate),
+        corrected_uncertainty_kmh=math.hypot(onset["uncertainty_kmh"], 0.5 * (max(spread) - min(spread))),
+        correction=(f"ramp-corrected: the model, ramped at {rate:.3g} km/h/s through its Hopf point at "
+                    f"{hopf.speed_kmh:.1f} km/h with tread kicks of {matched:.2g} m (matched to the measured "
+                    f"floor), shows SEV {delays[0]:.1f} km/h late (kicks x1/3, x3: "
+                    + ", ".join("none" if d is None else f"{d:.1f}" for d in delays[1:]) + " km/h)"),
+    )
