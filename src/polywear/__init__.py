@@ -61,7 +61,11 @@ _ENTRY_POINTS: dict[str, tuple[str, str | None]] = {
 __all__ = ["__version__", *_ENTRY_POINTS]
 
 
-_ModuleType = type(sys)  # types.ModuleType, without importing types
+TYPE_CHECKING = False  # typing.TYPE_CHECKING, without importing typing (mypy knows the name)
+if TYPE_CHECKING:
+    from types import ModuleType as _ModuleType
+else:
+    _ModuleType = type(sys)  # types.ModuleType, without importing types
 
 
 class _Package(_ModuleType):

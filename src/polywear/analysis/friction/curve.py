@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -48,6 +48,9 @@ def _friction_toml(friction: Friction, notes: dict[str, str] | None = None) -> s
 
 class _Saveable:
     """``save(path)``: the result's ``to_dataset()`` written to netCDF (h5netcdf)."""
+
+    to_dataset: Callable[[], Any]
+    """Every subclass defines it: the result as an xarray Dataset."""
 
     def save(self, path: str | Path) -> Path:
         """Write ``to_dataset()`` to a netCDF file; returns the path."""

@@ -304,15 +304,14 @@ def fit_steady_curve(
     if ratio:
         mu_s_guess = guess["mu_static"] if "mu_static" in fit else fields["mu_static"]
         guess["mu_coulomb"] = min(guess["mu_coulomb"] / mu_s_guess, 1.0)
-    best = None
+    solutions = []
     for delta in sorted({1.0, 2.0, 4.0, base.stribeck_exponent}):
         start = np.clip([{**guess, "stribeck_exponent": delta}[n] for n in fit], lower, upper)
-        sol = least_squares(residuals, start, jac=jacobian, bounds=(lower, upper), method="trf",
-                            x_scale="jac", xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=2000)
-        if best is None or sol.cost < best.cost:
-            best = sol
+        solutions.append(least_squares(residuals, start, jac=jacobian, bounds=(lower, upper), method="trf",
+                                       x_scale="jac", xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=2000))
         if "stribeck_exponent" not in fit:
             break
+    best = min(solutions, key=lambda sol: sol.cost)  # the first of equal costs, as before
 
     values = natural(best.x)
     at_bound = tuple(name for name, active in zip(fit, best.active_mask) if active != 0)
