@@ -399,6 +399,7 @@ class EvolutionResult:
             w = profile_samples(self.harmonics[i], pts) * 1e3
             r = 1.0 - scale * (w - w.min())
             artists += ax.plot(phi, np.append(r, r[0]), lw=1.0, label=f"{d[i]:,.0f} km")
+        ax.set_ylim(0.6, 1.02)
         ax.set_yticklabels([])
         ax.set_title(f"worn tread (depth x{scale:.3g} of the radius per mm)", fontsize=9)
         ax.legend(fontsize=7, loc="lower right")
