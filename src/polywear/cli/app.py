@@ -125,6 +125,11 @@ def main() -> None:
 
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, _exit_on_ctrl_c) if main_thread else None
+    # after Ctrl-C multiprocessing's resource tracker (a child started with these -W
+    # options) unlinks the process pool's semaphores, as it should, and warns about them:
+    # noise after the one "interrupted" line
+    if "ignore:resource_tracker:UserWarning" not in sys.warnoptions:
+        sys.warnoptions.append("ignore:resource_tracker:UserWarning")
     try:
         app(standalone_mode=False)
     except typer.Exit as exc:
