@@ -1,83 +1,241 @@
 """Design: parameter changes that move the SEV band out of an operating speed range.
 
 The paper's section 6 strategies (Figs. 10-12) as a computation. For each parameter
-(or a combination), the smallest change within the given bounds such that no speed of
-the operating range lies in the SEV band (where vibration persists after a large
-disturbance): either the first bifurcation speed rises above the range, or the second
-falls below it, or the band vanishes.
+(or a combination), the least change such that no speed of the operating range (widened
+by a margin) lies in the SEV band: the first bifurcation speed rises above the range,
+the second falls below it, or the band vanishes.
 
-Method: the exact sensitivities of the first/second bifurcation speeds give a linear
-estimate of the change; a secant iteration on full bifurcation diagrams (continuation)
-then finds the change that puts the band edge at the range edge plus a margin, and a
-final diagram verifies the result. Combined changes move along the direction of the
-normalized sensitivities (``dp_i / p_i`` proportional to ``S_i``: the least change in
-the relative sense) with one scalar step.
+Method. Both directions of every parameter are searched (more and less of it), and the
+least change that clears is kept. The search runs in log coordinates ``x = ln(p / p0)``
+(absolute ``x = p`` where ``p0 = 0``), in which a power law ``V ∝ p^S`` of a band edge is
+a straight line: toe, for example, moves the speeds of the tread model exactly as
+``1 / sin(toe)``, which a linear estimate in ``p`` gets badly wrong when toe is reduced.
+The exact normalized sensitivities ``S`` give the first estimate; a safeguarded secant
+iteration on full bifurcation diagrams (continuation) then brackets the least change
+that clears, to a 1 % step or to 0.5 km/h of the band edge. Every reported option is a
+computed diagram. Combined changes move along ``dx ∝ S`` of the edge to move (the least
+change in the relative sense).
+
+Options are ranked: the parameters an engineer sets (alignment, axle bushings, tread)
+first, then road/compound options (friction), then the rest; within a group the ones
+that clear within the allowed change first, then the least change. A change larger than
+the bound is still searched (up to ``search_factor``) and flagged ``within_bound = False``.
 """
 
 from __future__ import annotations
 
+import math
+import re
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
+from ..models import get_model
 from ..params import Params
 from .bifurcation import BifurcationDiagram, bifurcation_diagram
-from .sensitivity import PARAMETER_LABELS, local_sensitivity, nominal_value, perturbed
+from .sensitivity import (
+    ADHESION_SCALE,
+    PARAMETER_LABELS,
+    local_sensitivity,
+    nominal_value,
+    parameter_direction,
+    perturbed,
+)
 
-__all__ = ["DesignOption", "DesignResult", "clear_operating_range"]
+__all__ = ["DEFAULT_KEYS", "DesignOption", "DesignResult", "clear_operating_range", "parameter_category"]
+
+ALIGNMENT_KEYS = ("operating.toe_deg", "operating.camber_deg")
+BUSHING_KEYS = (
+    "axle.toe_stiffness_nm_per_rad",
+    "axle.toe_damping_nms_per_rad",
+    "axle.camber_stiffness_nm_per_rad",
+    "axle.camber_damping_nms_per_rad",
+)
+TREAD_KEYS = ("tread.lateral_stiffness_n_per_m", "tread.lateral_damping_ns_per_m")
+ROAD_KEYS = (ADHESION_SCALE, "friction.mu_static")
+DEFAULT_KEYS = ALIGNMENT_KEYS + BUSHING_KEYS + TREAD_KEYS + ROAD_KEYS
+"""Searched by default: what an engineer sets, then adhesion as a road/compound option.
+Keys that do not enter the model (camber, axle keys in tread1dof) are skipped."""
+
+ENGINEERING = ("alignment", "axle bushing", "tread")
+"""Categories of the parameters an engineer controls (ranked first)."""
+_CATEGORY_RANK = {"alignment": 0, "axle bushing": 0, "tread": 0, "road/compound": 1, "other": 2}
+
+def parameter_category(key: str) -> str:
+    """'alignment', 'axle bushing', 'tread', 'road/compound' (friction) or 'other'."""
+    if key in ALIGNMENT_KEYS:
+        return "alignment"
+    if key.startswith("axle.") and ("stiffness" in key or "damping" in key):
+        return "axle bushing"
+    if key in TREAD_KEYS:
+        return "tread"
+    if key == ADHESION_SCALE or key.startswith("friction."):
+        return "road/compound"
+    return "other"
+
+
+def parameter_unit(key: str) -> str:
+    """Unit of a configuration key from its description ('deg', 'N/m', ...); 'x' for adhesion_scale."""
+    if key == ADHESION_SCALE:
+        return "x"
+    table, name = key.split(".", 1)
+    description = Params.model_fields[table].annotation.model_fields[name].description or ""
+    units = re.findall(r"\[([^\]]*)\]", description)
+    return units[-1] if units and units[-1] != "-" else ""
+
+
+def parameter_label(key: str) -> str:
+    return PARAMETER_LABELS.get(key, key)
+
+
+def _with_unit(value: float, unit: str) -> str:
+    if unit == "deg":
+        return f"{value:.4g}°"
+    if unit == "x":
+        return f"×{value:.4g}"
+    return f"{value:.4g} {unit}" if unit else f"{value:.4g}"
+
+
+def _percent(r: float) -> str:
+    return f"{'+' if r >= 0 else '−'}{abs(r) * 100:.1f} %"
 
 
 @dataclass
 class DesignOption:
-    """One way to clear the operating range: parameter values and the resulting band."""
+    """One way to clear the operating range: parameter values and the resulting band.
+
+    ``achieved``: the range (widened by the margin) is free of SEV at ``values``;
+    ``within_bound``: the largest relative change is within the allowed one.
+    """
 
     keys: tuple[str, ...]
     nominal: tuple[float, ...]
     values: tuple[float, ...]
-    direction: str  # "up" (band above the range), "down" (below) or "none"
     achieved: bool
     sev_band_kmh: list
+    within_bound: bool = True
+    outcome: str = ""
     diagram: BifurcationDiagram | None = field(default=None, repr=False)
     note: str = ""
 
     @property
+    def relative_changes(self) -> tuple[float, ...]:
+        """Signed ``value / nominal - 1`` per key (more of a negative camber is positive); the
+        absolute change where the nominal is 0."""
+        return tuple(v / n - 1.0 if n else v for v, n in zip(self.values, self.nominal))
+
+    @property
     def relative_change(self) -> float:
-        """Largest |change / nominal| over the keys (absolute change where nominal is 0)."""
-        return max(abs(v - n) / (abs(n) if n else 1.0) for v, n in zip(self.values, self.nominal))
+        """Largest |relative change| over the keys."""
+        return max(abs(r) for r in self.relative_changes)
+
+    @property
+    def category(self) -> str:
+        """The least controllable category of the keys (a change needing the road counts as road)."""
+        return max((parameter_category(k) for k in self.keys), key=_CATEGORY_RANK.__getitem__)
+
+    def change_text(self) -> str:
+        """'toe angle 0.5° → 0.2228° (−55.4 %)', joined with ' + ' for combinations."""
+        return " + ".join(
+            f"{parameter_label(k)} {_with_unit(n, parameter_unit(k))} → {_with_unit(v, parameter_unit(k))} ({_percent(r)})"
+            for k, n, v, r in zip(self.keys, self.nominal, self.values, self.relative_changes)
+        )
+
+    def text(self, max_relative_change: float | None = None) -> str:
+        """One line: the signed change with units, the bound flag and what it does to the band."""
+        band = ", ".join(f"{a:.1f}-{b:.1f}" for a, b in self.sev_band_kmh)
+        after = f"SEV band {band} km/h" if band else "no SEV band"
+        if self.achieved:
+            flag = "" if self.within_bound else (
+                f", beyond the ±{max_relative_change:.0%} bound" if max_relative_change is not None else ", beyond the bound")
+            return f"{self.change_text()}{flag}: clears the range, {self.outcome}" + (f" ({after})" if band else "")
+        if self.values == self.nominal:  # nothing computed
+            return f"{' + '.join(parameter_label(k) for k in self.keys)}: {self.note}"
+        return f"{self.change_text()}: does not clear the range ({self.note}; {after})"
 
     def summary(self) -> dict:
         return {
             "params": list(self.keys),
-            "labels": [PARAMETER_LABELS.get(k, k) for k in self.keys],
+            "labels": [parameter_label(k) for k in self.keys],
+            "units": [parameter_unit(k) for k in self.keys],
+            "category": self.category,
             "nominal": list(self.nominal),
             "values": list(self.values),
+            "relative_changes": list(self.relative_changes),
             "relative_change": self.relative_change,
-            "direction": self.direction,
             "achieved": self.achieved,
+            "within_bound": self.within_bound,
+            "outcome": self.outcome,
             "sev_band_kmh": [list(b) for b in self.sev_band_kmh],
+            "change": self.change_text(),
             "note": self.note,
         }
 
 
 @dataclass
 class DesignResult:
-    """Options to move the SEV band out of the operating range, best first."""
+    """Options to move the SEV band out of the operating range, ranked (see the module doc).
+
+    ``reason`` says why there are no options (the range is already free of SEV).
+    """
 
     params: Params
     operating_range_kmh: tuple[float, float]
     original: BifurcationDiagram
     options: list[DesignOption]
+    max_relative_change: float = 0.5
+    margin_kmh: float = 2.0
+    reason: str = ""
+    skipped: list[str] = field(default_factory=list)
+
+    @property
+    def best(self) -> DesignOption | None:
+        """The first-ranked option that clears the range (None if none does)."""
+        return next((o for o in self.options if o.achieved and o.diagram is not None), None)
 
     def summary(self) -> dict:
         return {
             "model": self.params.model,
             "operating_range_kmh": list(self.operating_range_kmh),
+            "margin_kmh": self.margin_kmh,
+            "max_relative_change": self.max_relative_change,
             "original_sev_band_kmh": [list(b) for b in self.original.sev_band_kmh],
+            "reason": self.reason,
+            "not_in_model": list(self.skipped),
             "options": [o.summary() for o in self.options],
         }
 
+    def lines(self) -> list[str]:
+        """The result as text: the band now, then the options by group, ranked."""
+        lo, hi = self.operating_range_kmh
+        band = ", ".join(f"{a:.1f}-{b:.1f} km/h" for a, b in self.original.sev_band_kmh) or "none"
+        out = [f"SEV band now: {band}; operating range {lo:g}-{hi:g} km/h (kept clear by {self.margin_kmh:g} km/h)"]
+        if self.reason:
+            return out + [self.reason]
+        groups = (
+            ("Options you control (alignment, axle bushings, tread), least change first:", ENGINEERING),
+            ("Road/compound options (tread-road friction: a compound or surface, not a vehicle setting):",
+             ("road/compound",)),
+            ("Other parameters:", ("other",)),
+        )
+        for heading, categories in groups:
+            chosen = [o for o in self.options if o.category in categories]
+            if chosen:
+                out.append(heading)
+                out += [f"  {o.text(self.max_relative_change)}" for o in chosen]
+        if self.options and not any(o.achieved and o.within_bound for o in self.options):
+            out.append(f"No option clears the range within a ±{self.max_relative_change:.0%} change; "
+                       "the least changes that do are flagged 'beyond the bound'.")
+        if self.skipped:
+            out.append(f"Not in model {self.params.model}: {', '.join(self.skipped)}")
+        return out
+
     def plot(self, ax=None, option: int = 0, state: str = "x"):
-        """Original vs optimized bifurcation diagram (the paper's Figs. 10-12). Returns artists."""
+        """Original vs optimized bifurcation diagram (the paper's Figs. 10-12). Returns artists.
+
+        ``option`` indexes the options that clear the range, in rank order.
+        """
         import matplotlib.pyplot as plt
 
         if ax is None:
@@ -85,18 +243,17 @@ class DesignResult:
         artists = []
         lo, hi = self.operating_range_kmh
         artists.append(ax.axvspan(lo, hi, color="tab:green", alpha=0.12, label="operating range"))
+        speed = self.params.operating.speed_kmh
+        artists.append(ax.axvline(speed, color="tab:green", lw=1.2, ls="-.", label=f"operating speed {speed:g} km/h"))
         i = self.original.state_names.index(state)
         artists += _amplitude_lines(ax, self.original, i, "tab:gray", "original")
         chosen = [o for o in self.options if o.achieved and o.diagram is not None]
         if chosen:
             best = chosen[min(option, len(chosen) - 1)]
-            text = ", ".join(
-                f"{PARAMETER_LABELS.get(k, k)} {n:g}->{v:.4g}" for k, n, v in zip(best.keys, best.nominal, best.values)
-            )
-            artists += _amplitude_lines(ax, best.diagram, i, "tab:blue", f"optimized: {text}")
+            artists += _amplitude_lines(ax, best.diagram, i, "tab:blue", f"changed: {best.change_text()}")
         ax.set_xlabel("speed [km/h]")
         ax.set_ylabel("amplitude of x [mm]" if state == "x" else f"amplitude of {state}")
-        ax.legend(fontsize=8, loc="upper left")
+        ax.legend(fontsize=8, loc="best")
         return artists
 
 
@@ -117,143 +274,252 @@ def _amplitude_lines(ax, diagram, i, color, label):
     return artists
 
 
-def _overlaps(band, lo, hi) -> bool:
-    return any(a < hi and b > lo for a, b in band)
+# -- the search ---------------------------------------------------------------------------
+def _gap(band, low: float, high: float) -> float | None:
+    """How far (in ln speed) the band still has to move to leave ``[low, high]``.
+
+    Positive while a band overlaps, the smaller of the two ways out (first edge up to
+    ``high``, last edge down to ``low``); negative once clear, minus the distance to the
+    nearest edge; None when there is no band at all.
+    """
+    over = [(a, b) for a, b in band if a < high and b > low]
+    if over:
+        a, b = min(a for a, _ in over), max(b for _, b in over)
+        return min(math.log(high / a), math.log(b / low))
+    if not band:
+        return None
+    above = [math.log(a / high) for a, _ in band if a >= high]
+    below = [math.log(low / b) for _, b in band if b <= low]
+    return -min(above + below)
+
+
+def _outcome(band, low: float, high: float) -> str:
+    if not band:
+        return "the band vanishes"
+    if all(a >= high for a, _ in band):
+        return "the band moves above the range"
+    if all(b <= low for _, b in band):
+        return "the band moves below the range"
+    return "bands remain on both sides of the range"
+
+
+@dataclass
+class _Search:
+    """Everything one option search needs (one key or one combination)."""
+
+    params: Params
+    keys: tuple[str, ...]
+    nominal: np.ndarray
+    low: float  # the operating range widened by the margin [km/h]
+    high: float
+    max_relative_change: float
+    search_factor: float  # values between p0 / factor and p0 * factor
+    speed_range: tuple[float, float]
+    progress: Callable[[str], None]
+    max_evaluations: int = 8
+
+    def values(self, x: np.ndarray) -> tuple[float, ...]:
+        return tuple(float(n * math.exp(xi)) if n else float(xi) for n, xi in zip(self.nominal, x))
+
+    def relative_change(self, x: np.ndarray) -> float:
+        return max(abs(v / n - 1.0) if n else abs(v) for v, n in zip(self.values(x), self.nominal))
+
+    def t_limit(self, d: np.ndarray, relative: float | None = None) -> float:
+        """Largest step t along d within the search factor and, if given, every |relative change| <= relative."""
+        t = math.inf
+        for n, di in zip(self.nominal, d):
+            if di == 0.0:
+                continue
+            if not n:  # absolute coordinate: the factor minus one, in the key's units
+                t = min(t, (self.search_factor - 1.0 if relative is None else relative) / abs(di))
+                continue
+            t = min(t, math.log(self.search_factor) / abs(di))
+            if relative is not None:
+                x = math.log1p(relative) if di > 0 else -math.log1p(-min(relative, 1.0 - 1e-12))
+                t = min(t, x / abs(di))
+        return t
+
+    def run(self, x: np.ndarray) -> tuple[DesignOption, float | None]:
+        values = self.values(x)
+        p = self.params
+        for k, v in zip(self.keys, values):
+            p = perturbed(p, k, v)  # ParameterError (a ValueError) outside the parameter rules
+        option = DesignOption(self.keys, tuple(self.nominal), values, False, [])
+        self.progress(option.change_text())
+        diagram = bifurcation_diagram(p, self.speed_range)
+        band = diagram.sev_band_kmh
+        g = _gap(band, self.low, self.high)
+        option.achieved = g is None or g <= 0.0
+        option.sev_band_kmh = band
+        option.diagram = diagram
+        option.outcome = _outcome(band, self.low, self.high) if option.achieved else ""
+        option.within_bound = option.relative_change <= self.max_relative_change * (1 + 1e-9)
+        return option, g
+
+    def along(self, d: np.ndarray, g0: float, t_start: float, t_max: float):
+        """Least step t > 0 along ``d`` that clears: (option that clears or None, last failure or None)."""
+        fail_t, fail_g = 0.0, g0
+        fails = [(0.0, g0)]
+        ok_t, ok_g, best, last, note = math.inf, None, None, None, ""
+        t = min(t_start, t_max)
+        edge_tol = 0.5 / self.high  # 0.5 km/h at the range edge, in ln speed
+        for _ in range(self.max_evaluations):
+            try:
+                option, g = self.run(t * d)
+            except ValueError as exc:  # outside the parameter rules: that is the limit
+                note, t_max = str(exc), t
+                t = 0.5 * (fail_t + t) if best is None else 0.5 * (fail_t + ok_t)
+                continue
+            if option.achieved:
+                ok_t, ok_g, best = t, g, option
+            else:
+                fail_t, fail_g, last = t, g, option
+                fails.append((t, g))
+            if best is not None and (ok_t - fail_t <= 0.01 * ok_t or (ok_g is not None and -ok_g <= edge_tol)):
+                break
+            if best is None:  # not bracketed yet: extrapolate the gap (secant), at most 4x
+                if t >= t_max:
+                    break
+                (t1, g1), (t2, g2) = fails[-2], fails[-1]
+                t_new = t2 - g2 * (t2 - t1) / (g2 - g1) if g2 < g1 else 4.0 * t2
+                t = min(t_max, max(1.1 * t2, min(t_new, 4.0 * t2)))
+            else:  # bracketed: secant (false position) kept inside, else bisection
+                width = ok_t - fail_t
+                t_new = fail_t + fail_g * width / (fail_g - ok_g) if ok_g is not None else fail_t + 0.5 * width
+                t = min(max(t_new, fail_t + 0.1 * width), ok_t - 0.1 * width)
+        if last is not None and note:
+            last.note = f"stopped at the parameter rules: {note}"
+        return best, last
+
+
+def _best_option(search: _Search, grad_first, grad_second, original_band) -> DesignOption:
+    """The least clearing change of one key or combination, searching every useful direction."""
+    g0 = _gap(original_band, search.low, search.high)
+    a, b = original_band[0][0], original_band[-1][1]
+    if len(search.keys) == 1:
+        directions = [np.array([1.0]), np.array([-1.0])]
+    else:  # the steepest directions for each edge, in relative terms
+        directions = [v / np.abs(v).max() for v in (grad_first, -grad_second) if np.any(v)]
+    have_grad = np.any(grad_first) or np.any(grad_second)
+    nominal = tuple(search.nominal)
+    plans, far = [], []
+    for d in directions:
+        rates = ((math.log(search.high / a), float(grad_first @ d)), (math.log(b / search.low), float(-grad_second @ d)))
+        estimates = [gap / rate for gap, rate in rates if rate > 0.0]
+        if estimates:
+            t_est = min(estimates)
+        elif have_grad:
+            continue  # both edges move the wrong way (the band widens)
+        else:
+            t_est = search.t_limit(d, 0.1)  # no sensitivities (an edge at a PD/NS point): start at 10 %
+        if t_est > 2.0 * search.t_limit(d):
+            far.append(math.exp(t_est * np.abs(d).max()))
+            continue
+        plans.append((search.relative_change(t_est * d), d, t_est))
+    if not plans:
+        if far:
+            note = (f"not searched: the sensitivities put the change needed at a factor of about {min(far):.3g}, "
+                    f"far beyond the search factor {search.search_factor:g}")
+        else:
+            note = "both directions widen the band (by the sensitivities)"
+        return DesignOption(search.keys, nominal, nominal, False, original_band, note=note)
+    best, failures = None, []
+    for _, d, t_est in sorted(plans, key=lambda p: p[0]):
+        t_max = search.t_limit(d, None if best is None else best.relative_change)
+        if best is not None and t_max <= 0.0:
+            continue
+        found, last = search.along(d, g0, t_est, t_max)
+        if found is not None and (best is None or found.relative_change < best.relative_change):
+            best = found
+        if last is not None:
+            failures.append(last)
+    if best is not None:
+        return best
+    if not failures:
+        return DesignOption(search.keys, nominal, nominal, False, original_band, note="no diagram could be computed")
+    closest = min(failures, key=lambda o: _gap(o.sev_band_kmh, search.low, search.high) or 0.0)
+    factor = search.search_factor
+    closest.note = closest.note or f"not reached between 1/{factor:g} and {factor:g} times the nominal value"
+    return closest
 
 
 def clear_operating_range(
     params: Params,
     operating_range_kmh: tuple[float, float],
-    keys=("operating.toe_deg", "friction.mu_static", "tread.lateral_damping_ns_per_m"),
+    keys=DEFAULT_KEYS,
     combine: tuple[str, ...] = (),
     max_relative_change: float = 0.5,
     margin_kmh: float = 2.0,
     speed_range_kmh: tuple[float, float] = (20.0, 300.0),
     diagram: BifurcationDiagram | None = None,
-    max_iterations: int = 8,
+    search_factor: float = 3.0,
+    progress: Callable[[str], None] | None = None,
 ) -> DesignResult:
-    """Smallest change of each key (and of the ``combine`` keys together) that clears the range."""
+    """Least change of each key (and of the ``combine`` keys together) that clears the range.
+
+    Parameters
+    ----------
+    operating_range_kmh
+        Speeds [km/h] to keep free of SEV; a change must also clear ``margin_kmh`` on each side.
+    keys, combine
+        Configuration keys (or ``adhesion_scale``) changed alone, and changed together.
+        Keys that do not enter the model are skipped (listed in ``result.skipped``).
+    max_relative_change
+        The allowed change (relative to the nominal value); larger ones are flagged.
+    search_factor
+        Values are searched between ``nominal / search_factor`` and ``nominal * search_factor``
+        (at least ``1 + max_relative_change``); a direction whose first estimate lies beyond
+        twice that (in ln p) is not computed.
+    diagram
+        The nominal diagram, if already computed.
+    progress
+        Called with a short description before each bifurcation diagram.
+    """
     lo, hi = (float(v) for v in operating_range_kmh)
     if not lo < hi:
         raise ValueError(f"operating range {lo} {hi}: need low < high [km/h]")
-    original = diagram or bifurcation_diagram(params, speed_range_kmh)
-    if not _overlaps(original.sev_band_kmh, lo, hi):
-        return DesignResult(params, (lo, hi), original, [])
+    if not max_relative_change > 0.0:
+        raise ValueError(f"max_relative_change = {max_relative_change!r}: must be positive")
+    say = progress or (lambda message: None)
+    # every diagram covers the operating range and its margin: a band starting just above
+    # the speed range but inside the operating range must not be missed
+    speed_range_kmh = (min(speed_range_kmh[0], max(lo - margin_kmh, 0.5 * lo)), max(speed_range_kmh[1], hi + margin_kmh))
+    if diagram is None:
+        say("nominal bifurcation diagram")
+        diagram = bifurcation_diagram(params, speed_range_kmh)
+    original = diagram
+    model = get_model(params.model)
+    keys, combine = tuple(dict.fromkeys(keys)), tuple(dict.fromkeys(combine))
+    skipped = [k for k in dict.fromkeys((*keys, *combine)) if not parameter_direction(model, params, k).any()]
+    keys = tuple(k for k in keys if k not in skipped)
+    combine = tuple(k for k in combine if k not in skipped)
+
+    def result(options, reason=""):
+        return DesignResult(params, (lo, hi), original, options, max_relative_change, margin_kmh, reason, skipped)
+
+    band = original.sev_band_kmh
+    low, high = max(lo - margin_kmh, 0.5 * lo), hi + margin_kmh
+    if not band:
+        s_lo, s_hi = original.speed_range_kmh
+        return result([], f"No SEV band in {s_lo:g}-{s_hi:g} km/h: steady rolling is stable and no stable cycle "
+                          "exists, so there is nothing to move.")
+    if _gap(band, low, high) <= 0.0:
+        return result([], f"The SEV band lies outside the operating range (with the {margin_kmh:g} km/h margin): "
+                          "nothing to move.")
     sens = local_sensitivity(params, keys=tuple(dict.fromkeys((*keys, *combine))), diagram=original)
-    grad = {
-        (r["quantity"], r["param"]): r["derivative"]
-        for r in sens.rows
-        if r["quantity"] in ("first_bifurcation", "second_bifurcation")
-    }
+    # d ln V / dx per key, x = ln(p / p0) (x = p where p0 = 0), for the first and last band edge
+    grad: dict[tuple[str, str], float] = {}
+    for r in sens.rows:
+        if r["quantity"] in ("first_bifurcation", "second_bifurcation") and r["derivative"] is not None:
+            grad[(r["quantity"], r["param"])] = r["derivative"] * (r["nominal"] or 1.0) / r["speed_kmh"]
+
     options = []
-    groups = [(k,) for k in keys] + ([tuple(combine)] if combine else [])
-    for group in groups:
-        options.append(
-            _best_option(params, group, grad, original, lo, hi, max_relative_change, margin_kmh,
-                         speed_range_kmh, max_iterations)
-        )
-    options.sort(key=lambda o: (not o.achieved, o.relative_change))
-    return DesignResult(params, (lo, hi), original, options)
-
-
-def _best_option(params, group, grad, original, lo, hi, max_rel, margin, speed_range, max_iterations):
-    nominal = tuple(nominal_value(params, k) for k in group)
-    # direction in parameter space: dp_i = nominal_i * S_i (absolute where nominal is 0)
-    candidates = []
-    for direction, quantity, target in (("up", "first_bifurcation", hi + margin), ("down", "second_bifurcation", lo - margin)):
-        d = np.array([grad.get((quantity, k)) or 0.0 for k in group])
-        scale = np.array([abs(n) if n else 1.0 for n in nominal])
-        step_dir = d * scale**2  # gradient in relative coordinates, mapped back
-        slope = float(d @ step_dir)  # dV/ds along the direction
-        if slope == 0.0:
-            continue
-        edge = _edge(original.sev_band_kmh, quantity)
-        s0 = (target - edge) / slope
-        candidates.append((direction, quantity, target, step_dir, s0))
-    best = None
-    for direction, quantity, target, step_dir, s0 in sorted(candidates, key=lambda c: abs(c[4]) * np.abs(c[3]).max()):
-        g0 = _edge(original.sev_band_kmh, quantity) - target
-        option = _secant(params, group, nominal, direction, quantity, target, step_dir, s0, g0, max_rel,
-                         speed_range, max_iterations, lo, hi)
-        if best is None or (option.achieved, -option.relative_change) > (best.achieved, -best.relative_change):
-            best = option
-    if best is None:
-        return DesignOption(group, nominal, nominal, "none", False, original.sev_band_kmh,
-                            note="the bifurcation speeds do not depend on these parameters")
-    return best
-
-
-def _edge(band, quantity) -> float:
-    return band[0][0] if quantity == "first_bifurcation" else band[-1][1]
-
-
-def _values(nominal, step_dir, s):
-    return tuple(n + s * d for n, d in zip(nominal, step_dir))
-
-
-def _evaluate(params, group, values, speed_range):
-    p = params
-    for k, v in zip(group, values):
-        p = perturbed(p, k, v)
-    return bifurcation_diagram(p, speed_range)
-
-
-def _secant(params, group, nominal, direction, quantity, target, step_dir, s0, g0, max_rel, speed_range, iters,
-            lo, hi):
-    """Secant iteration on the scalar step s (s = 0: nominal, band-edge gap g0) for the band
-    edge to reach the target speed, then bisection between the largest step that fails and
-    the smallest that clears the range; every evaluation is a full bifurcation diagram."""
-    scale = np.array([abs(n) if n else 1.0 for n in nominal])
-    s_max = max_rel / max(np.max(np.abs(step_dir) / scale), 1e-300)
-    s_prev, g_prev = 0.0, g0
-    s = float(np.clip(s0, -s_max, s_max))
-    last, best, best_s, s_fail = None, None, 0.0, 0.0
-    note = ""
-
-    def run(step):
-        diagram = _evaluate(params, group, _values(nominal, step_dir, step), speed_range)
-        band = diagram.sev_band_kmh
-        return DesignOption(group, nominal, _values(nominal, step_dir, step), direction,
-                            not _overlaps(band, lo, hi), band, diagram)
-
-    for _ in range(iters):
-        try:
-            last = run(s)
-        except ValueError as exc:  # a value outside the parameter rules: step back
-            note = str(exc)
-            s = 0.5 * (s + s_prev)
-            continue
-        if last.achieved:
-            if best is None or abs(s) < abs(best_s):
-                best, best_s = last, s
-        else:
-            s_fail = s if abs(s) > abs(s_fail) else s_fail
-        band = last.sev_band_kmh
-        g = _edge(band, quantity) - target if band else 0.0  # no band at all: on target
-        if last.achieved and abs(g) < 0.5:
-            break
-        s_new = s * 1.5 if g == g_prev else s - g * (s - s_prev) / (g - g_prev)
-        s_prev, g_prev = s, g
-        s = float(np.clip(s_new, -s_max, s_max))
-        if s == s_prev:
-            break
-    # the band may vanish abruptly (g jumps to 0): bisect for the least change that clears
-    if best is not None:
-        for _ in range(iters):
-            if abs(best_s - s_fail) <= 0.01 * abs(best_s):
-                break
-            mid = 0.5 * (best_s + s_fail)
-            try:
-                trial = run(mid)
-            except ValueError:
-                break
-            if trial.achieved:
-                best, best_s = trial, mid
-            else:
-                s_fail = mid
-        last = best
-    if last is None:
-        return DesignOption(group, nominal, nominal, direction, False, [], note=note)
-    if not last.achieved:
-        last.note = note or f"not reached within a {max_rel:.0%} change"
-    return last
+    for group in [(k,) for k in keys] + ([combine] if len(combine) > 1 else []):
+        search = _Search(params, group, np.array([nominal_value(params, k) for k in group]), low, high,
+                         max_relative_change, max(search_factor, 1.0 + max_relative_change), tuple(speed_range_kmh),
+                         say)
+        g1 = np.array([grad.get(("first_bifurcation", k), 0.0) for k in group])
+        g2 = np.array([grad.get(("second_bifurcation", k), 0.0) for k in group])
+        options.append(_best_option(search, g1, g2, band))
+    options.sort(key=lambda o: (_CATEGORY_RANK[o.category], not o.achieved, not o.within_bound, o.relative_change))
+    return result(options)

@@ -70,6 +70,10 @@ PARAMETER_LABELS = {
     ADHESION_SCALE: "adhesion (mu_s, mu_c scaled)",
     "tread.mass_kg": "tread mass",
     "operating.vertical_load_n": "vertical load",
+    "axle.toe_stiffness_nm_per_rad": "toe bushing stiffness",
+    "axle.toe_damping_nms_per_rad": "toe bushing damping",
+    "axle.camber_stiffness_nm_per_rad": "camber bushing stiffness",
+    "axle.camber_damping_nms_per_rad": "camber bushing damping",
 }
 
 

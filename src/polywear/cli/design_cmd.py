@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Optional
 
 import typer
@@ -20,10 +21,9 @@ from .common import (
     load,
     one_axes,
     output_file,
+    progress,
     write_figure,
 )
-
-DEFAULT_KEYS = ("operating.toe_deg", "adhesion_scale", "friction.mu_static", "tread.lateral_damping_ns_per_m")
 
 
 def design(
@@ -33,14 +33,22 @@ def design(
         tuple[float, float], typer.Option("--operating-range", help="Speeds to keep free of SEV [km/h].")
     ] = (80.0, 130.0),
     param: Annotated[
-        Optional[list[str]], typer.Option("--param", "-p", help="Parameter to change alone (repeatable).")
+        Optional[list[str]],
+        typer.Option("--param", "-p", help="Parameter to change alone (repeatable; default: toe, camber, "
+                                           "axle bushings, tread stiffness and damping, adhesion)."),
     ] = None,
     combine: Annotated[
         Optional[list[str]], typer.Option("--combine", help="Parameters to change together (repeatable).")
     ] = None,
     max_change: Annotated[
-        float, typer.Option("--max-change", min=0.0, help="Largest relative change allowed per parameter.")
+        float, typer.Option("--max-change", help="Allowed relative change per parameter; larger ones are flagged.")
     ] = 0.5,
+    search_factor: Annotated[
+        float, typer.Option("--search-factor", help="Values searched: nominal / factor to nominal * factor.")
+    ] = 3.0,
+    margin: Annotated[
+        float, typer.Option("--margin", help="Keep the band this far from the operating range [km/h].")
+    ] = 2.0,
     speed_range: Annotated[
         tuple[float, float], typer.Option("--speed-range", help="Speed range of the diagrams [km/h].")
     ] = (20.0, 300.0),
@@ -50,44 +58,44 @@ def design(
 ) -> None:
     """Least change of each parameter (or a combination) that clears the operating range of SEV.
 
-    Each candidate is verified by a full bifurcation diagram (paper section 6, Figs. 10-12).
-    Keys: any configuration key, or adhesion_scale (mu_s and mu_c scaled together).
+    Both directions of each parameter are searched and every candidate is a full
+    bifurcation diagram (paper section 6, Figs. 10-12). Options you control (toe, camber,
+    axle bushings, tread) are listed first, adhesion as a road/compound option.
+    Keys: any numeric configuration key, or adhesion_scale (mu_s and mu_c scaled together).
     """
     output_file(plot, "--plot", PLOT_SUFFIXES)
-    operating_range = check_speed_range(operating_range, "--operating-range")
     speed_range = check_speed_range(speed_range)
-    if not max_change <= 10.0:
-        raise UserError(f"--max-change {max_change}: must be at most 10 (a relative change)")
+    operating_range = check_speed_range(operating_range, "--operating-range")
+    if not (math.isfinite(max_change) and 0.0 < max_change <= 10.0):
+        raise UserError(f"--max-change {max_change:g}: must be in (0, 10] (a relative change)")
+    if not (math.isfinite(search_factor) and 1.0 < search_factor <= 100.0):
+        raise UserError(f"--search-factor {search_factor:g}: must be in (1, 100]")
+    if not (math.isfinite(margin) and 0.0 <= margin <= 100.0):
+        raise UserError(f"--margin {margin:g}: must be in [0, 100] km/h")
     params = load(config, set_)
-    from ..analysis.design import clear_operating_range
-    from ..analysis.sensitivity import parameter_direction
-    from ..models import get_model
+    from ..analysis.design import DEFAULT_KEYS, clear_operating_range
+    from ..params import study_keys
 
-    keys = tuple(param or DEFAULT_KEYS)
-    model = get_model(params.model)
+    keys = tuple(dict.fromkeys(param or DEFAULT_KEYS))
+    known = study_keys()
     for key in (*keys, *(combine or ())):
-        parameter_direction(model, params, key)  # unknown keys -> ParameterError (exit 2)
-    info(f"design: up to {len(keys) + bool(combine)} options, each a few bifurcation diagrams ...", quiet)
-    try:
-        result = clear_operating_range(
-            params, tuple(operating_range), keys=keys, combine=tuple(combine or ()),
-            max_relative_change=max_change, speed_range_kmh=tuple(speed_range),
-        )
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
+        if key not in known:
+            raise UserError(f"--param {key}: not a numeric parameter key (e.g. operating.toe_deg, adhesion_scale)")
+    info(f"design: {len(keys) + bool(combine)} options, each searched in both directions by bifurcation diagrams ...",
+         quiet)
+    with progress("design: bifurcation diagrams", total=None, enabled=not quiet) as advance:
+        try:
+            result = clear_operating_range(
+                params, operating_range, keys=keys, combine=tuple(combine or ()), max_relative_change=max_change,
+                margin_kmh=margin, speed_range_kmh=speed_range, search_factor=search_factor,
+                progress=lambda message: advance(1),
+            )
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
     if plot:
         write_figure(plot, lambda: one_axes(result.plot), quiet)
-    summary = result.summary()
     if json_:
-        emit_json(summary)
+        emit_json(result.summary())
         return
-    lo, hi = operating_range
-    band = ", ".join(f"{a:.1f}-{b:.1f}" for a, b in summary["original_sev_band_kmh"]) or "none"
-    typer.echo(f"SEV band now: {band} km/h; operating range {lo:g}-{hi:g} km/h")
-    if not summary["options"]:
-        typer.echo("the operating range is already free of SEV")
-    for o in summary["options"]:
-        change = ", ".join(f"{k} {n:g} -> {v:.4g}" for k, n, v in zip(o["params"], o["nominal"], o["values"]))
-        after = ", ".join(f"{a:.1f}-{b:.1f}" for a, b in o["sev_band_kmh"]) or "none"
-        status = "clears the range" if o["achieved"] else f"does not clear it ({o['note']})"
-        typer.echo(f"  {change} ({o['relative_change']:.0%}): {status}; SEV band after: {after} km/h")
+    for line in result.lines():
+        typer.echo(line)
