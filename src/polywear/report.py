@@ -159,6 +159,7 @@ def run_report(
     speed_range_kmh: tuple[float, float] = (20.0, 300.0),
     operating_range_kmh: tuple[float, float] | None = None,
     progress=None,
+    wear_evolution_km: float | None = None,
 ) -> Report:
     """Run the main job and write figures, data, ``summary.json`` and ``report.html`` to ``out_dir``.
 
@@ -178,6 +179,9 @@ def run_report(
         operating speed -30/+20 km/h).
     progress : callable, optional
         Called with a short message before each step.
+    wear_evolution_km : float, optional
+        Also run the wear evolution over this distance [km] at the operating speed and
+        on the drive cycle (minutes); the wear map is always in the report.
 
     Returns
     -------
@@ -250,6 +254,13 @@ def run_report(
         design.plot(ax)
         save(fig, "design.png", "Original and optimized bifurcation diagrams (paper Figs. 10-12)")
 
+    from .report_wear import wear_section
+
+    sev = diagram.sev_band_kmh
+    wear = wear_section(params, speed_range_kmh, save, out_dir, wear_evolution_km,
+                        sev_band_kmh=(sev[0][0], sev[-1][1]) if sev and None not in (sev[0][0], sev[-1][1]) else None,
+                        progress=say)
+
     summary = {
         "polywear_version": __version__,
         "model": params.model,
@@ -257,6 +268,7 @@ def run_report(
         "bifurcation": diagram.summary(),
         "sensitivity": sens.summary(),
         "design": design.summary(),
+        "wear": wear,
     }
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
     (out_dir / "params.toml").write_text(to_toml(params))
@@ -268,6 +280,8 @@ def run_report(
 
 
 def _html(params: Params, summary: dict, verdict: dict, files: dict) -> str:
+    from .report_wear import wear_html
+
     b = summary["bifurcation"]
     e = html.escape
 
@@ -328,6 +342,7 @@ figure{{margin:1.5em 0}}img{{max-width:100%}}.verdict{{background:#fff4e0;paddin
 <h2>Sensitivities</h2><ul>{sens_notes or "<li>see sensitivity.png and sensitivity.csv</li>"}</ul>
 <h2>Design options for {summary['design']['operating_range_kmh'][0]:.0f}-{summary['design']['operating_range_kmh'][1]:.0f} km/h</h2>
 <table><tr><th>change</th><th>values</th><th>relative change</th><th>range cleared</th><th>SEV band after</th></tr>{design_rows}</table>
+{wear_html(summary.get("wear"))}
 {figures}
 <h2>Files</h2><ul>{file_list}</ul>
 <h2>Parameters</h2><pre>{e(to_toml(params))}</pre>

@@ -1,0 +1,59 @@
+"""The wear section of the report: map always, evolution on request, verdict in words."""
+
+from __future__ import annotations
+
+import pytest
+
+from polywear.params import Params, with_updates
+from polywear.report_wear import wear_html, wear_section, wear_sentences
+
+
+def test_sentences_say_sides_distance_and_locking():
+    section = {
+        "energetic_rate_mm3_per_j": 1e-3,
+        "map_rows": [{"speed_kmh": 110.0, "order": None, "frequency_hz": None, "growth_per_1000km": None,
+                      "efold_km": None, "drift_deg_per_rev": None, "rolling_stable": False,
+                      "note": "vibrating: see evolution"}],
+        "evolutions": [{"label": "operating speed", "distance_km": 60000.0, "visible_km": 31234.0,
+                        "visible_depth_mm": 0.1, "dominant_order": 18, "final_depth_mm": 0.4,
+                        "cycle": [{"speed_kmh": 50.0, "share": 1.0, "vibration_order_end": 18.0, "locked_fraction": 0.6},
+                                  {"speed_kmh": 110.0, "share": 1.0, "vibration_order_end": 9.37,
+                                   "locked_fraction": 0.0}]}],
+    }
+    text = " ".join(wear_sentences(section))
+    assert "18-sided polygon becomes visible (0.1 mm) after about 31,000 km" in text
+    assert "at 110 km/h the tread vibrates at order 9.370, not locked to an integer order: its own pattern drifts" in text
+    assert "at 50 km/h the tread vibrates at order 18.000, locked" in text
+    assert "1/k_e" in text
+
+
+def test_section_with_the_map_only(tmp_path):
+    params = with_updates(Params(), {"operating.speed_kmh": 110.0})
+    section = wear_section(params, (20.0, 300.0), lambda fig, name, caption: None, tmp_path)
+    assert section["evolutions"] == [] and (tmp_path / "wear_map.nc").exists()
+    speeds = [r["speed_kmh"] for r in section["map_rows"]]
+    assert speeds == [50.0, 80.0, 110.0, 120.0]  # the cycle's speeds and the operating speed
+    assert "vibrating" in " ".join(section["sentences"])
+    assert "Evolution not run" in wear_html(section)
+
+
+@pytest.mark.slow
+def test_section_with_map_and_a_short_evolution(tmp_path):
+    params = with_updates(Params(), {"operating.speed_kmh": 40.0, "wear.max_order": 30,
+                                     "wear.cycle": [{"speed_kmh": 45.0, "share": 1.0}]})
+    saved = {}
+
+    def save(fig, name, caption):
+        import matplotlib.pyplot as plt
+
+        saved[name] = caption
+        plt.close(fig)
+
+    section = wear_section(params, (20.0, 120.0), save, tmp_path, evolution_km=2000.0, step_km=2000.0)
+    assert {"wear_map.png", "wear_evolution_operating.png", "wear_evolution_cycle_polar.png"} <= set(saved)
+    assert (tmp_path / "wear_map.nc").exists() and (tmp_path / "wear_evolution_cycle.nc").exists()
+    assert [r["speed_kmh"] for r in section["map_rows"]] == [40.0, 45.0]
+    assert len(section["evolutions"]) == 2
+    page = wear_html(section)
+    assert "<h2>Polygonal wear</h2>" in page and "grows from small roughness" in page
+    assert wear_html(None) == ""
