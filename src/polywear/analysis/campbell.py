@@ -12,22 +12,21 @@ placed at its mean speed: the Campbell map. On it:
   *constant-frequency* feature (SEV, or a structural mode excited by the road).
 * **SEV** is a constant-frequency feature that switches on within the run and stands
   ``sev_db`` above the floor. Its onset and offset speeds come from the envelope of the
-  band-passed signal (``|hilbert|``, smoothed over 10 periods): the last upward crossing of
-  the floor + 20 dB before the SEV is fully developed, and the first downward crossing
-  after it; uncertainty: half the speed between the +14 dB and +26 dB crossings. Its
+  band-passed signal (``|hilbert|``, smoothed over 10 periods, wheel orders removed): the
+  last upward crossing of the floor + ``ONSET_DB`` before the SEV is developed, and the
+  first downward crossing after it; uncertainty: half the speed between the crossings
+  6 dB lower and higher. Its
   frequency at onset from the phase of the analytic signal over the first second
   (uncertainty from the scatter of the phase fit), its amplitude as sqrt(2) x RMS of the
   band over the developed part (uncertainty: scatter over 1 s blocks).
 * **Ramp delay.** A run-up passes a slowly moving Hopf point late: the amplitude needs
   time to grow from the disturbance level to the detection threshold. :func:`ramp_delay`
   simulates the model along the measured ramp through its nearest Hopf point, the tread
-  kicked by random displacements every 20 ms, and runs the same detector on the
-  simulated tread acceleration: delay = ``V_onset,sim - V_Hopf``. The kick size is matched
-  to the measurement: the ratio of the floor to the SEV level 10 km/h after the onset is
-  made the same (the floor is linear in the kicks, the developed SEV is not). The
-  measured onset is corrected by the delay; its uncertainty adds half the spread of the
-  delays for kicks 3x smaller and 3x larger. Sensor noise raises the measured floor and
-  so makes the matched kicks, and the correction, an underestimate.
+  kicked by random displacements of ``disturbance_m`` every 20 ms, and runs the same
+  detector on the simulated tread acceleration: delay = ``V_onset,sim - V_Hopf``, the mean
+  over ``RAMP_SEEDS`` seeds. The measured onset is corrected by it; its uncertainty adds
+  the scatter over the seeds and half the spread of the delays for kicks 10x smaller and
+  10x larger (the disturbance of a real road is not known).
 """
 
 from __future__ import annotations
@@ -369,40 +368,44 @@ def _crossing(env, start, stop, level, backward):
     return None
 
 
-def _onset_offset(t, speed, env, on_index, off_index, floor):
-    """Onset/offset speeds at floor + 20 dB with threshold uncertainty (+14/+26 dB)."""
+def _onset_offset(t, speed, env, on_index, off_index, floor, rise_db):
+    """Onset/offset speeds where the envelope crosses ``floor`` + ``rise_db``; uncertainty:
+    half the speed between the crossings 6 dB lower and higher."""
     out = {}
-    for name, backward, anchor in (("onset", True, on_index), ("offset", False, off_index)):
-        hits = {db: _crossing(env, on_index, off_index, floor * 10 ** (db / 20), backward) for db in (14, 20, 26)}
-        if hits[20] is None:
+    for name, backward in (("onset", True), ("offset", False)):
+        hits = [_crossing(env, on_index, off_index, floor * 10 ** (db / 20), backward)
+                for db in (rise_db - 6.0, rise_db, rise_db + 6.0)]
+        if hits[1] is None:
             out[name] = None
             continue
-        spread = [speed[i] for i in hits.values() if i is not None]
-        out[name] = {"speed_kmh": float(speed[hits[20]]), "time_s": float(t[hits[20]]),
-                     "uncertainty_kmh": float(0.5 * (max(spread) - min(spread)))}
+        spread = [speed[i] for i in hits if i is not None]
+        out[name] = {"speed_kmh": float(speed[hits[1]]), "time_s": float(t[hits[1]]),
+                     "uncertainty_kmh": float(0.5 * (max(spread) - min(spread))), "threshold_db": rise_db}
     return out
 
 
-DEVELOPED_DB = 30.0
-"""SEV counts as developed where its band envelope first stands this far above the quiet
-level (10th percentile before the feature), or reaches half its 90th percentile."""
+RAMP_SEEDS = 3
+"""Simulated ramps (seeds of the kicks) averaged for the delay."""
+ONSET_DB = 30.0
+"""The onset is where the band envelope last rises through the floor + 30 dB (or 3/4 of
+the way from floor to plateau in dB, if that is less) before the SEV is developed (half
+its 90th percentile): high enough that the growth of the kicked response as the Hopf
+point approaches (its damping goes to zero) does not count as onset."""
 FLOOR_WINDOW_KMH = (15.0, 5.0)
-"""The floor of the SEV band is the median envelope from 15 to 5 km/h before the SEV is
+"""The floor of the SEV band is the lower quartile of the envelope from 15 to 5 km/h before the SEV is
 developed (the same window in a measurement and in the ramp simulation)."""
 
 
-def _sev_from_envelope(t, speed, x, fs, f0, t_start, t_end, reference_kmh=None):
+def _sev_from_envelope(t, speed, x, fs, f0, t_start, t_end):
     """Onset, offset, frequency and amplitude of a constant-frequency feature near ``f0``
-    present from ``t_start`` to ``t_end``; with ``reference_kmh`` also the floor over the
-    envelope there (``floor_ratio``)."""
+    present from ``t_start`` to ``t_end``."""
     bandwidth = max(0.05 * f0, 5.0)
     y, analytic, env = _envelope(x, fs, f0, bandwidth)
     inside = (t >= t_start) & (t <= t_end)
     if not np.any(inside) or np.all(inside):
         return None
-    quiet = env[t < t_start]
-    level = 10 ** (DEVELOPED_DB / 20) * np.percentile(quiet, 10) if quiet.size >= 16 else math.inf
-    developed = np.flatnonzero(inside & (env >= min(level, 0.5 * np.percentile(env[inside], 90))))
+    plateau = float(np.percentile(env[inside], 90))
+    developed = np.flatnonzero(inside & (env >= 0.5 * plateau))
     if developed.size == 0:
         return None
     on_index, off_index = int(developed[0]), int(developed[-1])
@@ -415,12 +418,10 @@ def _sev_from_envelope(t, speed, x, fs, f0, t_start, t_end, reference_kmh=None):
         window = np.flatnonzero(~inside & (t < t_start))
     if window.size < 16:
         return None
-    floor = float(np.median(env[window]))
-    result = _onset_offset(t, speed, env, on_index, off_index, floor)
+    floor = float(np.percentile(env[window], 25))  # robust to an order line crossing the band
+    rise_db = min(ONSET_DB, 0.75 * 20.0 * math.log10(plateau / floor)) if plateau > floor else 0.0
+    result = _onset_offset(t, speed, env, on_index, off_index, floor, rise_db)
     result["floor"] = floor
-    if reference_kmh is not None:
-        near = inside & (np.abs(speed - reference_kmh) <= 1.0)
-        result["floor_ratio"] = float(floor / np.median(env[near])) if np.any(near) else None
     # frequency at onset: slope of the unwrapped phase over one second after the onset
     start = np.searchsorted(t, result["onset"]["time_s"]) if result.get("onset") else on_index
     window = slice(start, min(start + int(fs), off_index + 1))
@@ -446,35 +447,29 @@ def ramp_delay(
     frequency_hz: float,
     rate_kmh_per_s: float,
     disturbance_m: float,
-    reference_kmh: float | None = None,
-    span_kmh: float = 30.0,
+    span_kmh: float = 20.0,
     seed: int = 0,
-) -> tuple[float | None, float | None]:
+) -> float | None:
     """Delay [km/h] with which the onset detector sees SEV after a ramp passes a Hopf point.
 
-    The model is simulated from 15 km/h before the Hopf speed to ``span_kmh`` after it (signed ``rate_kmh_per_s``: negative for a coast-down), its tread kicked by
-    Gaussian displacements of ``disturbance_m`` every 20 ms, and the tread acceleration
-    goes through the same detector as a measurement.
-
-    Returns
-    -------
-    (delay_kmh, floor_ratio)
-        The delay (None: no onset within the span) and the floor divided by the SEV
-        envelope at ``reference_kmh`` (None if not asked or not reached).
+    The model is simulated from 25 km/h before the Hopf speed to ``span_kmh`` after it
+    (signed ``rate_kmh_per_s``: negative for a coast-down), its tread kicked by Gaussian
+    displacements of ``disturbance_m`` every 20 ms (``seed``), and the tread acceleration
+    goes through the same detector as a measurement. None: no onset within the span.
     """
     from .runup import simulate_ramp
 
     direction = 1.0 if rate_kmh_per_s > 0 else -1.0
-    start = hopf_speed_kmh - direction * FLOOR_WINDOW_KMH[0]
+    start = hopf_speed_kmh - direction * (FLOOR_WINDOW_KMH[0] + 10.0)  # floor window and settling of the kicks
     end = hopf_speed_kmh + direction * span_kmh
     fs = max(8.0 * frequency_hz, 500.0)
-    run = simulate_ramp(params, start, end, abs(rate_kmh_per_s), fs, kick_m=disturbance_m, seed=seed)
+    run = simulate_ramp(params, start, end, abs(rate_kmh_per_s), fs, perturbation_m=0.0, kick_m=disturbance_m,
+                        seed=seed)
     t_hopf = abs(hopf_speed_kmh - start) / abs(rate_kmh_per_s)
-    sev = _sev_from_envelope(run.t, run.speed_kmh, run.acceleration, fs, frequency_hz, t_hopf, run.t[-1] + 1.0,
-                             reference_kmh)
+    sev = _sev_from_envelope(run.t, run.speed_kmh, run.acceleration, fs, frequency_hz, t_hopf, run.t[-1] + 1.0)
     if sev is None or sev.get("onset") is None:
-        return None, None
-    return direction * (sev["onset"]["speed_kmh"] - hopf_speed_kmh), sev.get("floor_ratio")
+        return None
+    return direction * (sev["onset"]["speed_kmh"] - hopf_speed_kmh)
 
 
 # -- the analysis ----------------------------------------------------------------------------
@@ -652,10 +647,6 @@ def campbell(
             else run.channels[strongest][0]
         t_start, t_end = times[ridge.segments[0]] - window_s / 2, times[ridge.segments[-1]] + window_s / 2
         sev = _sev_from_envelope(run.t, run.speed_kmh, x, fs, f0, t_start, t_end)
-        if sev is not None and sev.get("onset"):  # the level 10 km/h on, for the ramp correction
-            direction = math.copysign(1.0, float(np.polyfit(run.t, run.speed_kmh, 1)[0]))
-            reference = sev["onset"]["speed_kmh"] + 10.0 * direction
-            sev = _sev_from_envelope(run.t, run.speed_kmh, x, fs, f0, t_start, t_end, reference)
         if sev is not None:
             sev.update(channel=strongest, unit=run.channels[strongest][1], ridge_frequency_hz=f0,
                        orders_removed=orders,
@@ -688,26 +679,25 @@ def _correct_onset(sev: dict, run: Run, params: Params, disturbance_m: float) ->
         onset["correction"] = "not corrected: the model has no Hopf point entering instability in this direction"
         return
     hopf = min(entering, key=lambda h: abs(h.speed_kmh - onset["speed_kmh"]))
-    reference = onset["speed_kmh"] + math.copysign(10.0, rate)
-    measured_ratio = sev.get("floor_ratio")
-    delay, ratio = ramp_delay(params, hopf.speed_kmh, hopf.frequency_hz, rate, disturbance_m, reference)
-    if delay is None:
-        onset["correction"] = "not corrected: the simulated ramp shows no onset within 30 km/h of the Hopf point"
+    runs = [(disturbance_m, seed) for seed in range(RAMP_SEEDS)] + [(disturbance_m / 10, 0), (disturbance_m * 10, 0)]
+    delays = [ramp_delay(params, hopf.speed_kmh, hopf.frequency_hz, rate, d, seed=k) for d, k in runs]
+    same = [d for d in delays[:RAMP_SEEDS] if d is not None]
+    if not same:
+        onset["correction"] = "not corrected: the simulated ramp shows no onset within 20 km/h of the Hopf point"
         return
-    matched = disturbance_m * measured_ratio / ratio if measured_ratio and ratio else disturbance_m
-    delays = [ramp_delay(params, hopf.speed_kmh, hopf.frequency_hz, rate, matched * f)[0] for f in (1.0, 1 / 3, 3.0)]
-    if delays[0] is None:
-        delays[0] = delay
-        matched = disturbance_m
-    spread = [d for d in delays if d is not None]
+    delay = float(np.mean(same))
+    scatter = float(np.std(same, ddof=1)) if len(same) > 1 else 0.0
+    levels = [d for d in delays[RAMP_SEEDS:] if d is not None] + [delay]
+    level_spread = 0.5 * (max(levels) - min(levels))
     onset.update(
         hopf_speed_kmh=hopf.speed_kmh,
-        ramp_delay_kmh=delays[0],
-        disturbance_m=matched,
-        corrected_speed_kmh=onset["speed_kmh"] - math.copysign(delays[0], rate),
-        corrected_uncertainty_kmh=math.hypot(onset["uncertainty_kmh"], 0.5 * (max(spread) - min(spread))),
+        ramp_delay_kmh=delay,
+        ramp_delay_scatter_kmh=scatter,
+        ramp_delay_by_disturbance_kmh={f"{d:.2g}": x for (d, _), x in zip(runs[RAMP_SEEDS:], delays[RAMP_SEEDS:])},
+        corrected_speed_kmh=onset["speed_kmh"] - math.copysign(delay, rate),
+        corrected_uncertainty_kmh=math.sqrt(onset["uncertainty_kmh"] ** 2 + scatter**2 + level_spread**2),
         correction=(f"ramp-corrected: the model, ramped at {rate:.3g} km/h/s through its Hopf point at "
-                    f"{hopf.speed_kmh:.1f} km/h with tread kicks of {matched:.2g} m (matched to the measured "
-                    f"floor), shows SEV {delays[0]:.1f} km/h late (kicks x1/3, x3: "
-                    + ", ".join("none" if d is None else f"{d:.1f}" for d in delays[1:]) + " km/h)"),
+                    f"{hopf.speed_kmh:.1f} km/h with tread kicks of {disturbance_m:g} m, shows SEV {delay:.1f} "
+                    f"+- {scatter:.1f} km/h late ({RAMP_SEEDS} seeds; kicks x0.1 / x10 give "
+                    + ", ".join("none" if x is None else f"{x:.1f}" for x in delays[RAMP_SEEDS:]) + " km/h)"),
     )

@@ -41,8 +41,8 @@ def campbell(
                                           "band (a continuation).")] = True,
     ramp_correction: Annotated[bool, typer.Option("--ramp-correction/--no-ramp-correction",
                                                   help="Correct the SEV onset for the ramp delay (simulated).")] = True,
-    disturbance_m: Annotated[float, typer.Option("--disturbance", help="Starting tread disturbance of the ramp "
-                                                 "simulation [m] (then matched to the measured floor).")] = 1e-6,
+    disturbance_m: Annotated[float, typer.Option("--disturbance", help="Tread kicks of the ramp simulation, every "
+                                                 "20 ms [m] (x0.1 and x10 enter the uncertainty).")] = 1e-6,
     config: ConfigOpt = None,
     set_: SetOpt = None,
     json_: JsonOpt = False,
