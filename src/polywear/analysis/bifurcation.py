@@ -327,25 +327,32 @@ class BifurcationDiagram:
         coords = [q for q in names if q + "dot" in names]
         return sorted(coords, key=lambda q: q != "x")
 
-    def figure(self, states: list[str] | None = None):
-        """Figure with one amplitude panel per coordinate (x large on top)."""
+    def figure(self, states: list[str] | None = None, operating_range_kmh: tuple[float, float] | None = None):
+        """Figure with one amplitude panel per coordinate (x large on top), operating speed
+        (and ``operating_range_kmh`` [km/h] if given) marked."""
         import matplotlib.pyplot as plt
 
         states = states or self.coordinates()
         heights = [3] + [1.6] * (len(states) - 1)
-        fig, axes = plt.subplots(len(states), 1, figsize=(8, sum(heights) + 1.0), sharex=True,
+        fig, axes = plt.subplots(len(states), 1, figsize=(10, sum(heights) + 1.0), sharex=True,
                                  gridspec_kw={"height_ratios": heights}, squeeze=False)
         for ax, state in zip(axes[:, 0], states):
             unit = _UNITS.get(state)
-            self.plot(ax, state=state, scale=unit[0] if unit else 1.0, unit=unit[1] if unit else "")
+            self.plot(ax, state=state, scale=unit[0] if unit else 1.0, unit=unit[1] if unit else "",
+                      operating_range_kmh=operating_range_kmh)
+            if ax is not axes[-1, 0]:
+                ax.set_xlabel("")
             if ax is not axes[0, 0]:
                 ax.set_title("")
                 ax.get_legend().remove()
         fig.tight_layout()
         return fig
 
-    def plot(self, ax=None, state: str = "x", scale: float | None = None, unit: str | None = None):
-        """Amplitude of ``state`` against speed: stable cycles solid, unstable dashed. Returns artists."""
+    def plot(self, ax=None, state: str = "x", scale: float | None = None, unit: str | None = None,
+             operating_range_kmh: tuple[float, float] | None = None):
+        """Amplitude of ``state`` against speed: stable cycles solid, unstable dashed, the SEV
+        band shaded, the operating speed (``params.operating.speed_kmh``) as a vertical line and
+        ``operating_range_kmh`` [km/h], if given, hatched. Returns artists."""
         import matplotlib.pyplot as plt
 
         if ax is None:
@@ -360,8 +367,14 @@ class BifurcationDiagram:
         artists += ax.plot(V, np.where(stable_eq, 0.0, np.nan), "k-", lw=2, label="steady rolling, stable")
         artists += ax.plot(V, np.where(~stable_eq, 0.0, np.nan), color="tab:red", ls=":", lw=2,
                            label="steady rolling, unstable")
-        for lo, hi in self.sev_band_kmh:
-            artists.append(ax.axvspan(lo, hi, color="tab:orange", alpha=0.10))
+        for k, (lo, hi) in enumerate(self.sev_band_kmh):
+            artists.append(ax.axvspan(lo, hi, color="tab:orange", alpha=0.10, label=None if k else "SEV band"))
+        if operating_range_kmh is not None:
+            lo, hi = operating_range_kmh
+            artists.append(ax.axvspan(lo, hi, facecolor="none", edgecolor=(0.17, 0.63, 0.17, 0.45), hatch="//", lw=0.0,
+                                      label=f"operating range {lo:g}-{hi:g} km/h"))
+        speed = self.params.operating.speed_kmh
+        artists.append(ax.axvline(speed, color="tab:green", ls="-.", lw=1.5, label=f"operating speed {speed:g} km/h"))
         first = True
         for b in range(len(self.branches)):
             pts = [c for c in self.cycles if c.branch == b]
@@ -404,7 +417,7 @@ class BifurcationDiagram:
         ax.set_xlabel("speed [km/h]")
         ax.set_ylabel(f"amplitude of {state} [{unit}]" if unit else f"amplitude of {state}")
         ax.set_xlim(*self.speed_range_kmh)
-        ax.legend(loc="upper left", fontsize=8)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
         return artists
 
 
