@@ -157,6 +157,8 @@ class BandReference:
     """State scales of the continuation norm, per fold (those of its branch)."""
     fold_gradients: tuple[np.ndarray, ...] = ()
     """dV_fold/dp [m/s per unit of each kernel parameter], per fold (exact, left null vector)."""
+    fold_curvatures: tuple[float, ...] = ()
+    """d(dV/ds)/ds along the branch at each fold (first step of the relocation)."""
     sev_labels: tuple = ()
     hard_labels: tuple = ()
     stable_labels: tuple = ()
@@ -225,6 +227,7 @@ def band_reference(diagram, amplitude_speeds_kmh=()) -> BandReference:
         folds=tuple(folds),
         scales=tuple(scales),
         fold_gradients=gradients,
+        fold_curvatures=tuple(fold_curvature(model, p, f, sc, diagram.settings) for f, sc in zip(folds, scales)),
         sev_labels=labels["sev"] or (),
         hard_labels=labels["hard"] or (),
         stable_labels=labels["stable"] or (),
@@ -238,28 +241,50 @@ class _Fallback(Exception):
     """The fast path does not apply to this sample (the message says why)."""
 
 
-MARCH_STEP = 1e-2
-"""First arclength step [scaled] of the march from the corrected guess towards the fold."""
 MAX_MARCH = 40
-"""Largest number of march steps before the relocation gives up."""
+"""Largest number of arclength steps (march and secant) of one fold relocation."""
+MAX_STEP = 0.5
+"""Largest arclength step [scaled] of the march towards the fold."""
 
 
-def _relocate_fold(model, p, guess: BranchPoint, speed: float, scales, settings) -> BranchPoint | None:
+def _fold_stepper(model, p, orbit, speed: float, scales, settings):
+    """The continuation's Newton corrector (scaled norm: states, 0.1 V, the period) at ``p``."""
+    from ..solvers.continuation import _Stepper
+
+    return _Stepper(model, p, orbit.mesh, settings, scales, 0.1 * speed, orbit.period)
+
+
+def fold_curvature(model, p, fold: BranchPoint, scales, settings, h: float = 1e-3) -> float:
+    """d(dV/ds)/ds at a fold [m/s per scaled arclength^2], by central difference along its branch."""
+    stepper = _fold_stepper(model, p, fold.orbit, fold.orbit.speed, scales, settings)
+    X, t = stepper.coll.pack(fold.orbit), stepper.unit(fold.tangent)
+    g = []
+    for s in (-h, h):
+        out = stepper.correct(X, t, s, fold.orbit)
+        if out is None:
+            return np.nan
+        g.append(float(out[1][-1]))
+    return (g[1] - g[0]) / (2.0 * h)
+
+
+def _relocate_fold(model, p, guess: BranchPoint, speed: float, scales, settings,
+                   curvature: float = np.nan) -> BranchPoint | None:
     """The fold of cycles at ``p`` near ``guess`` (a fold at a nearby parameter vector).
 
     Newton onto the cycle branch at ``p`` from the guess with its speed replaced by
-    ``speed`` [m/s]; then pseudo-arclength steps towards the fold (the side where the
-    speed component ``g = dV/ds`` of the tangent shrinks), each step sized by the secant
-    estimate of the remaining arclength (at most doubled), until ``g`` changes sign; then
-    the continuation's bracketed secant iteration to ``|g| < settings.fold_tol``. None if
-    it fails. (:func:`~polywear.solvers.continuation.fold_near` takes one fixed probe step
-    and unbracketed secant steps, which fail when the corrected guess lands further from
-    the fold than a Newton step reaches.)
+    ``speed`` [m/s] (the border row is the guess's tangent, so this lands on the branch
+    near the fold, not on it). The speed component ``g = dV/ds`` of the branch tangent
+    vanishes at the fold and is nearly linear in the arclength ``s`` there, so: steps of
+    ``-1.2 g / (dg/ds)`` (``curvature``, the reference's, first; then the secant slope of
+    the last two points) until ``g`` changes sign, then secant iteration inside that
+    bracket (bisection when a secant step leaves it) to ``|g| < settings.fold_tol``.
+    None if Newton fails or no fold is bracketed within :data:`MAX_MARCH` steps.
+    (:func:`~polywear.solvers.continuation.fold_near` takes one fixed probe step and
+    unbracketed secant steps, which fail when the landing point is further from the fold
+    than a Newton step reaches.)
     """
-    from ..solvers.continuation import _fold_by_secant, _Stepper
-
     orbit = guess.orbit
-    stepper = _Stepper(model, p, orbit.mesh, settings, scales, 0.1 * speed, orbit.period)
+    stepper = _fold_stepper(model, p, orbit, speed, scales, settings)
     c = stepper.coll
     X0 = c.pack(orbit)
     X0[-1] = speed
@@ -267,28 +292,50 @@ def _relocate_fold(model, p, guess: BranchPoint, speed: float, scales, settings)
     if out is None:
         return None
     X, t, g = out[0], out[1], float(out[1][-1])
-    if abs(g) < settings.fold_tol:
-        return BranchPoint(c.unpack(X), out[3], t, out[2], "LP")
-    ds, direction = MARCH_STEP, 0.0
+    best = BranchPoint(c.unpack(X), out[3], t, out[2], "LP")
+    slope = curvature if np.isfinite(curvature) and curvature != 0.0 else -np.sign(g) / 1e-2
+    limit = MAX_STEP  # halved at every failed step, grown by half at every good one
+    step = float(np.clip(-1.2 * g / slope, -limit, limit))
+    bracket = None
     for _ in range(MAX_MARCH):
-        if abs(ds) < settings.ds_min:
-            return None
-        step = ds * (direction or 1.0)
-        start = c.unpack(X)
-        nxt = stepper.correct(X, t, step, start)
-        if nxt is None:
-            ds *= 0.5
+        if abs(g) < settings.fold_tol:
+            return best
+        start = c.unpack(X) if bracket is None else start
+        if bracket is None:
+            nxt = stepper.correct(X, t, step, start)
+            if nxt is None:
+                step *= 0.5
+                limit = abs(step)
+                if limit < settings.ds_min:
+                    return None
+                continue
+            limit = min(1.5 * limit, MAX_STEP)
+            g_new = float(nxt[1][-1])
+            best = BranchPoint(c.unpack(nxt[0]), nxt[3], nxt[1], nxt[2], "LP")
+            if np.sign(g_new) != np.sign(g):  # bracketed in [0, step] from X
+                bracket = [(0.0, g), (step, g_new)]
+                s_prev, g_prev, s_cur, g_cur = 0.0, g, step, g_new
+                g = g_new
+                continue
+            slope = (g_new - g) / step
+            X, t, g = nxt[0], nxt[1], g_new
+            if slope == 0.0 or -g / slope * np.sign(step) < 0:  # moving away from the fold: turn round
+                step = -float(np.clip(2.0 * step, -limit, limit))
+            else:
+                step = float(np.clip(-1.2 * g / slope, -limit, limit))
             continue
+        (sa, ga), (sb, gb) = bracket
+        s_new = s_cur - g_cur * (s_cur - s_prev) / (g_cur - g_prev) if g_cur != g_prev else 0.5 * (sa + sb)
+        if not min(sa, sb) < s_new < max(sa, sb):
+            s_new = 0.5 * (sa + sb)
+        nxt = stepper.correct(X, t, s_new, start)
+        if nxt is None:
+            return None
         g_new = float(nxt[1][-1])
-        if np.sign(g_new) != np.sign(g):
-            return _fold_by_secant(stepper, X, t, start, 0.0, g, step, g_new, settings.fold_tol, bracketed=True)
-        if not direction:  # first step: go where |g| shrinks
-            direction = 1.0 if abs(g_new) < abs(g) else -1.0
-            if direction < 0:
-                continue  # the step went the wrong way: start again from X towards the other side
-        remaining = g_new * abs(step) / (g - g_new) if g != g_new else np.inf
-        X, t, g = nxt[0], nxt[1], g_new
-        ds = float(np.clip(1.2 * remaining, 0.5 * ds, 2.0 * ds)) if remaining > 0 else 2.0 * ds
+        best = BranchPoint(c.unpack(nxt[0]), nxt[3], nxt[1], nxt[2], "LP")
+        bracket = [(s_new, g_new), (sb, gb)] if np.sign(g_new) == np.sign(gb) * -1 else [(sa, ga), (s_new, g_new)]
+        s_prev, g_prev, s_cur, g_cur = s_cur, g_cur, s_new, g_new
+        g = g_new
     return None
 
 
@@ -301,6 +348,12 @@ def _adapted(model, p, fold: BranchPoint) -> BranchPoint:
     new = Collocation(model, p, mesh, fold.orbit.m)
     tangent = new.pack(c.unpack(fold.tangent).with_mesh(mesh))
     return BranchPoint(fold.orbit.with_mesh(mesh), fold.multipliers, tangent, fold.newton_iterations, "LP")
+
+
+def _difference(p: np.ndarray, p_ref: np.ndarray) -> np.ndarray:
+    """``p - p_ref``, zero in slots that are not parameters (NaN: a model's per-speed cache)."""
+    both = np.isfinite(p) & np.isfinite(p_ref)
+    return np.where(both, p - np.where(both, p_ref, 0.0), 0.0)
 
 
 @dataclass(frozen=True)
@@ -332,16 +385,21 @@ class FastBand:
 
     def __call__(self, params: Params) -> Band:
         """The band of ``params``: fast path, or the full continuation when it does not apply."""
+        band = self.try_fast(params)
+        return band if isinstance(band, Band) else self.full(params, band)
+
+    def try_fast(self, params: Params) -> Band | str:
+        """The fast path's band, or why it does not apply (then nothing else is computed)."""
         model = get_model(params.model)
         p = model.pack(params)
         ref = self._nearest(p)
         reason = ref.unusable if ref is not None else "no reference"
-        if not reason:
-            try:
-                return self._fast(model, params, p, ref)
-            except _Fallback as exc:
-                reason = str(exc)
-        return self.full(params, reason)
+        if reason:
+            return reason
+        try:
+            return self._fast(model, params, p, ref)
+        except _Fallback as exc:
+            return str(exc)
 
     def full(self, params: Params, reason: str = "") -> Band:
         """The full continuation's band (the fallback)."""
@@ -354,7 +412,7 @@ class FastBand:
         candidates = [r for r in self.references if r.p.shape == p.shape]
         if not candidates:
             return None
-        return min(candidates, key=lambda r: float(np.sum(((p - r.p) / (np.abs(r.p) + 1e-12)) ** 2)))
+        return min(candidates, key=lambda r: float(np.sum((_difference(p, r.p) / (np.abs(r.p) + 1e-12)) ** 2)))
 
     # -- the steps --------------------------------------------------------------------------------
     def _hopf(self, params, ref):
@@ -385,14 +443,15 @@ class FastBand:
         prediction by more than a quarter of the predicted change (plus 1e-3 of the speed)
         is halved, a good one doubled.
         """
-        direction = p - ref.p
+        direction = _difference(p, ref.p)
         fold, scales = ref.folds[j], ref.scales[j]
         slope = float(ref.fold_gradients[j] @ direction)  # dV/dtheta [m/s]
+        curvature = ref.fold_curvatures[j]
         theta, h, halvings = 0.0, 1.0, 0
         while theta < 1.0:
             nxt = min(1.0, theta + h)
             V_pred = fold.orbit.speed + (nxt - theta) * slope
-            new = _relocate_fold(model, ref.p + nxt * direction, fold, V_pred, scales, self.settings)
+            new = _relocate_fold(model, ref.p + nxt * direction, fold, V_pred, scales, self.settings, curvature)
             change = abs(V_pred - fold.orbit.speed)
             if new is None or abs(new.orbit.speed - V_pred) > 0.25 * change + 1e-3 * fold.orbit.speed:
                 halvings += 1
@@ -403,7 +462,7 @@ class FastBand:
             slope = (new.orbit.speed - fold.orbit.speed) / (nxt - theta)
             fold, theta, h = new, nxt, 2.0 * h
         if self.adapt_mesh:
-            fold = _relocate_fold(model, p, _adapted(model, p, fold), fold.orbit.speed, scales, self.settings)
+            fold = _relocate_fold(model, p, _adapted(model, p, fold), fold.orbit.speed, scales, self.settings, curvature)
             if fold is None:
                 raise _Fallback(f"fold {j + 1} lost after mesh adaptation")
         return fold

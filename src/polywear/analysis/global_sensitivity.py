@@ -244,6 +244,16 @@ def max_stable_amplitude(diagram, speed_range_kmh, state: str = "x") -> float:
     return best
 
 
+def _fast_outputs(band, speed_range_kmh, operating_range_kmh):
+    """The bifurcation outputs of a fast-path band: the largest stable amplitude in the
+    operating range is taken at its ends and at the folds inside it (where the stable branch
+    ends; along a stable run the amplitude grows monotonically towards its fold)."""
+    outputs, status = _band_outputs(band.sev_band_kmh, speed_range_kmh)
+    lo, hi = operating_range_kmh
+    folds = [a for v, a in zip(band.folds_kmh, band.fold_amplitude_x_m) if lo <= v <= hi]
+    return (*outputs, max([*band.amplitude_x_m, *folds], default=0.0) * 1e3), status, "fast"
+
+
 @dataclass(frozen=True)
 class StudyEvaluator:
     """The study's outputs for one sample: picklable, deterministic (a task of any backend)."""
@@ -253,13 +263,17 @@ class StudyEvaluator:
     outputs: str = "hopf"
     speed_range_kmh: tuple[float, float] = (20.0, 300.0)
     operating_range_kmh: tuple[float, float] = (80.0, 130.0)
+    fast: object = None
+    """A :class:`~polywear.analysis.fast_band.FastBand` (amplitudes at the operating-range
+    ends) tried first for ``outputs = "bifurcation"``; the continuation where it does not apply."""
 
     @property
     def names(self) -> tuple[str, ...]:
         return HOPF_OUTPUTS if self.outputs == "hopf" else BIFURCATION_OUTPUTS
 
     def __call__(self, values) -> tuple[tuple[float, ...], str]:
-        """(output values, status) for the parameter values of one sample."""
+        """(output values, status) for the parameter values of one sample (and "fast" after
+        the status when the fast band path gave them)."""
         nan = (np.nan,) * len(self.names)
         try:
             params = sample_params(self.params, self.keys, values)
@@ -274,6 +288,11 @@ class StudyEvaluator:
 
     def _bifurcation(self, params):
         from .bifurcation import bifurcation_diagram
+
+        if self.fast is not None:
+            band = self.fast.try_fast(params)
+            if not isinstance(band, str):
+                return _fast_outputs(band, self.speed_range_kmh, self.operating_range_kmh)
 
         diagram = bifurcation_diagram(params, self.speed_range_kmh)
         for info in diagram.branch_info:
@@ -498,6 +517,7 @@ def global_sensitivity(
     scheduler: str | None = None,
     batch_size: int | None = None,
     on_progress=None,
+    fast_band: bool = True,
 ) -> GlobalSensitivityResult:
     """Run the study of ``params.study`` on the given backend (see :func:`polywear.parallel.map_batched`).
 
@@ -518,6 +538,10 @@ def global_sensitivity(
         Samples per task.
     on_progress : callable, optional
         Called with the number of samples finished, after every batch.
+    fast_band : bool
+        With ``outputs = "bifurcation"``: try the fast band path
+        (:mod:`polywear.analysis.fast_band`, warm-started from the nominal diagram) on every
+        sample before the full continuation; the counts of both are in ``settings``.
 
     Returns
     -------
@@ -538,13 +562,22 @@ def global_sensitivity(
         X = sobol_sample.sample(problem, study.n_base, calc_second_order=study.second_order, seed=rng)
     else:
         X = morris_sample.sample(problem, study.n_base, num_levels=study.morris_levels, seed=rng)
+    fast = None
+    if study.outputs == "bifurcation" and fast_band:
+        from .bifurcation import bifurcation_diagram
+        from .fast_band import _FIXED_RANGE, FastBand, band_reference
+
+        reference = band_reference(bifurcation_diagram(params, study.speed_range_kmh, **_FIXED_RANGE),
+                                   study.operating_range_kmh)
+        fast = FastBand((reference,), tuple(study.speed_range_kmh), tuple(study.operating_range_kmh))
     evaluator = StudyEvaluator(
-        params, tuple(problem["names"]), study.outputs, study.speed_range_kmh, study.operating_range_kmh
+        params, tuple(problem["names"]), study.outputs, study.speed_range_kmh, study.operating_range_kmh, fast
     )
     results = map_batched(evaluator, list(X), backend=backend, workers=workers, scheduler=scheduler,
                           batch_size=batch_size, on_progress=on_progress)
     Y = np.array([r[0] for r in results], dtype=float)
     status = [r[1] for r in results]
+    n_fast = sum(len(r) > 2 and r[2] == "fast" for r in results)  # fast band path; the others: continuation
     settings = {
         "second_order": study.second_order,
         "bootstrap": study.bootstrap,
@@ -576,6 +609,7 @@ def global_sensitivity(
         indices=indices,
         convergence=convergence,
         settings={**settings, "backend": backend, "seed": study.seed, "n_base": study.n_base,
+                  "fast_band_samples": n_fast,
                   "speed_range_kmh": list(study.speed_range_kmh),
                   "operating_range_kmh": list(study.operating_range_kmh)},
     )
