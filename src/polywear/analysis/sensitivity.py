@@ -181,8 +181,13 @@ class SensitivityResult:
         with open(path, "w") as fh:
             json.dump(payload, fh, indent=2)
 
-    def plot(self, ax=None, quantity: str = "first_bifurcation", normalized: bool = True):
-        """Bar chart of one quantity's sensitivities, parameters ranked (the paper's Fig. 9)."""
+    def plot(self, ax=None, quantity: str = "first_bifurcation", normalized: bool = True,
+             title: str | None = None, legend: bool = True):
+        """Bar chart of one quantity's sensitivities, parameters ranked (the paper's Fig. 9).
+
+        Red bars: more of the parameter (a larger magnitude, for S) raises the speed; blue:
+        lowers it. Returns the bars.
+        """
         import matplotlib.pyplot as plt
 
         if ax is None:
@@ -193,26 +198,63 @@ class SensitivityResult:
         order = np.argsort(-np.abs(values))
         labels = [PARAMETER_LABELS.get(rows[i]["param"], rows[i]["param"]) for i in order]
         heights = [values[i] for i in order]
-        colors = ["tab:red" if h > 0 else "tab:blue" for h in heights]
+        colors = [_RAISES if h > 0 else _LOWERS for h in heights]
         bars = ax.barh(range(len(heights)), heights, color=colors)
         ax.set_yticks(range(len(heights)), labels, fontsize=8)
         ax.invert_yaxis()
         ax.axvline(0.0, color="k", lw=0.8)
         speed = rows[0]["speed_kmh"] if rows else float("nan")
-        ax.set_title(f"{quantity.replace('_', ' ')} ({speed:.1f} km/h)", fontsize=10)
+        ax.set_title(f"{title or _quantity_label(quantity)} ({speed:.1f} km/h)", fontsize=10)
         ax.set_xlabel("S = (p/V) dV/dp [-]" if normalized else "dV/dp [km/h per unit]")
+        if legend:
+            ax.legend(handles=_colour_legend(normalized), fontsize=7, loc="best")
         return list(bars)
 
+    def panels(self) -> list[list[str]]:
+        """Quantities grouped by the point they are (e.g. the first bifurcation speed is
+        Hopf 1): one group per distinct point, the band bounds first."""
+        speed = {r["quantity"]: r["speed_kmh"] for r in self.rows}
+        names = sorted(dict.fromkeys(speed), key=lambda q: not q.endswith("_bifurcation"))
+        groups: list[list[str]] = []
+        for q in names:
+            same = next((g for g in groups if speed[g[0]] == speed[q]), None)
+            if same is None:
+                groups.append([q])
+            else:
+                same.append(q)
+        return groups
+
     def figure(self, normalized: bool = True):
-        """One bar chart per bifurcation speed (the paper's Fig. 9a, 9b and the rest)."""
+        """One bar chart per distinct bifurcation speed (the paper's Fig. 9a, 9b and the rest),
+        with the colours explained once at the top."""
         import matplotlib.pyplot as plt
 
-        quantities = list(dict.fromkeys(r["quantity"] for r in self.rows))
-        fig, axes = plt.subplots(len(quantities), 1, figsize=(7, 2.6 * len(quantities)), squeeze=False)
-        for ax, q in zip(axes[:, 0], quantities):
-            self.plot(ax, q, normalized)
-        fig.tight_layout()
+        groups = self.panels()
+        fig, axes = plt.subplots(len(groups), 1, figsize=(7, 2.6 * len(groups) + 0.4), squeeze=False)
+        for ax, group in zip(axes[:, 0], groups):
+            self.plot(ax, group[0], normalized, title=" = ".join(_quantity_label(q) for q in group), legend=False)
+        fig.legend(handles=_colour_legend(normalized), loc="upper center", ncol=2, fontsize=8, frameon=False)
+        fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.35 / fig.get_figheight()))
         return fig
+
+
+_RAISES, _LOWERS = "tab:red", "tab:blue"
+
+
+def _colour_legend(normalized: bool) -> list:
+    from matplotlib.patches import Patch
+
+    what = "S" if normalized else "dV/dp"
+    return [Patch(color=_RAISES, label=f"{what} > 0: more of the parameter raises this speed"),
+            Patch(color=_LOWERS, label=f"{what} < 0: more of the parameter lowers this speed")]
+
+
+def _quantity_label(quantity: str) -> str:
+    """'first_bifurcation' -> 'first bifurcation speed', 'hopf_2' -> 'Hopf 2', 'fold_1' -> 'fold 1'."""
+    if quantity.endswith("_bifurcation"):
+        return quantity.replace("_", " ") + " speed"
+    kind, _, k = quantity.partition("_")
+    return f"{'Hopf' if kind == 'hopf' else kind} {k}"
 
 
 def _quantities(diagram: BifurcationDiagram) -> dict[str, tuple[str, object]]:
