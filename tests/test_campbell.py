@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 
 import numpy as np
 import pytest
@@ -113,13 +114,27 @@ def test_read_run_units_and_errors(tmp_path):
     np.savetxt(bad, np.column_stack([t, t]), delimiter=",", header="time [s],acc [g]", comments="")
     with pytest.raises(MeasurementError, match="no speed column found"):
         read_run(bad)
-    mdf = tmp_path / "run.mf4"
-    mdf.write_bytes(b"MDF     4.10    ")
-    try:
-        import asammdf  # noqa: F401
-    except ImportError:
-        with pytest.raises(MeasurementError, match=r"polywear\[measure\]"):
-            read_run(mdf)
+    semicolons = tmp_path / "s.csv"
+    semicolons.write_text("time [s];speed [km/h];acc [m/s^2]\n" + "".join(f"{k / 100};50;{k % 3}\n" for k in range(100)))
+    assert read_run(semicolons).speed_kmh[0] == 50.0
+
+
+def test_mdf4_run(tmp_path, monkeypatch):
+    asammdf = pytest.importorskip("asammdf")
+    t = np.arange(0, 2.0, 1e-3)
+    mdf = asammdf.MDF(version="4.10")
+    mdf.append([asammdf.Signal(20.0 + t, t, name="vehicle speed", unit="m/s"),
+                asammdf.Signal(np.sin(2 * np.pi * 100 * t), t, name="acc_y", unit="m/s^2")])
+    path = tmp_path / "run.mf4"
+    mdf.save(path, overwrite=True)
+    run = read_run(path)
+    assert run.sample_rate_hz == pytest.approx(1000.0)
+    assert run.speed_kmh[0] == pytest.approx(72.0)
+    assert run.channels["acc_y"][1] == "m/s^2"
+    assert run.channels["acc_y"][0][:50] == pytest.approx(np.sin(2 * np.pi * 100 * t[:50]), abs=1e-12)
+    monkeypatch.setitem(sys.modules, "asammdf", None)  # as if the extra were not installed
+    with pytest.raises(MeasurementError, match=r"polywear\[measure\]"):
+        read_run(path)
 
 
 def test_cli_json_plot_and_netcdf(runup, tmp_path):

@@ -91,8 +91,10 @@ def _columns_from_csv(path: Path):
     import pandas as pd
 
     try:
-        frame = pd.read_csv(path, sep=None, engine="python", comment="#") if path.stat().st_size < 1_000_000 \
-            else pd.read_csv(path, comment="#")
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            header = next((line for line in fh if line.strip() and not line.startswith("#")), "")
+        sep = max((",", ";", "\t"), key=header.count) if any(c in header for c in ",;\t") else r"\s+"
+        frame = pd.read_csv(path, sep=sep, comment="#", engine="c" if len(sep) == 1 else "python")
     except (OSError, UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
         raise MeasurementError(f"{path}: not a readable CSV run ({type(exc).__name__}: {str(exc).splitlines()[0]})") \
             from None
