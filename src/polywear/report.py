@@ -138,6 +138,11 @@ def text_summary(summary: dict) -> list[str]:
                       ("static divergence (real eigenvalue crossing)", "real_eigenvalue_crossings_kmh")):
         if b.get(key):
             lines.append(f"{name} at {', '.join(f'{v:.1f}' for v in b[key])} km/h")
+    design = summary["design"]
+    lo, hi = design["operating_range_kmh"]
+    first = next((o for o in design["options"] if o["achieved"]), None)
+    lines.append(f"design for {lo:g}-{hi:g} km/h: "
+                 + (first["text"] if first else design["reason"] or "no option clears the range (see report.html)"))
     return lines
 
 
@@ -218,7 +223,9 @@ def run_report(
     diagram.save(out_dir / "cycles.csv")
     files["bifurcation.nc"] = "bifurcation diagram: branch table and equilibria (netCDF)"
     files["cycles.csv"] = "cycle branch table (CSV)"
-    save(diagram.figure(), "bifurcation.png", "Bifurcation diagram: amplitude of every coordinate against speed (paper Fig. 6)")
+    save(diagram.figure(operating_range_kmh=operating_range), "bifurcation.png",
+         "Bifurcation diagram: amplitude of every coordinate against speed, with the operating speed and range "
+         "(paper Fig. 6)")
     fig, ax = plt.subplots(figsize=(7, 4))
     diagram.stability.plot(ax)
     save(fig, "stability.png", "Real parts of the eigenvalues of steady rolling against speed")
@@ -246,13 +253,14 @@ def run_report(
 
     say("design options for the operating range")
     design = clear_operating_range(
-        params, operating_range, keys=("operating.toe_deg", "adhesion_scale", "friction.mu_static"),
-        combine=("operating.toe_deg", "adhesion_scale"), speed_range_kmh=speed_range_kmh, diagram=diagram,
+        params, operating_range, combine=("operating.toe_deg", "adhesion_scale"), speed_range_kmh=speed_range_kmh,
+        diagram=diagram, progress=lambda message: say(f"design diagram: {message}"),
     )
-    if design.options:
+    if design.best is not None:
         fig, ax = plt.subplots(figsize=(8, 4.5))
         design.plot(ax)
-        save(fig, "design.png", "Original and optimized bifurcation diagrams (paper Figs. 10-12)")
+        save(fig, "design.png", f"Original bifurcation diagram and the first-ranked design option, "
+                                f"{design.best.change_text()} (paper Figs. 10-12)")
 
     from .report_wear import wear_section
 
@@ -310,15 +318,7 @@ def _html(params: Params, summary: dict, verdict: dict, files: dict) -> str:
     )
     notes = "".join(f"<li>{e(n)}</li>" for n in [*b.get("range_notes", []), *b.get("warnings", [])])
     sens_notes = "".join(f"<li>{e(n)}</li>" for n in summary["sensitivity"].get("notes", []))
-    design_rows = "".join(
-        f"<tr><td>{e(' + '.join(o['labels']))}</td><td>{', '.join(f'{n:g} &rarr; {v:.4g}' for n, v in zip(o['nominal'], o['values']))}</td>"
-        f"<td>{o['relative_change']:.0%}</td><td>{'yes' if o['achieved'] else 'no'}</td><td>{band(o['sev_band_kmh'])}</td></tr>"
-        for o in summary["design"]["options"]
-    )
-    if not summary["design"]["options"]:
-        lo, hi = summary["design"]["operating_range_kmh"]
-        reason = summary["design"].get("reason") or f"the SEV band does not reach the operating range {lo:.0f}-{hi:.0f} km/h"
-        design_rows = f"<tr><td colspan='5'>no design option: {e(reason)}</td></tr>"
+    design_html = _design_html(summary["design"])
     figures = "".join(
         f"<figure><img src='{e(name)}' alt='{e(caption)}'><figcaption>{e(caption)}</figcaption></figure>"
         for name, caption in files.items()
@@ -341,7 +341,7 @@ figure{{margin:1.5em 0}}img{{max-width:100%}}.verdict{{background:#fff4e0;paddin
 <table><tr><th>point</th><th>speed [km/h]</th><th>frequency [Hz]</th><th></th></tr>{rows or "<tr><td colspan='4'>no Hopf point, fold or other bifurcation in the analysed range</td></tr>"}</table>
 <h2>Sensitivities</h2><ul>{sens_notes or "<li>see sensitivity.png and sensitivity.csv</li>"}</ul>
 <h2>Design options for {summary['design']['operating_range_kmh'][0]:.0f}-{summary['design']['operating_range_kmh'][1]:.0f} km/h</h2>
-<table><tr><th>change</th><th>values</th><th>relative change</th><th>range cleared</th><th>SEV band after</th></tr>{design_rows}</table>
+{design_html}
 {wear_html(summary.get("wear"))}
 {figures}
 <h2>Files</h2><ul>{file_list}</ul>
@@ -349,3 +349,37 @@ figure{{margin:1.5em 0}}img{{max-width:100%}}.verdict{{background:#fff4e0;paddin
 <p>polywear {e(__version__)}</p>
 </body></html>
 """
+
+
+def _design_html(design: dict) -> str:
+    """The design section: the ranked options as a table (signed changes with units, the
+    bound flag, what each does to the band), or why there are none."""
+    e = html.escape
+    lo, hi = design["operating_range_kmh"]
+    if not design["options"]:
+        reason = design.get("reason") or f"the SEV band does not reach the operating range {lo:g}-{hi:g} km/h"
+        return f"<p>No design option: {e(reason)}</p>"
+    bound = design["max_relative_change"]
+    groups = {"alignment": "you control", "axle bushing": "you control", "tread": "you control",
+              "road/compound": "road/compound (friction, not a vehicle setting)", "other": "other"}
+    rows = []
+    for o in design["options"]:
+        if o["relative_change"] == 0.0:  # nothing computed (see the note)
+            change, relative = e(" + ".join(o["labels"])), "&mdash;"
+        else:
+            change = "<br>".join(f"{e(label)} {e(c)}" for label, c in zip(o["labels"], o["value_changes"]))
+            relative = ", ".join(f"{r * 100:+.1f} %".replace("-", "&minus;") for r in o["relative_changes"])
+        if o["achieved"]:
+            status = f"yes, {e(o['outcome'])}" + ("" if o["within_bound"] else f" <b>(beyond the &plusmn;{bound * 100:g} % bound)</b>")
+        else:
+            status = f"no: {e(o['note'])}"
+        bands = ", ".join(f"{a:.1f}-{b:.1f} km/h" for a, b in o["sev_band_kmh"]) or "none"
+        rows.append(f"<tr><td>{e(groups[o['category']])}</td><td>{change}</td><td>{relative}</td><td>{status}</td>"
+                    f"<td>{bands}</td></tr>")
+    return (f"<p>Least change of each parameter that keeps the SEV band {design['margin_kmh']:g} km/h clear of "
+            f"{lo:g}-{hi:g} km/h, both directions searched, each verified by a full bifurcation diagram. "
+            f"Parameters you control come first; adhesion (tread-road friction) is a road or compound option. "
+            f"Changes beyond &plusmn;{bound * 100:g} % are flagged.</p>"
+            "<table><tr><th>option</th><th>change</th><th>relative change</th><th>range cleared</th>"
+            f"<th>SEV band after</th></tr>{''.join(rows)}</table>")
+

@@ -135,12 +135,15 @@ class DesignOption:
         """The least controllable category of the keys (a change needing the road counts as road)."""
         return max((parameter_category(k) for k in self.keys), key=_CATEGORY_RANK.__getitem__)
 
+    def value_changes(self) -> list[str]:
+        """Per key: '0.5° → 0.2228°'."""
+        return [f"{_with_unit(n, parameter_unit(k))} → {_with_unit(v, parameter_unit(k))}"
+                for k, n, v in zip(self.keys, self.nominal, self.values)]
+
     def change_text(self) -> str:
         """'toe angle 0.5° → 0.2228° (−55.4 %)', joined with ' + ' for combinations."""
-        return " + ".join(
-            f"{parameter_label(k)} {_with_unit(n, parameter_unit(k))} → {_with_unit(v, parameter_unit(k))} ({_percent(r)})"
-            for k, n, v, r in zip(self.keys, self.nominal, self.values, self.relative_changes)
-        )
+        return " + ".join(f"{parameter_label(k)} {c} ({_percent(r)})"
+                          for k, c, r in zip(self.keys, self.value_changes(), self.relative_changes))
 
     def text(self, max_relative_change: float | None = None) -> str:
         """One line: the signed change with units, the bound flag and what it does to the band."""
@@ -148,7 +151,7 @@ class DesignOption:
         after = f"SEV band {band} km/h" if band else "no SEV band"
         if self.achieved:
             flag = "" if self.within_bound else (
-                f", beyond the ±{max_relative_change:.0%} bound" if max_relative_change is not None else ", beyond the bound")
+                f", beyond the ±{max_relative_change * 100:g} % bound" if max_relative_change is not None else ", beyond the bound")
             return f"{self.change_text()}{flag}: clears the range, {self.outcome}" + (f" ({after})" if band else "")
         if self.values == self.nominal:  # nothing computed
             return f"{' + '.join(parameter_label(k) for k in self.keys)}: {self.note}"
@@ -168,6 +171,7 @@ class DesignOption:
             "within_bound": self.within_bound,
             "outcome": self.outcome,
             "sev_band_kmh": [list(b) for b in self.sev_band_kmh],
+            "value_changes": self.value_changes(),
             "change": self.change_text(),
             "note": self.note,
         }
@@ -203,7 +207,8 @@ class DesignResult:
             "original_sev_band_kmh": [list(b) for b in self.original.sev_band_kmh],
             "reason": self.reason,
             "not_in_model": list(self.skipped),
-            "options": [o.summary() for o in self.options],
+            "options": [{**o.summary(), "text": o.text(self.max_relative_change)} for o in self.options],
+            "lines": self.lines(),
         }
 
     def lines(self) -> list[str]:
@@ -225,7 +230,7 @@ class DesignResult:
                 out.append(heading)
                 out += [f"  {o.text(self.max_relative_change)}" for o in chosen]
         if self.options and not any(o.achieved and o.within_bound for o in self.options):
-            out.append(f"No option clears the range within a ±{self.max_relative_change:.0%} change; "
+            out.append(f"No option clears the range within a ±{self.max_relative_change * 100:g} % change; "
                        "the least changes that do are flagged 'beyond the bound'.")
         if self.skipped:
             out.append(f"Not in model {self.params.model}: {', '.join(self.skipped)}")
@@ -242,7 +247,8 @@ class DesignResult:
             _, ax = plt.subplots(figsize=(8, 4.5))
         artists = []
         lo, hi = self.operating_range_kmh
-        artists.append(ax.axvspan(lo, hi, color="tab:green", alpha=0.12, label="operating range"))
+        artists.append(ax.axvspan(lo, hi, facecolor="none", edgecolor=(0.17, 0.63, 0.17, 0.45), hatch="//", lw=0.0,
+                                  label=f"operating range {lo:g}-{hi:g} km/h"))
         speed = self.params.operating.speed_kmh
         artists.append(ax.axvline(speed, color="tab:green", lw=1.2, ls="-.", label=f"operating speed {speed:g} km/h"))
         i = self.original.state_names.index(state)
@@ -266,8 +272,10 @@ def _amplitude_lines(ax, diagram, i, color, label):
         v = np.array([c.speed * 3.6 for c in pts])
         a = np.array([c.amplitude[i] for c in pts]) * scale
         st = np.array([c.stable for c in pts])
-        artists += ax.plot(v, np.where(st, a, np.nan), "-", color=color, lw=1.8, label=label if first else None)
-        artists += ax.plot(v, np.where(~st, a, np.nan), "--", color=color, lw=1.2)
+        for mask, style, lw in ((st, "-", 1.8), (~st, "--", 1.2)):
+            seg = mask | np.r_[mask[1:], False] | np.r_[False, mask[:-1]]  # joined at a stability change
+            artists += ax.plot(v, np.where(seg, a, np.nan), style, color=color, lw=lw,
+                               label=label if first and style == "-" else None)
         first = False
     if first:  # no cycles at all
         artists += ax.plot([], [], "-", color=color, label=f"{label} (no SEV)")
