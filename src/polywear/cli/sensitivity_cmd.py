@@ -82,8 +82,8 @@ def sensitivity(
             result = local_sensitivity(params, keys, method.value, step, (lo, hi), on_step=lambda b, v: advance(1))
         except ValueError as exc:
             raise UserError(str(exc)) from None
-    if not result.rows:
-        info("no bifurcation speed in the speed range: nothing to differentiate", quiet)
+    for note in result.notes:  # why a bifurcation speed has no row (none in the range, an open band edge)
+        info(f"note: {note}", quiet)
     if out:
         write_output(out, result.save, quiet)
     if plot and result.rows:
