@@ -249,3 +249,64 @@ def _polar_figure(result):
     fig = plt.figure(figsize=(5.5, 5.5))
     result.plot_polar(fig.add_subplot(projection="polar"))
     return fig
+
+
+@app.command("design")
+def design_(
+    config: ConfigOpt = None,
+    set_: SetOpt = None,
+    target_km: Annotated[
+        Optional[float],
+        typer.Option("--target-km", help="Push the visible-polygon distance beyond this [km] (default: every order stable)."),
+    ] = None,
+    keys: Annotated[
+        Optional[list[str]], typer.Option("--key", "-k", help="Parameter to change (repeatable; default: alignment, bushings, tread, adhesion).")
+    ] = None,
+    cycle: Annotated[Optional[str], typer.Option("--cycle", help="Drive cycle speed:share,... (default [[wear.cycle]]).")] = None,
+    max_factor: Annotated[float, typer.Option("--max-factor", help="Largest change searched: x or / this factor.")] = 4.0,
+    verify_km: Annotated[
+        Optional[float], typer.Option("--verify-km", help="Verify the best option by evolution over this distance [km] (minutes).")
+    ] = None,
+    json_: JsonOpt = False,
+    quiet: QuietOpt = False,
+) -> None:
+    """Least change (toe, camber, damping, stiffness, adhesion) that stops polygonal wear over the drive cycle."""
+    if target_km is not None and not (math.isfinite(target_km) and target_km > 0):
+        raise UserError(f"--target-km {target_km:g}: must be positive")
+    if not (math.isfinite(max_factor) and 1.0 < max_factor <= 100.0):
+        raise UserError(f"--max-factor {max_factor:g}: must be in (1, 100]")
+    if verify_km is not None and not (math.isfinite(verify_km) and 0 < verify_km <= 1e6):
+        raise UserError(f"--verify-km {verify_km:g}: must be in (0, 1e6]")
+    params = load(config, set_)
+    pairs = parse_cycle(cycle) if cycle else None
+    from ..analysis.wear_design import verify_option, wear_design
+    from ..params import study_keys
+
+    for key in keys or ():
+        if key not in study_keys():
+            raise UserError(f"--key {key}: not a numeric parameter key (e.g. operating.toe_deg, adhesion_scale)")
+    info("wear design: searching with the linear wear map ...", quiet)
+    result = wear_design(params, keys or None, target_km, pairs, max_factor)
+    if verify_km is not None and result.options:
+        info(f"wear design: verifying '{result.options[0].label}' by evolution over {verify_km:,.0f} km ...", quiet)
+        verify_option(params, result.options[0], verify_km, pairs)
+    summary = result.summary()
+    if json_:
+        emit_json(summary)
+        return
+    n = summary["nominal"]
+    typer.echo(f"model {summary['model']}: {summary['criterion']}; distances scale as 1/k_e")
+    typer.echo("nominal: " + (f"fastest order {n['order']} grows {n['growth_per_1000km']:+.4f}/1000 km over the cycle"
+                              if n["rolling_stable_at_every_cycle_speed"] else
+                              "the tread vibrates at a cycle speed (linear band): an option must move the band"))
+    for o in summary["options"]:
+        line = (f"  {o['label']}: {o['nominal']:.4g} -> {o['value']:.4g} ({o['relative_change']:+.1%}), "
+                f"fastest order {o['order']} at {o['growth_per_1000km']:+.4f}/1000 km")
+        v = o["verification"]
+        if v:
+            line += (f"; evolution over {v['distance_km']:,.0f} km: depth {v['depth_mm']:.4f} mm "
+                     f"(nominal {v['nominal_depth_mm']:.4f} mm), " + ("not visible" if v["visible_km"] is None
+                                                                       else f"visible after {v['visible_km']:,.0f} km"))
+        typer.echo(line)
+    for note in summary["not_found"]:
+        typer.echo(f"  {note}")

@@ -1,0 +1,206 @@
+"""What stops polygonal wear: the least parameter change that keeps every polygon order
+from growing over the drive cycle, or pushes the visible-polygon distance beyond a target.
+
+Criterion (linear wear map, exact and fast). On a drive cycle the one profile is worn at
+every speed in turn, so harmonic n grows at the share-weighted rate
+``g_n = sum_i share_i g_n(V_i)`` [e-folds per km]. Starting from the seeded roughness
+(amplitude of order ``initial_roughness_um``), the polygon reaches the visible depth
+after about ``ln(visible / initial) / max_n g_n``; a target distance ``D`` therefore asks
+``max_n g_n <= ln(visible / initial) / D`` (see :func:`allowed_growth`), and "every order stable" asks ``max_n g_n <= 0``.
+The map applies only where steady rolling is stable: an option must also leave every
+cycle speed outside the linear band (where the tread vibrates).
+
+Search. Per parameter and per direction (more and less of it), multiplicative steps
+``p0 * f`` on a geometric grid up to ``max_factor``; the first step that meets the
+criterion is refined by bisection in ``ln f`` to 1 %. Parameter handling (keys,
+``adhesion_scale``, categories) is that of :mod:`polywear.analysis.design`.
+
+Verification. Each option found can be checked by the nonlinear evolution over the
+target distance (:func:`verify_option`): the depth it reaches and whether the polygon
+becomes visible, with the original parameters beside it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..models import get_model
+from ..params import Params
+from .design import DEFAULT_KEYS, ENGINEERING, parameter_category, parameter_label
+from .sensitivity import ADHESION_SCALE, nominal_value, parameter_direction, perturbed
+from .wear_map import wear_map
+
+__all__ = ["WearDesignOption", "WearDesignResult", "cycle_growth", "wear_design", "verify_option"]
+
+_REFINE = 0.01
+"""Relative accuracy of the least change [-]."""
+
+
+def cycle_growth(params: Params, cycle=None) -> tuple[float, int, bool]:
+    """(max_n g_n [e-folds per 1000 km], its order, every cycle speed rolling-stable)."""
+    cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
+    m = wear_map(params, [v for v, _ in cycle])
+    shares = np.array([s for _, s in cycle])
+    if not m.rolling_stable.all():
+        return math.inf, 0, False
+    g = shares @ m.growth_per_1000km
+    k = int(np.argmax(g))
+    return float(g[k]), int(m.orders[k]), True
+
+
+def allowed_growth(params: Params, target_km: float | None) -> float:
+    """Largest admissible max_n g_n [e-folds per 1000 km] for a target distance (0 if none).
+
+    One harmonic of the seeded roughness has an amplitude of about
+    ``initial_roughness_um * sqrt(2/K)`` and a peak-to-valley depth twice that; it must
+    grow by ``visible / that`` to become visible."""
+    if target_km is None:
+        return 0.0
+    start_um = 2.0 * params.wear.initial_roughness_um * math.sqrt(2.0 / params.wear.max_order)
+    ratio = params.wear.visible_depth_mm * 1e3 / start_um
+    return max(math.log(ratio), 0.0) / target_km * 1000.0
+
+
+@dataclass
+class WearDesignOption:
+    key: str
+    label: str
+    category: str
+    nominal: float
+    value: float
+    relative_change: float
+    growth_per_1000km: float
+    """max_n of the share-weighted growth with the change [e-folds per 1000 km]"""
+    order: int
+    verification: dict | None = None
+
+    def summary(self) -> dict:
+        return dict(self.__dict__)
+
+
+@dataclass
+class WearDesignResult:
+    params: Params
+    cycle: tuple
+    target_km: float | None
+    allowed_growth_per_1000km: float
+    nominal_growth_per_1000km: float
+    nominal_order: int
+    nominal_rolling_stable: bool
+    options: list[WearDesignOption]
+    not_found: list[str] = field(default_factory=list)
+
+    def summary(self) -> dict:
+        return {
+            "model": self.params.model,
+            "cycle": [{"speed_kmh": v, "share": s} for v, s in self.cycle],
+            "target_km": self.target_km,
+            "criterion": "every order stable over the cycle" if self.target_km is None else
+            f"visible polygon beyond {self.target_km:g} km (linear estimate)",
+            "allowed_growth_per_1000km": self.allowed_growth_per_1000km,
+            "nominal": {"growth_per_1000km": _finite(self.nominal_growth_per_1000km), "order": self.nominal_order,
+                        "rolling_stable_at_every_cycle_speed": self.nominal_rolling_stable},
+            "options": [o.summary() for o in self.options],
+            "not_found": self.not_found,
+            "distances_scale_as": "1/k_e",
+        }
+
+
+def _finite(x: float):
+    return x if math.isfinite(x) else None
+
+
+def _meets(params: Params, key: str, nominal: float, factor: float, cycle, allowed: float):
+    try:
+        changed = perturbed(params, key, nominal * factor)
+    except ValueError:
+        return None
+    try:
+        g, order, stable = cycle_growth(changed, cycle)
+    except (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError):
+        return None
+    return (stable and g <= allowed), g, order
+
+
+def wear_design(params: Params, keys=None, target_km: float | None = None, cycle=None, max_factor: float = 4.0,
+                grid: int = 24) -> WearDesignResult:
+    """Least relative change of each key (both directions) that meets the wear criterion.
+
+    ``keys`` default :data:`polywear.analysis.design.DEFAULT_KEYS` (those that enter the
+    model); ``target_km``: visible-polygon distance to exceed (None: every order stable);
+    ``max_factor``: largest change searched (p0 * f or p0 / f).
+    """
+    cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
+    allowed = allowed_growth(params, target_km)
+    g0, order0, stable0 = cycle_growth(params, cycle)
+    options, not_found = [], []
+    model = get_model(params.model)
+    if stable0 and g0 <= allowed:
+        not_found.append("no change needed: the nominal parameters already meet the criterion")
+        keys = ()
+    for key in DEFAULT_KEYS if keys is None else keys:
+        if key != ADHESION_SCALE and not np.any(parameter_direction(model, params, key)):
+            if keys:
+                not_found.append(f"{key}: does not enter the {params.model} model")
+            continue
+        nominal = nominal_value(params, key)
+        if nominal == 0.0:
+            not_found.append(f"{key}: nominal value 0 (no relative change)")
+            continue
+        best = None
+        for sign in (1.0, -1.0):
+            factors = np.exp(sign * np.linspace(0.0, math.log(max_factor), grid + 1)[1:])
+            previous = 1.0
+            for f in factors:
+                hit = _meets(params, key, nominal, float(f), cycle, allowed)
+                if hit is not None and hit[0]:
+                    lo, hi = math.log(previous), math.log(float(f))
+                    while abs(hi - lo) > _REFINE:
+                        mid = 0.5 * (lo + hi)
+                        probe = _meets(params, key, nominal, math.exp(mid), cycle, allowed)
+                        if probe is not None and probe[0]:
+                            hi, hit = mid, probe
+                        else:
+                            lo = mid
+                    factor = math.exp(hi)
+                    if best is None or abs(math.log(factor)) < abs(math.log(best[0])):
+                        best = (factor, hit)
+                    break
+                previous = float(f)
+        if best is None:
+            not_found.append(f"{key}: no change within x{max_factor:g} meets the criterion")
+            continue
+        factor, (_, g, order) = best
+        options.append(WearDesignOption(
+            key=key, label=parameter_label(key), category=parameter_category(key), nominal=nominal,
+            value=nominal * factor, relative_change=factor - 1.0, growth_per_1000km=g, order=order))
+    # what an engineer sets (alignment, bushings, tread) first, then road/compound; least change first
+    options.sort(key=lambda o: (o.category not in ENGINEERING, abs(math.log1p(o.relative_change))))
+    return WearDesignResult(params=params, cycle=cycle, target_km=target_km, allowed_growth_per_1000km=allowed,
+                            nominal_growth_per_1000km=g0, nominal_order=order0, nominal_rolling_stable=stable0,
+                            options=options, not_found=not_found)
+
+
+def verify_option(params: Params, option: WearDesignOption, distance_km: float, cycle=None,
+                  step_km: float = 5000.0) -> dict:
+    """Evolve the profile with the option (and without) over ``distance_km``; stores and
+    returns ``{"depth_mm", "visible_km", "nominal_depth_mm", "nominal_visible_km", "verified"}``."""
+    from .wear_evolution import evolve
+
+    cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
+    changed = perturbed(params, option.key, option.value)
+    with_option = evolve(changed, distance_km, cycle, step_km=step_km)
+    nominal = evolve(params, distance_km, cycle, step_km=step_km)
+    out = {
+        "distance_km": distance_km,
+        "depth_mm": float(with_option.depth_mm[-1]),
+        "visible_km": with_option.visible_km,
+        "nominal_depth_mm": float(nominal.depth_mm[-1]),
+        "nominal_visible_km": nominal.visible_km,
+        "verified": with_option.visible_km is None,
+    }
+    option.verification = out
+    return out
