@@ -253,7 +253,8 @@ class BifurcationDiagram:
             "first_bifurcation_speed_kmh": sev[0][0] if sev and "lower" not in open_at else None,
             "second_bifurcation_speed_kmh": sev[-1][1] if sev and "upper" not in open_at else None,
             "hard_regions_kmh": self._bounds(self.hard_regions_kmh),
-            "trigger_amplitude": self.trigger_amplitude("x"),
+            "trigger_amplitude": [{**t, "speed_range_kmh": self._bounds([t["speed_range_kmh"]])[0]}
+                                  for t in self.trigger_amplitude("x")],
             "branches": self.branch_info,
         }
 

@@ -144,7 +144,7 @@ def _print_summary(s: dict) -> None:
     for t in s.get("trigger_amplitude", []):
         lo, hi = t["speed_range_kmh"]
         typer.echo(
-            f"  hard excitation {lo:.3f} .. {hi:.3f} km/h: a disturbance of x above "
+            f"  hard excitation {_bound(lo).strip()} .. {_bound(hi).strip()} km/h: a disturbance of x above "
             f"{t['min_x'] * 1e3:.4f} .. {t['max_x'] * 1e3:.4f} mm starts SEV"
         )
 
