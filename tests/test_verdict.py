@@ -270,3 +270,20 @@ def test_sweep_band_reaching_the_grid_end_is_open():
     assert s["first_bifurcation_speed_kmh"] == 40.0 and s["warnings"]
     s = sweep_bands(result([False, True, True, False]))
     assert s["open_at"] is None and (s["first_bifurcation_speed_kmh"], s["second_bifurcation_speed_kmh"]) == (40.0, 60.0)
+
+
+def test_hard_region_cut_at_the_ceiling_has_an_open_trigger_range(nominal, capsys):
+    """toe 0.115 deg: the subcritical Hopf point scales to 903 km/h, its fold to 1107 km/h,
+    above the ceiling: the hard region and its trigger range are open at the upper end."""
+    from polywear.cli.bifurcation_cmd import _print_summary
+
+    hopfs, folds = nominal
+    assert _scaled(hopfs[1], 0.115) < SPEED_CEILING_KMH < _scaled(folds[0], 0.115)
+    s = bifurcation_diagram(_toe(0.115), (20.0, 300.0)).summary()
+    assert s["open_at"] == "upper" and s["folds"] == []
+    (region,) = s["hard_regions_kmh"]
+    assert region[0] == pytest.approx(_scaled(hopfs[1], 0.115), rel=1e-9) and region[1] is None
+    (trigger,) = s["trigger_amplitude"]
+    assert trigger["speed_range_kmh"] == region and trigger["min_x"] == 0.0
+    _print_summary(s)
+    assert "hard excitation" in capsys.readouterr().out
