@@ -25,6 +25,9 @@ Entry points (each is the function or class named in brackets):
 - ``wear_map`` [analysis.wear_map.wear_map]: linear wear stability over speed and order
 - ``calibrate``, ``read_observations`` [analysis.calibration]: fit parameters to observations
 - ``read_tir``, ``load_with_tir`` [tir]: tyre property files (.tir) and parameters from them
+- ``wear_evolution`` [analysis.wear_evolution.evolve]: the worn profile over distance
+- ``fleet``, ``load_fleet_spec`` [analysis.fleet]: SEV risk over a fleet of cars
+- ``campbell``, ``read_run`` [analysis.campbell]: Campbell maps of measured run-ups
 - ``friction`` (LuGre curves, loops and fits), ``models``, ``solvers``: modules.
 """
 
@@ -53,6 +56,11 @@ _ENTRY_POINTS: dict[str, tuple[str, str | None]] = {
     "read_observations": ("polywear.analysis.calibration", "read_observations"),
     "read_tir": ("polywear.tir", "read_tir"),
     "load_with_tir": ("polywear.tir", "load_with_tir"),
+    "wear_evolution": ("polywear.analysis.wear_evolution", "evolve"),
+    "fleet": ("polywear.analysis.fleet", "fleet_risk"),
+    "load_fleet_spec": ("polywear.analysis.fleet", "load_fleet_spec"),
+    "campbell": ("polywear.analysis.campbell", "campbell"),
+    "read_run": ("polywear.analysis.campbell", "read_run"),
     "friction": ("polywear.analysis.friction", None),
     "models": ("polywear.models", None),
     "solvers": ("polywear.solvers", None),
