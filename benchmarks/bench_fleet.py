@@ -1,0 +1,204 @@
+"""Fast band path and fleet risk: agreement with the full continuation, per-sample costs,
+Sobol and fleet extrapolations, Dask 1 -> 2 workers, cost growth (nothing is asserted).
+
+    .venv/bin/python benchmarks/bench_fleet.py agreement --model axle4dof --samples 200
+    .venv/bin/python benchmarks/bench_fleet.py sobol
+    .venv/bin/python benchmarks/bench_fleet.py fleet --samples 400
+    .venv/bin/python benchmarks/bench_fleet.py dask --samples 200
+    .venv/bin/python benchmarks/bench_fleet.py growth
+
+``agreement`` draws the paper's seven parameters uniformly within +-10 % of the model's
+defaults (the default study ranges), evaluates every sample by the fast path and by the
+full continuation, and prints every disagreement (band edges beyond 1e-6 relative, or a
+different number of Hopf points, folds or bands); it also gives the per-sample costs of
+both paths, measured on the same samples in the same run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+from polywear.analysis.bifurcation import bifurcation_diagram
+from polywear.analysis.fast_band import _FIXED_RANGE, FastBand, band_reference
+from polywear.analysis.fleet import FleetSpec, fleet_risk
+from polywear.analysis.global_sensitivity import DEFAULT_KEYS, sample_params
+from polywear.params import Params, get_value, with_updates
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from tests.test_fast_band import _edges  # noqa: E402  (the test's flattening of the bands)
+
+
+def _samples(base, n, seed):
+    rng = np.random.default_rng(seed)
+    nominal = np.array([get_value(base, k) for k in DEFAULT_KEYS])
+    return [sample_params(base, DEFAULT_KEYS, nominal * (1.0 + 0.1 * (2.0 * rng.random(len(nominal)) - 1.0)))
+            for _ in range(n)]
+
+
+def agreement(model: str, n: int, seed: int, amplitude_speeds=(80.0, 130.0)) -> None:
+    base = with_updates(Params(), {"model": model})
+    t = time.perf_counter()
+    reference = band_reference(bifurcation_diagram(base, **_FIXED_RANGE), amplitude_speeds)
+    print(f"{model}: reference {time.perf_counter() - t:.2f} s, unusable: {reference.unusable or 'no'}")
+    solver = FastBand((reference,), amplitude_speeds_kmh=amplitude_speeds)
+    t_fast, t_full, t_full_on_fast, paths, reasons, bad = 0.0, 0.0, 0.0, Counter(), Counter(), []
+    worst_edge = worst_amp = 0.0
+    for i, params in enumerate(_samples(base, n, seed)):
+        t0 = time.perf_counter()
+        fast = solver(params)
+        t1 = time.perf_counter()
+        full = solver.full(params)
+        t2 = time.perf_counter()
+        t_fast += t1 - t0
+        t_full += t2 - t1
+        paths[fast.path] += 1
+        if fast.path != "fast":
+            reasons[fast.reason.split(":")[0][:70]] += 1
+            continue
+        t_full_on_fast += t2 - t1
+        same = (len(fast.hopf_kmh), len(fast.folds_kmh), len(fast.sev_band_kmh), len(fast.hard_regions_kmh)) == \
+               (len(full.hopf_kmh), len(full.folds_kmh), len(full.sev_band_kmh), len(full.hard_regions_kmh))
+        if not same:
+            bad.append((i, "structure", fast.summary(), full.summary()))
+            continue
+        edge = float(np.max(np.abs(_edges(fast) - _edges(full)) / np.abs(_edges(full))))
+        scale = max(full.amplitude_x_m, default=0.0)
+        amp = float(np.max(np.abs(np.subtract(fast.amplitude_x_m, full.amplitude_x_m)))) / scale if scale else 0.0
+        worst_edge, worst_amp = max(worst_edge, edge), max(worst_amp, amp)
+        if edge > 1e-6:
+            bad.append((i, f"edges differ by {edge:.2e}", fast.summary(), full.summary()))
+    n_fast = paths["fast"]
+    print(f"  samples {n}: fast path {n_fast}, fallback {n - n_fast}: {dict(reasons)}")
+    print(f"  disagreements (fast path vs continuation): {len(bad)}; worst edge {worst_edge:.2e} relative, "
+          f"worst amplitude {worst_amp:.2e} of the largest")
+    for i, what, a, b in bad:
+        print(f"    sample {i}: {what}\n      fast {a}\n      full {b}")
+    if n_fast:
+        per_fast = (t_fast - (t_full - t_full_on_fast)) / n  # fast-path cost without the fallbacks' continuation
+        print(f"  per sample: fast path (where it applied) {1e3 * per_fast * n / max(n_fast, 1):.1f} ms, "
+              f"full continuation {1e3 * t_full_on_fast / n_fast:.1f} ms on the same samples -> "
+              f"{t_full_on_fast / (per_fast * n):.1f}x")
+    print(f"  all samples: fast path with fallbacks {t_fast:.1f} s, continuation only {t_full:.1f} s -> "
+          f"{t_full / t_fast:.2f}x")
+
+
+def sobol(n_small: int) -> None:
+    """Sobol study of axle4dof, N = n_small (first and second order layout), 7 parameters, both
+    bifurcation speeds, 2 local processes; extrapolated to N = 1024."""
+    from polywear.analysis.global_sensitivity import global_sensitivity
+
+    for fast in (True, False):
+        params = with_updates(Params(), {"model": "axle4dof", "study.method": "sobol", "study.outputs": "bifurcation",
+                                         "study.n_base": n_small, "study.second_order": False,
+                                         "study.bootstrap": 100})
+        t = time.perf_counter()
+        result = global_sensitivity(params, backend="processes", workers=2, fast_band=fast)
+        dt = time.perf_counter() - t
+        runs = len(result.status)
+        print(f"axle4dof Sobol N = {n_small} (first order: {runs} runs), fast band {fast}: {dt:.1f} s, "
+              f"{result.settings.get('fast_band_samples', 0)} fast, failures {result.failures()}; "
+              f"N = 1024 ({1024 * 9} runs): ~{dt * 1024 / n_small / 60:.1f} min; "
+              f"with S2 ({1024 * 16} runs): ~{dt * 1024 * 16 / (n_small * 9) / 60:.1f} min")
+
+
+TOE_LOAD = [
+    {"key": "operating.toe_deg", "distribution": "normal", "mean": 0.5, "std": 0.05},
+    {"key": "operating.vertical_load_n", "distribution": "discrete", "values": [3500.0, 4000.0, 4500.0],
+     "weights": [1.0, 2.0, 1.0]},
+    {"key": "tread.lateral_damping_ns_per_m", "distribution": "truncnormal", "mean": 80.0, "std": 4.0,
+     "low": 70.0, "high": 90.0},
+    {"key": "friction.mu_static", "distribution": "normal", "mean": 0.9, "std": 0.02},
+    {"key": "tread.mass_kg", "distribution": "lognormal", "mean": 1.0, "std": 0.03},
+    {"key": "tread.lateral_stiffness_n_per_m", "distribution": "normal", "mean": 1.0e6, "std": 3.0e4},
+    {"key": "operating.camber_deg", "distribution": "normal", "mean": -1.0, "std": 0.2},
+]
+
+
+def _fleet_spec(n, n_params=7, seed=1) -> FleetSpec:
+    return FleetSpec(samples=n, seed=seed, checkpoint_every=max(n, 1), parameter=TOE_LOAD[:n_params],
+                     usage=[{"speed_kmh": 110.0, "share": 0.6}, {"speed_kmh": 130.0, "share": 0.4}],
+                     speed_range_kmh=(10.0, 600.0))
+
+
+def _fleet_reference(spec):
+    """The nominal car's reference, as fleet_risk makes it (made once, outside the timings)."""
+    nominal = sample_params(Params(), [q.key for q in spec.parameter], [q.center for q in spec.parameter])
+    return band_reference(bifurcation_diagram(nominal, spec.speed_range_kmh, **_FIXED_RANGE))
+
+
+def fleet(n: int) -> None:
+    spec = _fleet_spec(n)
+    reference = _fleet_reference(spec)
+    for backend, workers in (("serial", 1), ("processes", 2)):
+        t = time.perf_counter()
+        result = fleet_risk(Params(), spec, backend=backend, workers=workers, reference=reference)
+        dt = time.perf_counter() - t
+        s = result.summary()
+        print(f"tread1dof fleet of {n} on {backend} ({workers}): {dt:.1f} s = {1e3 * dt / n:.1f} ms per car; "
+              f"fast path {s['fast_path_share']:.1%}, risk {s['risk_probability']:.3f} {s['risk_ci']}; "
+              f"1e5 cars: ~{dt * 1e5 / n / 60:.0f} min")
+
+
+def dask(n: int) -> None:
+    from distributed import LocalCluster
+
+    spec = _fleet_spec(n)
+    reference = _fleet_reference(spec)
+    times = {}
+    for workers in (1, 2):
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, host="127.0.0.1", dashboard_address=None)
+        try:
+            fleet_risk(Params(), _fleet_spec(4), backend="dask", scheduler=cluster.scheduler_address,
+                       reference=reference)  # warm the workers (imports, numba caches)
+            t = time.perf_counter()
+            fleet_risk(Params(), spec, backend="dask", scheduler=cluster.scheduler_address, reference=reference)
+            times[workers] = time.perf_counter() - t
+        finally:
+            cluster.close()
+        print(f"Dask, {workers} worker(s): {times[workers]:.1f} s for {n} cars")
+    print(f"Dask speed-up 1 -> 2 workers: {times[1] / times[2]:.2f}x")
+
+
+def growth() -> None:
+    spec = _fleet_spec(50)
+    reference = _fleet_reference(spec)
+    for n in (25, 50, 100):
+        t = time.perf_counter()
+        fleet_risk(Params(), _fleet_spec(n), backend="serial", reference=reference)
+        print(f"samples {n:4d}, 7 parameters: {time.perf_counter() - t:.1f} s")
+    for d in (1, 3, 7):
+        spec_d = _fleet_spec(50, d)
+        ref_d = _fleet_reference(spec_d)
+        t = time.perf_counter()
+        result = fleet_risk(Params(), spec_d, backend="serial", reference=ref_d)
+        print(f"samples 50, {d} parameter(s): {time.perf_counter() - t:.1f} s, "
+              f"fast path {result.summary()['fast_path_share']:.0%}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("what", choices=("agreement", "sobol", "fleet", "dask", "growth"))
+    parser.add_argument("--model", default="tread1dof")
+    parser.add_argument("--samples", type=int, default=200)
+    parser.add_argument("--seed", type=int, default=20261201)
+    args = parser.parse_args()
+    if args.what == "agreement":
+        agreement(args.model, args.samples, args.seed)
+    elif args.what == "sobol":
+        sobol(min(args.samples, 16))
+    elif args.what == "fleet":
+        fleet(args.samples)
+    elif args.what == "dask":
+        dask(args.samples)
+    else:
+        growth()
+
+
+if __name__ == "__main__":
+    main()
