@@ -25,7 +25,8 @@ from .. import __version__
 from ..models import get_model
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, to_toml
-from ..solvers.continuation import Branch, BranchEnd, ContinuationSettings, continue_from_hopf
+from ..solvers.continuation import (Branch, BranchEnd, ContinuationSettings, continue_from_hopf,
+                                   same_special_point)
 from .stability import HopfPoint, StabilityResult, stability_analysis
 
 __all__ = [
@@ -234,7 +235,7 @@ class BifurcationDiagram:
             "requested_speed_range_kmh": list(self.requested_range_kmh or self.speed_range_kmh),
             "range_notes": list(self.range_notes),
             "open_at": _open_at(open_at),
-            "warnings": [_open_warning(edge, self.speed_range_kmh) for edge in open_at],
+            "warnings": [_open_warning(edge, self.speed_range_kmh) for edge in open_at] + self.branch_warnings(),
             "hopf_points": [h.summary() for h in self.hopf_points],
             "folds": [
                 {
@@ -256,7 +257,34 @@ class BifurcationDiagram:
             "trigger_amplitude": [{**t, "speed_range_kmh": self._bounds([t["speed_range_kmh"]])[0]}
                                   for t in self.trigger_amplitude("x")],
             "branches": self.branch_info,
+            "band_edges_from_failed_branches_kmh": self.failed_band_edges_kmh(),
         }
+
+    def failed_band_edges_kmh(self) -> list[float]:
+        """SEV band edges [km/h] that are where a failed branch was lost while stable: there
+        the band ends because continuation failed, not at a bifurcation (see ``branch_info``)."""
+        edges = [v for band in self.sev_band_kmh for v in band]
+        out = []
+        for info in self.branch_info:
+            v = info["at_speed_kmh"]
+            if info["failed"] and any(abs(v - e) <= 1e-9 * max(abs(v), 1.0) for e in edges):
+                out.append(v)
+        return out
+
+    def branch_warnings(self) -> list[str]:
+        """One line per failed branch: where and why it was lost, and whether a band edge comes from it."""
+        flagged = self.failed_band_edges_kmh()
+        out = []
+        for info in self.branch_info:
+            if not info["failed"]:
+                continue
+            v = info["at_speed_kmh"]
+            text = (f"cycle branch {info['branch']} (from the Hopf point at {info['from_hopf_kmh']:.3f} km/h) was lost "
+                    f"after {v:.3f} km/h: {info['end_reason']}; its cycles beyond are unknown")
+            if v in flagged:
+                text += f"; the SEV band edge at {v:.3f} km/h is where continuation failed, not a bifurcation speed"
+            out.append(text)
+        return out
 
     def to_dataset(self):
         """Tidy xarray Dataset: one row per cycle point, and the equilibrium line."""
@@ -658,7 +686,9 @@ def bifurcation_diagram(
             if end_hopf is not None:
                 points.append(_hopf_end(b, stab.hopf_points[end_hopf], points[-1]))
         cycles += points
-        special += [(label, _cycle_point(b, pt, label)) for label, pt, _ in branch.special]
+        for label, pt, _ in branch.special:  # once: branches can meet the same special point
+            if not any(lab == label and same_special_point(pt.orbit, other.orbit) for lab, other in special):
+                special.append((label, _cycle_point(b, pt, label)))
     return BifurcationDiagram(
         params=params,
         stability=stab,

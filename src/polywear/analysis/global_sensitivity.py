@@ -296,7 +296,7 @@ class StudyEvaluator:
 
         diagram = bifurcation_diagram(params, self.speed_range_kmh)
         for info in diagram.branch_info:
-            if info["end_reason"].startswith(("step size underflow", "maximum number")):
+            if info["failed"]:
                 return (np.nan,) * 4, f"failed: continuation from {info['from_hopf_kmh']:.2f} km/h: {info['end_reason']}"
         band, status = _band_outputs(diagram.sev_band_kmh, diagram.speed_range_kmh)  # the range as widened
         amplitude = max_stable_amplitude(diagram, self.operating_range_kmh) * 1e3

@@ -141,6 +141,10 @@ def _print_summary(s: dict) -> None:
         typer.echo(f"  first / second bifurcation speed: {_bound(first).strip()} / {_bound(second).strip()} km/h")
     else:
         typer.echo("  no self-excited vibration in the speed range")
+    for b in s.get("branches", []):
+        status = "FAILED" if b["failed"] else "ended"
+        typer.echo(f"  cycle branch {b['branch']} from Hopf {b['from_hopf_kmh']:9.3f} km/h, {status} at "
+                   f"{b['at_speed_kmh']:9.3f} km/h: {b['end_reason']}")
     for t in s.get("trigger_amplitude", []):
         lo, hi = t["speed_range_kmh"]
         typer.echo(

@@ -36,6 +36,8 @@ __all__ = [
     "solve_at_speed",
     "switching_times",
     "fold_near",
+    "same_special_point",
+    "trivial_error",
 ]
 
 
@@ -61,9 +63,11 @@ class ContinuationSettings:
     """Put mesh points where the orbit crosses a kink of the vector field (v_r = 0, contact
     loss) and re-solve, so that no collocation interval straddles a jump of the Jacobian."""
     multiplier_tol: float = 1e-5
-    """Largest accepted |mu - 1| of the trivial Floquet multiplier. Above it the step is
-    re-solved on a mesh with twice the intervals (up to ``max_intervals``); if that does
-    not resolve it, the branch ends as failed (``BranchEnd.MULTIPLIER_CHECK_LOST``)."""
+    """Accepted |mu - 1| of the trivial Floquet multiplier (a larger one only where every
+    other multiplier is far from the unit circle, see :func:`stability_decided`). Otherwise
+    the step is re-solved on an adapted mesh with twice the intervals (up to
+    ``max_intervals``); if that does not help the branch ends as failed
+    (``BranchEnd.MULTIPLIER_CHECK_LOST``)."""
     max_intervals: int = 320
     """Finest mesh the rescue of a step may use (mesh intervals)."""
     max_period_factor: float = 10.0
@@ -122,8 +126,8 @@ class BranchPoint:
 
     @property
     def trivial_multiplier_error(self) -> float:
-        """|mu - 1| of the multiplier nearest 1 (accuracy check of the monodromy)."""
-        return float(np.min(np.abs(self.multipliers - 1.0)))
+        """Accuracy check of the monodromy: |mu - 1| of the trivial multiplier (see :func:`trivial_error`)."""
+        return trivial_error(self.multipliers)
 
     @property
     def n_unstable(self) -> int:
@@ -273,16 +277,16 @@ def continue_from_hopf(
             stepper, X0, t0, phase_ref, out = _align_to_kinks(
                 model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale
             )
-        if out is not None and _trivial_error(out[3]) > settings.multiplier_tol:
+        if out is not None and not stability_decided(out[3], settings.multiplier_tol):
             stepper, X0, t0, phase_ref, out = _refine_step(
                 model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale,
                 branch.recoveries,
             )
-            if out is not None and _trivial_error(out[3]) > settings.multiplier_tol:
+            if out is not None and not stability_decided(out[3], settings.multiplier_tol):
                 mu = out[3]
                 finish(BranchEnd.MULTIPLIER_CHECK_LOST,
                        f"beyond {last_kmh():.3f} km/h |mu - 1| of the trivial multiplier is "
-                       f"{_trivial_error(mu):.1e} with {stepper.coll.N} mesh intervals (largest multiplier "
+                       f"{trivial_error(mu):.1e} with {stepper.coll.N} mesh intervals (largest multiplier "
                        f"{np.abs(mu).max():.1e}); stability there is unknown")
                 break
         c = stepper.coll
@@ -314,10 +318,10 @@ def continue_from_hopf(
         if prev is not None and np.sign(point.tangent_speed) != np.sign(prev.tangent_speed):
             fold = _locate_fold(stepper, X0, t0, ds, phase_ref, prev, point, settings)
             if fold is not None:
-                branch.special.append(("LP", fold, len(branch.points)))
+                _add_special(branch, "LP", fold)
         if prev is not None:
             for label in _multiplier_events(prev, point):
-                branch.special.append((label, point, len(branch.points)))
+                _add_special(branch, label, _locate_crossing(stepper, X0, t0, ds, phase_ref, prev, point, label))
         branch.points.append(point)
         if on_step is not None:
             on_step(branch)
@@ -354,25 +358,72 @@ def continue_from_hopf(
     return branch
 
 
-def _trivial_error(multipliers: np.ndarray) -> float:
-    """|mu - 1| of the multiplier nearest 1."""
-    return float(np.min(np.abs(multipliers - 1.0)))
+def same_special_point(a: PeriodicOrbit, b: PeriodicOrbit, rtol: float = 1e-5) -> bool:
+    """True if two orbits are the same special point within ``rtol``: speed, period and
+    every state's peak-to-peak (relative to the largest of the two) agree."""
+    span = np.maximum(np.ptp(a.nodes, axis=0), np.ptp(b.nodes, axis=0))
+    return (abs(a.speed - b.speed) <= rtol * abs(a.speed) and abs(a.period - b.period) <= rtol * a.period
+            and bool(np.all(np.abs(np.ptp(a.nodes, axis=0) - np.ptp(b.nodes, axis=0)) <= rtol * span.max())))
 
 
-def _finer_mesh(model, p, coll: Collocation, orbit: PeriodicOrbit, settings: ContinuationSettings) -> np.ndarray:
-    """Twice the intervals, equidistributed for ``orbit`` (AUTO's rule), kinks on mesh points."""
-    mesh = coll.adapted_mesh(orbit, 2 * coll.N)
+def _add_special(branch: Branch, label: str, point: BranchPoint) -> None:
+    """Record a special point between the last stored point and the next, once: not if the
+    branch already has one of this kind at the same place (a branch retracing itself)."""
+    if not any(lab == label and same_special_point(pt.orbit, point.orbit) for lab, pt, _ in branch.special):
+        branch.special.append((label, point, len(branch.points)))
+
+
+def stability_decided(multipliers: np.ndarray, tol: float) -> bool:
+    """True if the multipliers are accurate enough to count those outside the unit circle.
+
+    Either the trivial multiplier is within ``tol`` of 1, or (a strongly unstable cycle,
+    whose monodromy product cannot resolve 1 to ``tol``) its error is below 1e-2 and every
+    other multiplier is more than 10 times that error away from the unit circle.
+    """
+    error = trivial_error(multipliers)
+    if error <= tol:
+        return True
+    others = np.delete(multipliers, int(np.argmin(np.abs(multipliers - 1.0))))
+    return error <= 1e-2 and bool(np.all(np.abs(np.abs(others) - 1.0) > 10.0 * error))
+
+
+def trivial_error(multipliers: np.ndarray, cluster: float = 1e-2) -> float:
+    """|mu - 1| of the trivial Floquet multiplier, the accuracy check of the monodromy matrix.
+
+    Normally the distance of the multiplier nearest 1. At a fold of cycles a second
+    multiplier reaches 1 and the two form a Jordan block: an error d of the matrix
+    splits them to about 1 +- sqrt(d), while their mean stays within O(d) of 1. So when
+    the two multipliers nearest 1 lie within ``cluster`` of it, at comparable distances,
+    the error of their mean is used.
+    """
+    d = np.abs(multipliers - 1.0)
+    if d.size < 2:
+        return float(d.min())
+    i, j = np.argsort(d)[:2]
+    if d[j] < cluster and d[j] <= 10.0 * d[i]:
+        return float(min(d[i], abs(0.5 * (multipliers[i] + multipliers[j]) - 1.0)))
+    return float(d[i])
+
+
+def _finer_mesh(model, p, coll: Collocation, orbit: PeriodicOrbit, settings: ContinuationSettings,
+                factor: int = 2) -> np.ndarray:
+    """``factor`` times the intervals, equidistributed for ``orbit`` (AUTO's rule), kinks on mesh points."""
+    mesh = coll.adapted_mesh(orbit, factor * coll.N)
     return _with_kinks(mesh, switching_times(model, p, orbit)) if settings.align_kinks else mesh
 
 
 def _refine_step(model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale,
                  notes: list[str]):
-    """Re-solve a step whose trivial multiplier is off on finer meshes until it is resolved
-    (or the mesh reaches ``settings.max_intervals``, or Newton fails: ``out`` None)."""
-    while out is not None and _trivial_error(out[3]) > settings.multiplier_tol \
-            and 2 * stepper.coll.N <= settings.max_intervals:
-        error = _trivial_error(out[3])
-        mesh = _finer_mesh(model, p, stepper.coll, stepper.coll.unpack(out[0]), settings)
+    """Re-solve a step whose trivial multiplier is off until it is resolved: first on a mesh
+    adapted afresh to the new orbit (the periodic adaptation lags behind, and aligning kinks
+    moves mesh points), then on meshes with twice the intervals up to ``settings.max_intervals``.
+    Stops early when Newton fails (``out`` None)."""
+    factor = 1
+    while out is not None and not stability_decided(out[3], settings.multiplier_tol) \
+            and factor * stepper.coll.N <= settings.max_intervals:
+        error = trivial_error(out[3])
+        mesh = _finer_mesh(model, p, stepper.coll, stepper.coll.unpack(out[0]), settings, factor)
+        factor = 2
         stepper, X0, t0, phase_ref = _remesh(model, p, stepper, mesh, X0, t0, settings, scales, speed_scale,
                                              period_scale)
         out = stepper.correct(X0, t0, ds, phase_ref)
@@ -380,7 +431,7 @@ def _refine_step(model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales
             stepper, X0, t0, phase_ref, out = _align_to_kinks(
                 model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale
             )
-        notes.append(f"trivial multiplier error {error:.1e} near {3.6 * X0[-1]:.3f} km/h: mesh refined to "
+        notes.append(f"trivial multiplier error {error:.1e} near {3.6 * X0[-1]:.3f} km/h: mesh adapted anew, "
                      f"{stepper.coll.N} intervals")
     return stepper, X0, t0, phase_ref, out
 
@@ -501,25 +552,43 @@ def _align_to_kinks(model, p, stepper, X0, t0, ds, phase_ref, out, settings, sca
     return stepper, X0, t0, phase_ref, out
 
 
+def _event_counts(point: BranchPoint) -> dict[str, int]:
+    """Multipliers outside the unit circle (trivial one excluded): real negative ("PD"), complex ("NS")."""
+    mu = point.multipliers
+    trivial = int(np.argmin(np.abs(mu - 1.0)))
+    mu = np.delete(mu, trivial)
+    outside = np.abs(mu) > 1.0
+    real_neg = outside & (np.abs(mu.imag) < 1e-8 * np.abs(mu)) & (mu.real < 0)
+    complex_ = outside & (np.abs(mu.imag) >= 1e-8 * np.abs(mu))
+    return {"PD": int(real_neg.sum()), "NS": int(complex_.sum())}
+
+
 def _multiplier_events(a: BranchPoint, b: BranchPoint) -> list[str]:
     """Period doubling (PD) and torus (NS) crossings between two consecutive points."""
+    ca, cb = _event_counts(a), _event_counts(b)
+    return [label for label in ("PD", "NS") if ca[label] != cb[label]]
 
-    def counts(point):
-        mu = point.multipliers
-        trivial = int(np.argmin(np.abs(mu - 1.0)))
-        mu = np.delete(mu, trivial)
-        outside = np.abs(mu) > 1.0
-        real_neg = outside & (np.abs(mu.imag) < 1e-8 * np.abs(mu)) & (mu.real < 0)
-        complex_ = outside & (np.abs(mu.imag) >= 1e-8 * np.abs(mu))
-        return int(real_neg.sum()), int(complex_.sum())
 
-    (pd_a, ns_a), (pd_b, ns_b) = counts(a), counts(b)
-    events = []
-    if pd_a != pd_b:
-        events.append("PD")
-    if ns_a != ns_b:
-        events.append("NS")
-    return events
+def _locate_crossing(stepper, X0, t0, ds, phase_ref, prev: BranchPoint, point: BranchPoint, label: str,
+                     rtol: float = 1e-3) -> BranchPoint:
+    """The PD or NS point between ``prev`` (arclength 0 from X0) and ``point`` (arclength ds):
+    bisection in the arclength on the count of such multipliers outside the unit circle, to
+    ``rtol * ds``. Returns the first point past the crossing, labelled; ``point`` if a
+    corrector fails."""
+    before = _event_counts(prev)[label]
+    s_a, s_b, best = 0.0, ds, point
+    while abs(s_b - s_a) > rtol * abs(ds):
+        s = 0.5 * (s_a + s_b)
+        out = stepper.correct(X0, t0, s, phase_ref)
+        if out is None:
+            break
+        X, t, iterations, multipliers = out
+        trial = BranchPoint(stepper.coll.unpack(X), multipliers, t, iterations)
+        if _event_counts(trial)[label] == before:
+            s_a = s
+        else:
+            s_b, best = s, trial
+    return BranchPoint(best.orbit, best.multipliers, best.tangent, best.newton_iterations, label)
 
 
 def _locate_fold(stepper, X0, t0, ds, phase_ref, prev, point, settings):
