@@ -4,8 +4,8 @@ A run (time, vehicle or wheel speed, one or more acceleration channels) becomes 
 spectrogram per channel (Hann windows, ``scipy.signal.spectrogram``), each time slice
 placed at its mean speed: the Campbell map. On it:
 
-* **Features.** Spectral peaks that stand ``peak_db`` above the slice's spectral floor (a
-  running median over ``FLOOR_BINS`` frequency bins) are linked from slice to slice into
+* **Features.** Spectral peaks that stand ``peak_db`` above the slice's spectral floor (medians
+  over blocks of ``FLOOR_BINS`` frequency bins, interpolated) are linked from slice to slice into
   ridges. A ridge is classified by the
   slope of ``ln f`` against ``ln V``: about 1, an *order-tracking* feature (a worn polygon,
   an imbalance: ``f = n V / (2 pi R)``, with its order ``n``); about 0, a
@@ -209,8 +209,32 @@ class _Ridge:
 _GAP = 4
 """Slices a ridge may miss and still continue."""
 FLOOR_BINS = 51
-"""Width of the running median over frequency that gives each slice's spectral floor
-(narrow peaks do not move it; a coloured background does)."""
+"""Width of the frequency blocks whose medians give each slice's spectral floor (narrow
+peaks do not move it; a coloured background does)."""
+
+
+def _spectral_floor(level_db: np.ndarray) -> np.ndarray:
+    """Each slice's floor [dB]: medians over blocks of ``FLOOR_BINS`` frequency bins,
+    linearly interpolated between the block centres (a running median at a fraction of
+    its cost; narrow peaks do not move it)."""
+    n_f = level_db.shape[0]
+    n_blocks = max(1, n_f // FLOOR_BINS)
+    edges = np.linspace(0, n_f, n_blocks + 1).astype(int)
+    medians = np.array([np.median(level_db[a:b], axis=0) for a, b in zip(edges[:-1], edges[1:])])
+    if n_blocks == 1:
+        return np.broadcast_to(medians[0], level_db.shape)
+    centres = 0.5 * (edges[:-1] + edges[1:] - 1)
+    rows = np.arange(n_f)
+    j = np.clip(np.searchsorted(centres, rows) - 1, 0, n_blocks - 2)
+    w = np.clip((rows - centres[j]) / (centres[j + 1] - centres[j]), 0.0, 1.0)[:, None]
+    return (1.0 - w) * medians[j] + w * medians[j + 1]
+
+
+def _slope(x: np.ndarray, y: np.ndarray) -> float:
+    """Least-squares slope of y against x (0 if x does not vary)."""
+    dx = x - x.mean()
+    sxx = float(dx @ dx)
+    return float(dx @ (y - y.mean())) / sxx if sxx > 1e-18 else 0.0
 
 
 def _predicted(ridge: _Ridge, speed: float, speeds) -> tuple[float, ...]:
@@ -218,10 +242,8 @@ def _predicted(ridge: _Ridge, speed: float, speeds) -> tuple[float, ...]:
     ln f against ln V once it has 4 points, else as a constant or as an order."""
     f_last, v_last = ridge.freqs[-1], speeds[ridge.segments[-1]]
     if len(ridge.segments) >= 4:
-        v = np.log(speeds[ridge.segments[-6:]])
-        if np.ptp(v) > 1e-9:
-            slope = np.polyfit(v, np.log(ridge.freqs[-6:]), 1)[0]
-            return (f_last * (speed / v_last) ** slope,)
+        slope = _slope(np.log(speeds[ridge.segments[-6:]]), np.log(ridge.freqs[-6:]))
+        return (f_last * (speed / v_last) ** slope,)
     return (f_last, f_last * speed / v_last)
 
 
@@ -244,12 +266,13 @@ def _track(freqs, level_db, peak_db, f_lo, f_hi, speeds) -> list[_Ridge]:
             denom = a - 2 * b + c
             fpk.append(freqs[i] + (0.5 * (a - c) / denom * df if denom < 0 else 0.0))
         used = set()
+        expected = {id(r): _predicted(r, speeds[k], speeds) for r in active} if len(fpk) else {}
         for f, h in sorted(zip(fpk, props["peak_heights"]), key=lambda fh: -fh[1]):
             best, miss = None, math.inf
             for r in active:
-                if id(r) in used or k - r.segments[-1] > _GAP:
+                if id(r) in used or id(r) not in expected or k - r.segments[-1] > _GAP:
                     continue
-                off = min(abs(g - f) for g in _predicted(r, speeds[k], speeds))
+                off = min(abs(g - f) for g in expected[id(r)])
                 if off <= max(2.0 * df, 0.015 * f) and off < miss:
                     best, miss = r, off
             if best is None:
@@ -273,12 +296,15 @@ def _split(ridge: _Ridge, speeds, min_segments: int) -> list[_Ridge]:
     if n < 2 * min_segments:
         return [ridge]
     x, y = np.log(speeds[ridge.segments]), np.log(ridge.freqs)
+    # residual sum of squares and slope of the line fit to points [a, b), from prefix sums
+    c = [np.concatenate([[0.0], np.cumsum(v)]) for v in (np.ones(n), x, y, x * x, x * y, y * y)]
 
     def fit(a, b):
-        if np.ptp(x[a:b]) < 1e-9:
-            return 0.0, 0.0
-        coef, res = np.polyfit(x[a:b], y[a:b], 1, full=True)[:2]
-        return float(coef[0]), float(res[0]) if len(res) else 0.0
+        m, sx, sy, sxx, sxy, syy = (v[b] - v[a] for v in c)
+        vxx, vxy, vyy = sxx - sx * sx / m, sxy - sx * sy / m, syy - sy * sy / m
+        if vxx <= 1e-18:
+            return 0.0, max(vyy, 0.0)
+        return vxy / vxx, max(vyy - vxy * vxy / vxx, 0.0)
 
     whole = fit(0, n)[1]
     best = None
@@ -606,7 +632,6 @@ def campbell(
     disturbance_m : float
         Tread disturbance of the ramp simulation [m] (see :func:`ramp_delay`).
     """
-    from scipy.ndimage import median_filter
     from scipy.signal import spectrogram
 
     fs = run.sample_rate_hz
@@ -624,7 +649,7 @@ def campbell(
     stack = [total] + power if len(power) > 1 else power
     power_db = 10.0 * np.log10(np.maximum(np.array(stack), tiny))
     speeds = np.interp(times, run.t, run.speed_kmh)
-    level = power_db[0] - median_filter(power_db[0], size=(FLOOR_BINS, 1), mode="nearest")
+    level = power_db[0] - _spectral_floor(power_db[0])
     radius = params.operating.rolling_radius_m
     ridges = [piece for r in _track(freqs, level, peak_db, f_lo, f_hi, speeds) for piece in _split(r, speeds, 6)]
     classified = [(f, r) for r in ridges for f in [_classify(r, speeds, radius, 6)] if f is not None]
