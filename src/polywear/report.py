@@ -336,7 +336,8 @@ figure{{margin:1.5em 0}}img{{max-width:100%}}.verdict{{background:#fff4e0;paddin
 <h2>Speed bands</h2>
 <ul><li>steady rolling unstable (linear band): {band(b['linear_band_kmh'])}</li>
 <li>SEV after a large disturbance (first to second bifurcation speed): {band(b['sev_band_kmh'])}</li>
-<li>hard excitation (stable rolling and stable SEV coexist): {band(b['hard_regions_kmh'])}</li></ul>
+<li>hard excitation (stable rolling and stable SEV coexist): {band(b['hard_regions_kmh'])}</li>
+{f"<li>static divergence (steady rolling unstable through a real eigenvalue; it drifts, it does not vibrate): {band(b['divergence_kmh'])}</li>" if b.get('divergence_kmh') else ""}</ul>
 <p>Analysed speed range {range_lo:g}-{range_hi:g} km/h.</p><ul>{notes}</ul>
 <table><tr><th>point</th><th>speed [km/h]</th><th>frequency [Hz]</th><th></th></tr>{rows or "<tr><td colspan='4'>no Hopf point, fold or other bifurcation in the analysed range</td></tr>"}</table>
 <h2>Sensitivities</h2><ul>{sens_notes or "<li>see sensitivity.png and sensitivity.csv</li>"}</ul>

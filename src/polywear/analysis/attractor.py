@@ -132,9 +132,14 @@ def reached_attractors(diagram, speed_kmh: float, duration_s: float = 1.5) -> li
 
 def _same(a: Attractor, b: Attractor) -> bool:
     x = a.run.model.index("x")
+    if a.regime != b.regime:
+        return False
+    if not a.oscillating:  # at rest or drifting: the same if it ends at the same offset (1 %)
+        oa, ob = (float(r.run.steady.mean[x] - r.run.equilibrium[x]) for r in (a, b))
+        return abs(oa - ob) <= 0.01 * max(abs(oa), abs(ob), 1e-12)
     pa, pb = a.run.steady.period, b.run.steady.period
     same_period = (math.isnan(pa) and math.isnan(pb)) or abs(pa - pb) <= 0.01 * max(abs(pa), abs(pb))
-    return a.regime == b.regime and same_period and abs(a.amplitude[x] - b.amplitude[x]) <= 0.01 * max(
+    return same_period and abs(a.amplitude[x] - b.amplitude[x]) <= 0.01 * max(
         a.amplitude[x], b.amplitude[x], 1e-12)
 
 
