@@ -267,7 +267,7 @@ def test_sweep_band_reaching_the_grid_end_is_open():
 
     s = sweep_bands(result([False, True, True, True]))
     assert s["open_at"] == "upper" and s["second_bifurcation_speed_kmh"] is None
-    assert s["first_bifurcation_speed_kmh"] == 40.0 and s["warnings"]
+    assert s["first_bifurcation_speed_kmh"] == 40.0 and s["warnings"] and s["sev_band_kmh"] == [[40.0, None]]
     s = sweep_bands(result([False, True, True, False]))
     assert s["open_at"] is None and (s["first_bifurcation_speed_kmh"], s["second_bifurcation_speed_kmh"]) == (40.0, 60.0)
 

@@ -500,13 +500,19 @@ def sweep_bands(result) -> dict:
         "speeds_kmh": speeds.tolist(),
         "open_at": _open_at(open_at),
         "warnings": [_open_warning(edge, (speeds[0], speeds[-1])) for edge in open_at],
-        "linear_band_kmh": [list(b) for b in band(("small",))],
-        "sev_band_kmh": [list(b) for b in sev],
+        "linear_band_kmh": [_grid_bounds(b, speeds) for b in band(("small",))],
+        "sev_band_kmh": [_grid_bounds(b, speeds) for b in sev],
         "first_bifurcation_speed_kmh": sev[0][0] if sev and "lower" not in open_at else None,
         "second_bifurcation_speed_kmh": sev[-1][1] if sev and "upper" not in open_at else None,
         "grid_spacing_kmh": float(np.max(np.diff(speeds))) if len(speeds) > 1 else None,
         "unsettled_runs": sum(not r.steady for runs in result.runs.values() for r in runs),
     }
+
+
+def _grid_bounds(interval, speeds) -> list:
+    """A band of the sweep, a bound at the first or last grid speed as None (cut by the grid)."""
+    lo, hi = interval
+    return [None if lo == speeds[0] else lo, None if hi == speeds[-1] else hi]
 
 
 def _runs_of(speeds, flags):
