@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pytest
 
-from polywear.analysis.attractor import PERIOD_MULTIPLIED, reached_attractors
+from polywear.analysis.attractor import PERIOD_MULTIPLIED, QUASI_PERIODIC, reached_attractors
 from polywear.analysis.bifurcation import SPEED_CEILING_KMH, bifurcation_diagram, statically_divergent
 from polywear.analysis.design import clear_operating_range
 from polywear.analysis.sensitivity import local_sensitivity
@@ -287,3 +287,21 @@ def test_hard_region_cut_at_the_ceiling_has_an_open_trigger_range(nominal, capsy
     assert trigger["speed_range_kmh"] == region and trigger["min_x"] == 0.0
     _print_summary(s)
     assert "hard excitation" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+def test_sustained_irregular_oscillation_is_quasi_periodic_or_chaotic():
+    """Stick-slip (mu_c = 0.3) at 90 km/h, between the period doublings at 81 and 102 km/h,
+    from a small disturbance: the oscillation never settles on a cycle (no repetition within
+    20 maxima) but its swing is sustained. Check: an independent 5 s run from a 1 mm
+    disturbance has, in its last second, the same peak-to-peak of x (2 %)."""
+    params = with_updates(Params(), {"friction.mu_coulomb": 0.3})
+    diagram = bifurcation_diagram(params, (85.0, 95.0), extend=False)  # unstable rolling, no continuation
+    (found,) = reached_attractors(diagram, 90.0)
+    assert found.regime == QUASI_PERIODIC and found.run.steady.outcome == "transient"
+    assert 100.0 < found.dominant_frequency_hz < 160.0
+    other = simulate(params, 90.0, 5.0, disturbance=1e-3)
+    last = other.t >= 4.0
+    assert 2.0 * found.amplitude[0] == pytest.approx(np.ptp(other.u[last, 0]), rel=0.02)
+    verdict = operating_verdict(diagram, params, 90.0)
+    assert verdict["regime"] == QUASI_PERIODIC and verdict["sev_amplitude_x_m"] == found.amplitude[0]
