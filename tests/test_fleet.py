@@ -131,7 +131,7 @@ def test_clopper_pearson_intervals_cover():
     rng = np.random.default_rng(5)
     p_true, covered, trials = 0.17, 0, 400
     for _ in range(trials):
-        values = np.zeros((60, 5))
+        values = np.zeros((60, 6))
         values[:, 2] = rng.random(60) < p_true
         result = FleetResult(Params(), spec, np.zeros((60, 1)), values, ["ok"] * 60)
         _, _, lo, hi = result.risk_ci()
@@ -216,6 +216,23 @@ def test_same_numbers_on_serial_processes_and_dask(tmp_path, reference):
         cluster.close()
     np.testing.assert_array_equal(serial.values, dask.values)
     assert serial.status == processes.status == dask.status
+
+
+def test_wear_share_from_the_wear_map(tmp_path, reference):
+    """Per car: the shortest e-folding distance over the usage speeds, each speed's map taken alone."""
+    from polywear.analysis.global_sensitivity import sample_params
+    from polywear.analysis.wear_map import wear_map
+
+    text = TOE_SPEC.replace("[[fleet.parameter]]", "mileage_km = 50000.0\n[[fleet.parameter]]", 1)
+    spec = _spec(tmp_path, samples=3, every=3, text=text)
+    result = fleet_risk(Params(), spec, backend="serial", reference=reference)
+    for x, row in zip(result.samples, result.values):
+        car = sample_params(Params(), ["operating.toe_deg"], x)
+        alone = [np.nanmin(wear_map(car, [v]).efold_km, initial=np.inf) for v in (110.0, 60.0)]
+        assert row[5] == pytest.approx(min(alone), rel=1e-12)
+    s = result.summary()
+    assert s["wear_share"] == np.mean(result.values[:, 5] < 50000.0)
+    assert s["wear_ci"][0] <= s["wear_share"] <= s["wear_ci"][1]
 
 
 def test_cli_json_summary(tmp_path):

@@ -13,7 +13,10 @@ from the nominal car, full continuation as fallback). A car is *at risk* when it
 band (hard regions included) contains a speed of the usage profile with a positive
 share; it has *hard excitation* when such a speed lies in a hard region (stable rolling
 there, but a disturbance starts SEV). The risk probability gets an exact binomial
-(Clopper-Pearson) interval over the cars that were evaluated.
+(Clopper-Pearson) interval over the cars that were evaluated. With ``mileage_km`` the
+linear wear map (:func:`~polywear.analysis.wear_map.wear_map`) of every car at the usage
+speeds gives the shortest e-folding distance of any polygon order where rolling is
+stable; the wear share is the share of cars where it is below the mileage.
 
 Reproducibility: all samples are drawn in the calling process from
 ``numpy.random.SeedSequence(seed)`` before any evaluation, and every car is evaluated
@@ -45,7 +48,8 @@ from ..params import ADHESION_SCALE, Params, ParameterError, get_value, to_toml
 __all__ = ["FleetParameter", "FleetUsage", "FleetSpec", "load_fleet_spec", "sample_fleet", "FleetEvaluator",
            "FleetResult", "fleet_risk"]
 
-OUTPUTS = ("first_bifurcation_kmh", "second_bifurcation_kmh", "at_risk", "hard_at_usage", "fast_path")
+OUTPUTS = ("first_bifurcation_kmh", "second_bifurcation_kmh", "at_risk", "hard_at_usage", "fast_path",
+           "wear_efold_km")
 N_BINS = 20
 """Equal-probability bins of the main-effect estimator."""
 
@@ -136,6 +140,9 @@ class FleetSpec(_Spec):
     usage: tuple[FleetUsage, ...]
     correlation: FleetCorrelation | None = None
     speed_range_kmh: tuple[float, float] = (10.0, 600.0)
+    mileage_km: float | None = Field(None, gt=0.0)
+    """With it, the share of cars with a polygon order whose wear grows by e within this
+    distance at a usage speed where rolling is stable (linear wear map)."""
 
     @model_validator(mode="after")
     def _consistent(self):
@@ -223,17 +230,27 @@ class FleetEvaluator:
     keys: tuple[str, ...]
     solver: object  # FastBand
     usage_speeds_kmh: tuple[float, ...]
+    wear: bool = False
 
     def __call__(self, values) -> tuple[tuple[float, ...], str]:
         from .global_sensitivity import sample_params
 
         try:
-            band = self.solver(sample_params(self.params, self.keys, values))
+            params = sample_params(self.params, self.keys, values)
+            band = self.solver(params)
         except Exception as exc:  # invalid parameters or a numerical failure: recorded, never dropped
             return (np.nan,) * len(OUTPUTS), f"failed: {type(exc).__name__}: {exc}"
         inside = lambda intervals: any(a <= v <= b for v in self.usage_speeds_kmh for a, b in intervals)
+        efold = np.nan
+        if self.wear:
+            from .wear_map import wear_map
+
+            try:
+                efold = float(np.nanmin(wear_map(params, self.usage_speeds_kmh).efold_km, initial=np.inf))
+            except Exception as exc:
+                return (np.nan,) * len(OUTPUTS), f"failed: wear map: {type(exc).__name__}: {exc}"
         return (band.first_bifurcation_kmh, band.second_bifurcation_kmh, float(inside(band.sev_band_kmh)),
-                float(inside(band.hard_regions_kmh)), float(band.path == "fast")), "ok"
+                float(inside(band.hard_regions_kmh)), float(band.path == "fast"), efold), "ok"
 
 
 def _spec_hash(params: Params, spec: FleetSpec) -> str:
@@ -338,9 +355,20 @@ class FleetResult:
             "drivers_main_effect": {key: (None if not np.isfinite(d) else float(d)) for key, d in
                                     zip(self.keys, drivers)},
             "usage": [u.model_dump() for u in self.spec.usage],
-            "wear_share": None,
+            **self._wear_summary(v, n),
             "settings": self.settings,
         }
+
+    def _wear_summary(self, v, n) -> dict:
+        """Share of cars with an order whose wear e-folds within ``spec.mileage_km`` (CI)."""
+        mileage = self.spec.mileage_km
+        if mileage is None or n == 0:
+            return {"wear_share": None}
+        from scipy.stats import binomtest
+
+        k = int(np.sum(v[:, 5] < mileage))
+        ci = binomtest(k, n).proportion_ci(self.confidence, method="exact")
+        return {"wear_share": k / n, "wear_ci": [float(ci.low), float(ci.high)], "mileage_km": mileage}
 
     def to_dataset(self):
         import xarray as xr
@@ -433,7 +461,7 @@ def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", w
         reference = band_reference(bifurcation_diagram(nominal, spec.speed_range_kmh, **_FIXED_RANGE))
     solver = FastBand((reference,), speed_range_kmh=tuple(spec.speed_range_kmh))
     usage = tuple(u.speed_kmh for u in spec.usage if u.share > 0)
-    evaluator = FleetEvaluator(params, keys, solver, usage)
+    evaluator = FleetEvaluator(params, keys, solver, usage, wear=spec.mileage_km is not None)
     values = np.full((spec.samples, len(OUTPUTS)), np.nan)
     status: list[str] = []
     digest = _spec_hash(params, spec)
