@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..models.base import ms_to_kmh
-from .simulation import SimulationResult, simulate
+from .simulation import SimulationResult, _finite, simulate
 
 __all__ = ["Attractor", "reached_attractors", "dominant_frequency"]
 
@@ -68,6 +68,14 @@ class Attractor:
     def oscillating(self) -> bool:
         return self.regime not in (DIVERGENCE, NO_SEV)
 
+    def plot(self, ax=None):
+        """Phase portraits of the classified piece's last half (the attractor). Returns artists."""
+        return self.run.plot(ax, tail_s=self.run.settings.window_fraction * self.run.duration_s)
+
+    def save(self, path) -> None:
+        """The classified piece as netCDF (see :meth:`SimulationResult.save`)."""
+        self.run.save(path)
+
     def summary(self) -> dict:
         st = self.run.steady
         x = self.run.model.index("x")
@@ -83,10 +91,6 @@ class Attractor:
             "simulated_s": self.simulated_s,
             "start": self.start,
         }
-
-
-def _finite(value):
-    return float(value) if np.isfinite(value) else None
 
 
 def dominant_frequency(t: np.ndarray, s: np.ndarray) -> float:
