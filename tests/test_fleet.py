@@ -129,7 +129,7 @@ def test_clopper_pearson_intervals_cover():
     """Exact binomial intervals of the risk cover the true probability at least 95 % of the time."""
     spec = FleetSpec(samples=60, parameter=MARGINALS[:1], usage=[{"speed_kmh": 100.0, "share": 1.0}])
     rng = np.random.default_rng(5)
-    p_true, covered, trials = 0.17, 0, 400
+    p_true, covered, trials = 0.17, 0, 150
     for _ in range(trials):
         values = np.zeros((60, 6))
         values[:, 2] = rng.random(60) < p_true
@@ -218,6 +218,7 @@ def test_same_numbers_on_serial_processes_and_dask(tmp_path, reference):
     assert serial.status == processes.status == dask.status
 
 
+@pytest.mark.slow
 def test_wear_share_from_the_wear_map(tmp_path, reference):
     """Per car: the shortest e-folding distance over the usage speeds, each speed's map taken alone."""
     from polywear.analysis.global_sensitivity import sample_params
@@ -235,6 +236,7 @@ def test_wear_share_from_the_wear_map(tmp_path, reference):
     assert s["wear_ci"][0] <= s["wear_share"] <= s["wear_ci"][1]
 
 
+@pytest.mark.slow
 def test_cli_json_summary(tmp_path):
     path = tmp_path / "fleet.toml"
     path.write_text(TOE_SPEC.format(samples=3, seed=1, every=3))
