@@ -108,7 +108,9 @@ def test_stick_slip_cycles_kink_alignment_and_period_doubling(stick_slip_params)
     params = stick_slip_params
     p = MODEL.pack(params)
     aligned = bifurcation_diagram(params, (20.0, 150.0))
-    plain = bifurcation_diagram(params, (20.0, 150.0), ContinuationSettings(align_kinks=False))
+    # no alignment and no rescue by mesh refinement (an infinite tolerance accepts every step):
+    # what the same mesh gives when polynomials straddle the kinks
+    plain = bifurcation_diagram(params, (20.0, 150.0), ContinuationSettings(align_kinks=False, multiplier_tol=np.inf))
     (c110,) = aligned.cycles_at(110.0)
     # the cycle really slides backwards: v_r changes sign twice per period
     branch = aligned.branches[0]

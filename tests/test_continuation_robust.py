@@ -1,0 +1,137 @@
+"""Continuation never reports garbage: hard parameter sets for both models.
+
+Every diagram is checked for invariants that the continuation used to break (issue 8):
+special points located once, Floquet multipliers accurate on every reported cycle, a
+typed end with speed and reason on every branch, and no SEV band edge taken silently
+from a branch that failed.
+"""
+
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from polywear.analysis.bifurcation import bifurcation_diagram
+from polywear.cli.bifurcation_cmd import _print_summary
+from polywear.models import get_model
+from polywear.params import load_params
+from polywear.solvers.continuation import BranchEnd, ContinuationSettings
+from polywear.solvers.integrate import integrate
+
+HARD = {
+    "stick-slip": ["friction.mu_coulomb=0.05"],
+    "heavy load": ["operating.vertical_load_n=8000"],
+    "low Stribeck velocity": ["friction.stribeck_velocity_m_per_s=0.05"],
+    "large toe": ["operating.toe_deg=3"],
+    # bushing damping low: the axle toe mode near 25 Hz goes unstable (axle4dof only)
+    "axle mode": ["axle.toe_damping_nms_per_rad=144", "axle.camber_damping_nms_per_rad=83"],
+}
+RANGE_KMH = (20.0, 120.0)
+SETTINGS = ContinuationSettings(max_steps=45)
+"""A step budget that keeps the suite fast: branches that need more end as failed
+(MAX_STEPS), which exercises the reporting of failed branches too."""
+
+
+def params_of(model: str, case: str):
+    return load_params(overrides=[f"model={model}", *HARD[case]])
+
+
+COSTLY = {("axle4dof", "heavy load"): ((20.0, 120.0), 30), ("axle4dof", "axle mode"): ((30.0, 60.0), 30)}
+"""Cases whose branches need fine meshes or are many: a narrower range or fewer steps, and marked slow."""
+
+
+@pytest.fixture(scope="module", params=[pytest.param((m, c), marks=[pytest.mark.slow] if (m, c) in COSTLY else [])
+                                        for m in ("tread1dof", "axle4dof") for c in HARD],
+                ids=lambda mc: f"{mc[0]}-{mc[1].replace(' ', '_')}")
+def diagram(request):
+    model, case = request.param
+    speed_range, max_steps = COSTLY.get((model, case), (RANGE_KMH, SETTINGS.max_steps))
+    settings = replace(SETTINGS, max_steps=max_steps)
+    return bifurcation_diagram(params_of(model, case), speed_range, settings, n_speeds=200, extend=False)
+
+
+def test_special_points_are_located_once(diagram):
+    """No two special points of one kind at the same place (speed to 1e-3 km/h, x amplitude to 1e-3)."""
+    x = diagram.state_names.index("x")
+    for k, (label, a) in enumerate(diagram.special):
+        for other_label, b in diagram.special[k + 1:]:
+            same_place = abs(a.speed - b.speed) * 3.6 < 1e-3 and \
+                abs(a.amplitude[x] - b.amplitude[x]) <= 1e-3 * max(a.amplitude[x], b.amplitude[x])
+            assert not (label == other_label and same_place), (label, a.speed * 3.6)
+
+
+def test_multipliers_are_accurate_on_every_reported_cycle(diagram):
+    """|mu - 1| of the trivial multiplier within the tolerance, or, for a strongly unstable
+    cycle, small enough that no other multiplier is near the unit circle."""
+    tol = diagram.settings.multiplier_tol
+    for branch in diagram.branches:
+        for point in branch.points:
+            mu = point.multipliers
+            error = point.trivial_multiplier_error
+            if error > tol:
+                others = np.delete(mu, int(np.argmin(np.abs(mu - 1.0))))
+                assert error < 1e-2 and np.min(np.abs(np.abs(others) - 1.0)) > 10 * error, point.orbit.speed * 3.6
+
+
+def test_every_branch_ends_with_a_reason_and_failures_are_flagged(diagram):
+    s = diagram.summary()
+    json.dumps(s)
+    lo, hi = diagram.speed_range_kmh
+    sev_edges = [v for band in diagram.sev_band_kmh for v in band]
+    for info, branch in zip(s["branches"], diagram.branches):
+        assert BranchEnd(info["ended"]) is branch.end
+        assert info["failed"] == branch.end.failed and info["end_reason"].startswith(branch.end.description)
+        assert np.isfinite(info["at_speed_kmh"])
+        if branch.points:
+            assert info["at_speed_kmh"] == pytest.approx(branch.points[-1].orbit.speed * 3.6)
+        if info["failed"]:
+            assert lo <= info["at_speed_kmh"] <= hi
+            assert any(f"cycle branch {info['branch']} " in w and "lost" in w for w in s["warnings"])
+            last_stable = branch.points and branch.points[-1].stable
+            at_edge = any(abs(info["at_speed_kmh"] - e) < 1e-6 for e in sev_edges)
+            if last_stable and at_edge:  # a band built from a failed branch must say so
+                assert info["at_speed_kmh"] in s["band_edges_from_failed_branches_kmh"]
+    for v in s["band_edges_from_failed_branches_kmh"]:
+        assert any(abs(v - e) < 1e-9 for e in sev_edges)
+
+
+def test_failed_branch_in_the_text_output(capsys):
+    """A branch cut by the step limit is printed as FAILED, with where and why."""
+    params = params_of("tread1dof", "stick-slip")
+    d = bifurcation_diagram(params, RANGE_KMH, ContinuationSettings(max_steps=15), n_speeds=100, extend=False)
+    (branch,) = d.branches
+    assert branch.end is BranchEnd.MAX_STEPS and branch.failed
+    _print_summary(d.summary())
+    out = capsys.readouterr().out
+    line = next(l for l in out.splitlines() if "cycle branch 0" in l)
+    assert "FAILED" in line and f"{branch.end_speed * 3.6:.3f} km/h" in line and "maximum number of steps" in line
+
+
+def test_defaults_do_not_need_rescue():
+    """On the default tire the multipliers are resolved on the first mesh: no refinement, no failure."""
+    d = bifurcation_diagram(load_params(overrides=[]), (20.0, 300.0), extend=False)
+    (info,) = d.summary()["branches"]
+    assert info["ended"] == "hopf_reached" and not info["failed"] and info["recoveries"] == []
+
+
+@pytest.mark.slow
+def test_stable_cycle_of_a_hard_case_is_what_long_integration_reaches():
+    """axle4dof, low Stribeck velocity: a stable cycle reported by a branch that did not fail
+    is kept by a long time integration started on it (every coordinate to 1e-3 of its range)."""
+    model = get_model("axle4dof")
+    params = params_of("axle4dof", "low Stribeck velocity")
+    d = bifurcation_diagram(params, RANGE_KMH, SETTINGS, n_speeds=200, extend=False)
+    (branch,) = d.branches
+    assert not branch.failed
+    point = next(pt for pt in branch.points[::-1] if pt.stable)
+    orbit = point.orbit
+    p = model.pack(params)
+    t_end = 40 * orbit.period
+    run = integrate(model, orbit.evaluate(0.0)[0], orbit.speed, p, t_end, rtol=1e-10, atol=1e-14,
+                    dense_from=t_end - orbit.period)
+    u = run.dense(np.linspace(t_end - orbit.period, t_end, 4001))
+    lo, hi = orbit.extrema()
+    span = np.maximum(hi - lo, 1e-12)
+    assert np.all(np.abs(u.max(axis=0) - hi) <= 1e-3 * span)
+    assert np.all(np.abs(u.min(axis=0) - lo) <= 1e-3 * span)
