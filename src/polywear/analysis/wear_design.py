@@ -2,13 +2,13 @@
 from growing over the drive cycle, or pushes the visible-polygon distance beyond a target.
 
 Criterion (linear wear map, exact and fast). On a drive cycle the one profile is worn at
-every speed in turn, so harmonic n grows at the share-weighted rate
-``g_n = sum_i share_i g_n(V_i)`` [e-folds per km]. Starting from the seeded roughness
-(amplitude of order ``initial_roughness_um``), the polygon reaches the visible depth
-after about ``ln(visible / initial) / max_n g_n``; a target distance ``D`` therefore asks
-``max_n g_n <= ln(visible / initial) / D`` (see :func:`allowed_growth`), and "every order stable" asks ``max_n g_n <= 0``.
-The map applies only where steady rolling is stable: an option must also leave every
-cycle speed outside the linear band (where the tread vibrates).
+every speed in turn, so harmonic n changes per km at the share-weighted complex rate
+``lambda_n = sum_i share_i ln(1 + dW_n/W_n)(V_i) * revolutions per km``. "Every order
+stable" asks ``max_n Re lambda_n <= 0``. A target distance D asks that the seeded
+roughness grown as ``W_n exp(lambda_n D)`` (the linear evolution, which the nonlinear
+one follows to 0.05 % while rolling is stable) stays below the visible peak-to-valley
+depth. The map applies only where steady rolling is stable: an option must also leave
+every cycle speed outside the linear band (where the tread vibrates).
 
 Search. Per parameter and per direction (more and less of it), multiplicative steps
 ``p0 * f`` on a geometric grid up to ``max_factor``; the first step that meets the
@@ -33,35 +33,44 @@ from .design import DEFAULT_KEYS, ENGINEERING, parameter_category, parameter_lab
 from .sensitivity import ADHESION_SCALE, nominal_value, parameter_direction, perturbed
 from .wear_map import wear_map
 
-__all__ = ["WearDesignOption", "WearDesignResult", "cycle_growth", "wear_design", "verify_option"]
+__all__ = ["WearDesignOption", "WearDesignResult", "cycle_rates", "cycle_growth", "linear_depth_mm", "wear_design",
+           "verify_option"]
 
 _REFINE = 0.01
 """Relative accuracy of the least change [-]."""
 
 
-def cycle_growth(params: Params, cycle=None) -> tuple[float, int, bool]:
-    """(max_n g_n [e-folds per 1000 km], its order, every cycle speed rolling-stable)."""
+def cycle_rates(params: Params, cycle=None) -> np.ndarray | None:
+    """Complex rate per km of every order over the cycle, ``sum_i share_i ln(1 + dW/W)_i``
+    times revolutions per km (real part: growth, imaginary: turn); None if steady rolling
+    is unstable at a cycle speed."""
     cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
     m = wear_map(params, [v for v, _ in cycle])
-    shares = np.array([s for _, s in cycle])
     if not m.rolling_stable.all():
+        return None
+    shares = np.array([s for _, s in cycle])
+    return (shares @ np.log1p(m.relative_change)) * m.revolutions_per_km
+
+
+def cycle_growth(params: Params, cycle=None) -> tuple[float, int, bool]:
+    """(max_n g_n [e-folds per 1000 km], its order, every cycle speed rolling-stable)."""
+    rates = cycle_rates(params, cycle)
+    if rates is None:
         return math.inf, 0, False
-    g = shares @ m.growth_per_1000km
-    k = int(np.argmax(g))
-    return float(g[k]), int(m.orders[k]), True
+    k = int(np.argmax(rates.real))
+    return float(rates.real[k] * 1000.0), k + 1, True
 
 
-def allowed_growth(params: Params, target_km: float | None) -> float:
-    """Largest admissible max_n g_n [e-folds per 1000 km] for a target distance (0 if none).
+def linear_depth_mm(params: Params, distance_km: float, cycle=None) -> float:
+    """Peak-to-valley depth [mm] after ``distance_km`` of the seeded roughness grown by the
+    linear map (exact while the profile is small and rolling stable; inf if it is not)."""
+    from .wear_evolution import initial_roughness, peak_to_valley
 
-    One harmonic of the seeded roughness has an amplitude of about
-    ``initial_roughness_um * sqrt(2/K)`` and a peak-to-valley depth twice that; it must
-    grow by ``visible / that`` to become visible."""
-    if target_km is None:
-        return 0.0
-    start_um = 2.0 * params.wear.initial_roughness_um * math.sqrt(2.0 / params.wear.max_order)
-    ratio = params.wear.visible_depth_mm * 1e3 / start_um
-    return max(math.log(ratio), 0.0) / target_km * 1000.0
+    rates = cycle_rates(params, cycle)
+    if rates is None:
+        return math.inf
+    W = initial_roughness(params) * np.exp(rates * distance_km)
+    return peak_to_valley(W, params.wear.profile_points) * 1e3
 
 
 @dataclass
@@ -86,7 +95,8 @@ class WearDesignResult:
     params: Params
     cycle: tuple
     target_km: float | None
-    allowed_growth_per_1000km: float
+    nominal_depth_at_target_mm: float | None
+    """linear estimate of the nominal depth at the target distance [mm]"""
     nominal_growth_per_1000km: float
     nominal_order: int
     nominal_rolling_stable: bool
@@ -99,8 +109,9 @@ class WearDesignResult:
             "cycle": [{"speed_kmh": v, "share": s} for v, s in self.cycle],
             "target_km": self.target_km,
             "criterion": "every order stable over the cycle" if self.target_km is None else
-            f"visible polygon beyond {self.target_km:g} km (linear estimate)",
-            "allowed_growth_per_1000km": self.allowed_growth_per_1000km,
+            f"visible polygon beyond {self.target_km:g} km (linear evolution)",
+            "nominal_depth_at_target_mm": _finite(self.nominal_depth_at_target_mm)
+            if self.nominal_depth_at_target_mm is not None else None,
             "nominal": {"growth_per_1000km": _finite(self.nominal_growth_per_1000km), "order": self.nominal_order,
                         "rolling_stable_at_every_cycle_speed": self.nominal_rolling_stable},
             "options": [o.summary() for o in self.options],
@@ -113,16 +124,20 @@ def _finite(x: float):
     return x if math.isfinite(x) else None
 
 
-def _meets(params: Params, key: str, nominal: float, factor: float, cycle, allowed: float):
+def _meets(params: Params, key: str, nominal: float, factor: float, cycle, target_km: float | None):
     try:
         changed = perturbed(params, key, nominal * factor)
     except ValueError:
         return None
     try:
         g, order, stable = cycle_growth(changed, cycle)
+        if target_km is None:
+            ok = stable and g <= 0.0
+        else:
+            ok = stable and linear_depth_mm(changed, target_km, cycle) < params.wear.visible_depth_mm
     except (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError):
         return None
-    return (stable and g <= allowed), g, order
+    return ok, g, order
 
 
 def wear_design(params: Params, keys=None, target_km: float | None = None, cycle=None, max_factor: float = 4.0,
@@ -134,15 +149,17 @@ def wear_design(params: Params, keys=None, target_km: float | None = None, cycle
     ``max_factor``: largest change searched (p0 * f or p0 / f).
     """
     cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
-    allowed = allowed_growth(params, target_km)
     g0, order0, stable0 = cycle_growth(params, cycle)
     options, not_found = [], []
     model = get_model(params.model)
-    if stable0 and g0 <= allowed:
+    depth0 = None if target_km is None else linear_depth_mm(params, target_km, cycle)
+    nominal_ok = stable0 and (g0 <= 0.0 if target_km is None else depth0 < params.wear.visible_depth_mm)
+    if nominal_ok:
         not_found.append("no change needed: the nominal parameters already meet the criterion")
         keys = ()
     for key in DEFAULT_KEYS if keys is None else keys:
-        if key != ADHESION_SCALE and not np.any(parameter_direction(model, params, key)):
+        wear_key = key.startswith("tire.")  # the load coupling and the patch: every model
+        if key != ADHESION_SCALE and not wear_key and not np.any(parameter_direction(model, params, key)):
             if keys:
                 not_found.append(f"{key}: does not enter the {params.model} model")
             continue
@@ -155,12 +172,12 @@ def wear_design(params: Params, keys=None, target_km: float | None = None, cycle
             factors = np.exp(sign * np.linspace(0.0, math.log(max_factor), grid + 1)[1:])
             previous = 1.0
             for f in factors:
-                hit = _meets(params, key, nominal, float(f), cycle, allowed)
+                hit = _meets(params, key, nominal, float(f), cycle, target_km)
                 if hit is not None and hit[0]:
                     lo, hi = math.log(previous), math.log(float(f))
                     while abs(hi - lo) > _REFINE:
                         mid = 0.5 * (lo + hi)
-                        probe = _meets(params, key, nominal, math.exp(mid), cycle, allowed)
+                        probe = _meets(params, key, nominal, math.exp(mid), cycle, target_km)
                         if probe is not None and probe[0]:
                             hi, hit = mid, probe
                         else:
@@ -177,9 +194,12 @@ def wear_design(params: Params, keys=None, target_km: float | None = None, cycle
         options.append(WearDesignOption(
             key=key, label=parameter_label(key), category=parameter_category(key), nominal=nominal,
             value=nominal * factor, relative_change=factor - 1.0, growth_per_1000km=g, order=order))
+    if target_km is None and not options and not nominal_ok:
+        not_found.append("every order stable is out of reach while the tire damping c_z > 0: the high orders "
+                         "grow slowly through it in this model (docs/wear.md); give a target distance instead")
     # what an engineer sets (alignment, bushings, tread) first, then road/compound; least change first
     options.sort(key=lambda o: (o.category not in ENGINEERING, abs(math.log1p(o.relative_change))))
-    return WearDesignResult(params=params, cycle=cycle, target_km=target_km, allowed_growth_per_1000km=allowed,
+    return WearDesignResult(params=params, cycle=cycle, target_km=target_km, nominal_depth_at_target_mm=depth0,
                             nominal_growth_per_1000km=g0, nominal_order=order0, nominal_rolling_stable=stable0,
                             options=options, not_found=not_found)
 

@@ -48,6 +48,9 @@ VIBRATION_RMS = 0.01
 """The tread vibrates (self-excited) when the RMS of its velocity fluctuation exceeds this
 [m/s]: 10 um at 150 Hz, far above the response to a worn profile of a tenth of a
 millimetre and far below the SEV of a vibrating tire (0.1-0.3 m/s)."""
+MAX_CHANGE = 0.3
+"""A distance step is shortened so that no harmonic changes by more than this fraction of
+the largest one (fast growth after locking is resolved, not jumped over) [-]."""
 RESOLVABLE = 0.25
 """A drifting line is separated in a window of M revolutions when eps M >= this [-]."""
 SIDEBANDS = 2
@@ -441,7 +444,7 @@ def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000
     R = params.operating.rolling_radius_m
     k_e = energetic_rate(params)
     n_steps = max(1, math.ceil(distance_km / step_km - 1e-9))
-    steps = np.full(n_steps, distance_km / n_steps)
+    step = distance_km / n_steps
     W = initial_roughness(params)
     states, settles, windows = [], [], []
     for v_kmh, _ in cycle:
@@ -452,37 +455,44 @@ def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000
         u0[base.index("x")] += 1e-5  # a small disturbance: steady rolling as a car drives
         states.append(u0)
         settles.append([first, nxt])
-    history, means, energies = [W.copy()], [0.0], [0.0]
+    history, means, energies, distance = [W.copy()], [0.0], [0.0], [0.0]
     orders_hist, locked_hist = [], []
-    mean = energy = 0.0
-    for h in steps:
-        coherent_total = np.zeros_like(W)
-        drifting_total = np.zeros_like(W)
-        any_locked = False
-        nus, locks = [], []
+    mean = energy = done = 0.0
+    while done < distance_km * (1.0 - 1e-12):
+        h = min(step, distance_km - done)
+        wins = []
         for j, (v_kmh, share) in enumerate(cycle):
             V = float(kmh_to_ms(v_kmh))
             win = window_wear(params, V, W, states[j], settles[j][0], windows[j], base)
             settles[j][0] = settles[j][1]
             states[j] = win.end_state
-            n_rev = share * h * 1000.0 / (2.0 * math.pi * R)
-            coherent_total += n_rev * win.coherent
-            drifting_total += win.written(n_rev) - n_rev * win.coherent
-            mean += n_rev * win.mean_per_rev
-            energy += n_rev * win.energy_per_rev
-            any_locked |= win.locked and math.isfinite(win.order)
-            nus.append(win.order)
-            locks.append(win.locked and math.isfinite(win.order))
-        W = _update(W, coherent_total, any_locked) + drifting_total
+            wins.append(win)
+        any_locked = any(w.locked and math.isfinite(w.order) for w in wins)
+        for _ in range(8):  # shorten the step where the profile would change by more than MAX_CHANGE
+            n_revs = [share * h * 1000.0 / (2.0 * math.pi * R) for _, share in cycle]
+            coherent_total = sum(n * w.coherent for n, w in zip(n_revs, wins))
+            drifting_total = sum(w.written(n) - n * w.coherent for n, w in zip(n_revs, wins))
+            W_new = _update(W, coherent_total, any_locked) + drifting_total
+            change = float(np.max(np.abs(W_new - W))) / max(float(np.max(np.abs(W))), 1e-30)
+            if change <= MAX_CHANGE:
+                break
+            h *= 0.8 * MAX_CHANGE / change
+        W = W_new
+        done += h
+        mean += sum(n * w.mean_per_rev for n, w in zip(n_revs, wins))
+        energy += sum(n * w.energy_per_rev for n, w in zip(n_revs, wins))
         history.append(W.copy())
         means.append(mean)
         energies.append(energy)
-        orders_hist.append(nus)
-        locked_hist.append(locks)
+        distance.append(done)
+        orders_hist.append([w.order for w in wins])
+        locked_hist.append([w.locked and math.isfinite(w.order) for w in wins])
         if on_step is not None:
-            on_step(float(np.sum(steps[: len(history) - 1])))
-    distance = np.concatenate(([0.0], np.cumsum(steps)))
+            on_step(done)
+    distance = np.array(distance)
+    steps = np.diff(distance)
     return EvolutionResult(params=params, distance_km=distance, harmonics=np.array(history),
                            mean_depth_m=np.array(means), cycle=cycle, vibration_order=np.array(orders_hist),
                            locked=np.array(locked_hist), friction_energy_j=np.array(energies),
-                           settings={"step_km": float(steps[0]), "revolutions": revolutions, "k_e_m3_per_j": k_e})
+                           settings={"step_km": step, "smallest_step_km": float(steps.min()),
+                                     "revolutions": revolutions, "k_e_m3_per_j": k_e})
