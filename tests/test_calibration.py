@@ -52,6 +52,25 @@ def test_jacobian_matches_central_differences():
 
 
 @pytest.mark.slow
+def test_cycle_quantities_and_their_jacobian():
+    """Amplitude, frequency and polygon order of the stable cycle at 110 km/h: values from the
+    continuation, derivatives (collocation system differentiated) against central differences
+    of whole new diagrams."""
+    obs = [Observation(q, 0.0, 1.0, at_speed_kmh=110.0) for q in ("amplitude_mm", "cycle_frequency_hz", "polygon_order")]
+    keys = ["tread.lateral_damping_ns_per_m", "operating.rolling_radius_m"]
+    params = Params()
+    values, jac = predict(params, obs, keys)
+    assert values[0] == pytest.approx(0.27, abs=0.005)  # the defaults' stable cycle at 110 km/h
+    assert values[2] == pytest.approx(values[1] * 2 * math.pi * 0.30 / (110 / 3.6), rel=1e-12)
+    # R_e does not enter tread1dof: only the polygon order moves, as n / R_e
+    assert jac[:, 1] == pytest.approx([0.0, 0.0, values[2] / 0.30], rel=1e-12)
+    h = 1e-4 * 80.0
+    hi, _ = predict(with_updates(params, {keys[0]: 80.0 + h}), obs, keys)
+    lo, _ = predict(with_updates(params, {keys[0]: 80.0 - h}), obs, keys)
+    assert jac[:, 0] == pytest.approx((hi - lo) / (2 * h), rel=1e-4)
+
+
+@pytest.mark.slow
 def test_recovery_within_stated_intervals_in_50_trials():
     """Truth drawn around the defaults, observations = model(truth) + noise of the stated sigma,
     fit from the defaults: each 95 % interval must hold the truth in >= 90 % of 50 trials."""

@@ -78,6 +78,11 @@ def test_ramp_corrected_onset_within_2_kmh_of_the_hopf_speed(runup):
     assert onset["corrected_uncertainty_kmh"] > 0.0
     assert "ramp-corrected" in onset["correction"]
     assert result.prediction["hopf_points"][0]["speed_kmh"] == pytest.approx(hopf.speed_kmh, rel=1e-6)
+    # as calibration observations: the Hopf point's speed and frequency, truth within 2 sigma
+    entries = {e["quantity"]: e for e in result.observations()}
+    assert set(entries) == {"first_hopf_kmh", "hopf_frequency_hz"}
+    for quantity, truth in (("first_hopf_kmh", hopf.speed_kmh), ("hopf_frequency_hz", hopf.frequency_hz)):
+        assert abs(entries[quantity]["value"] - truth) < 2.0 * entries[quantity]["sigma"], (quantity, entries)
 
 
 def test_order_removal_keeps_constant_frequency():

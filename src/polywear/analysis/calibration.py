@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable
 
@@ -46,6 +46,11 @@ QUANTITIES = {
     "second_hopf_frequency_hz": "frequency at the second Hopf point [Hz]",
     "first_bifurcation_kmh": "lower end of the SEV band (Hopf point or fold; continuation) [km/h]",
     "second_bifurcation_kmh": "upper end of the SEV band (Hopf point or fold; continuation) [km/h]",
+    "amplitude_mm": "lateral tread amplitude (half peak-to-peak of x) of the largest stable cycle at at_speed_kmh "
+                    "[mm] (continuation)",
+    "cycle_frequency_hz": "frequency of the largest stable cycle at at_speed_kmh [Hz] (continuation)",
+    "polygon_order": "SEV frequency over the wheel's rotation frequency, f 2 pi R_e / V, at at_speed_kmh [-] "
+                     "(continuation)",
     "friction_mu": "steady friction coefficient mu_ss at at_sliding_speed_m_per_s [-]",
 }
 """Observable quantities calibrate can fit, and their units."""
@@ -53,6 +58,7 @@ QUANTITIES = {
 _HOPF = {"first_hopf_kmh": (0, "speed"), "second_hopf_kmh": (1, "speed"),
          "hopf_frequency_hz": (0, "frequency"), "second_hopf_frequency_hz": (1, "frequency")}
 _BAND = {"first_bifurcation_kmh": "first_bifurcation", "second_bifurcation_kmh": "second_bifurcation"}
+_CYCLE = ("amplitude_mm", "cycle_frequency_hz", "polygon_order")
 _FRICTION_KEYS = ("friction.mu_static", "friction.mu_coulomb", "friction.stribeck_velocity_m_per_s",
                   "friction.stribeck_exponent", "friction.sigma2_s_per_m")
 CHI2_95 = 3.841458820694124
@@ -134,6 +140,9 @@ def read_observations(path: str | Path, params: Params | None = None) -> list[Ob
         if not sigma > 0.0:
             raise CalibrationError(f"{where}: sigma = {sigma!r}: must be positive")
         at_v = _number(entry, "at_sliding_speed_m_per_s", where, required=quantity == "friction_mu")
+        at_speed = _number(entry, "at_speed_kmh", where, required=quantity in _CYCLE)
+        if at_speed is not None and not at_speed > 0.0:
+            raise CalibrationError(f"{where}: at_speed_kmh = {at_speed!r}: must be positive")
         if at_v is not None and not at_v > 0.0:
             raise CalibrationError(f"{where}: at_sliding_speed_m_per_s = {at_v!r}: must be positive")
         conditions = entry.get("set", {})
@@ -148,7 +157,7 @@ def read_observations(path: str | Path, params: Params | None = None) -> list[Ob
             quantity=quantity,
             value=_number(entry, "value", where),
             sigma=sigma,
-            at_speed_kmh=_number(entry, "at_speed_kmh", where, required=False),
+            at_speed_kmh=at_speed,
             at_sliding_speed_m_per_s=at_v,
             set=tuple(sorted(conditions.items())),
             label=str(entry.get("label", "")),
@@ -209,11 +218,9 @@ def _hopf_rows(params: Params, obs: list[Observation], keys: list[str], speed_ra
     return values, rows
 
 
-def _band_rows(params: Params, obs: list[Observation], keys: list[str], speed_range_kmh):
-    from .bifurcation import bifurcation_diagram
+def _band_rows(params: Params, obs: list[Observation], keys: list[str], diagram):
     from .sensitivity import local_sensitivity
 
-    diagram = bifurcation_diagram(params, speed_range_kmh)
     sens = local_sensitivity(params, keys, method="exact", diagram=diagram).rows
     values, rows = [], []
     for o in obs:
@@ -226,6 +233,78 @@ def _band_rows(params: Params, obs: list[Observation], keys: list[str], speed_ra
         values.append(mine[0]["speed_kmh"])
         by_key = {r["param"]: r["derivative"] for r in mine}
         rows.append(np.array([by_key[k] for k in keys], dtype=float))
+    return values, rows
+
+
+def _cycle_derivatives(model, p, orbit, directions) -> list[tuple[float, float]]:
+    """(d amplitude_x [m], d period [s]) of a cycle at fixed speed along each direction.
+
+    The collocation system ``G(X, p) = 0`` with the phase condition and ``V`` fixed is
+    differentiated: ``A dX = -G_p`` (``A`` the bordered Newton matrix), ``G_p`` from the
+    complex-step derivative of the right-hand side at the Gauss points. The amplitude's
+    derivative is the central difference of the amplitude along the linear change of the
+    nodes (the extrema move smoothly), no re-solve.
+    """
+    from scipy.sparse.linalg import splu
+
+    from ..solvers.collocation import Collocation
+    from .derivatives import rhs_directional
+
+    coll = Collocation(model, p, orbit.mesh, orbit.m)
+    X = coll.pack(orbit)
+    border = np.zeros((2, coll.size))
+    border[0] = coll.phase_row(orbit)
+    border[1, -1] = 1.0
+    lu = splu(coll.sparse_matrix(X, border))
+    states = coll.gauss_states(orbit)
+    x = model.index("x")
+    out = []
+    for d in directions:
+        if not np.any(d):
+            out.append((0.0, 0.0))
+            continue
+        gp = np.concatenate([-orbit.period * rhs_directional(model, u, orbit.speed, p, dp=d) for u in states])
+        rhs = np.zeros(coll.size)
+        rhs[: gp.size] = -gp
+        dX = lu.solve(rhs)
+        dnodes = dX[:-2].reshape(orbit.nodes.shape)
+        eps = 1e-6 * np.max(np.abs(orbit.nodes[:, x])) / max(np.max(np.abs(dnodes[:, x])), 1e-300)
+        amp = [replace(orbit, nodes=orbit.nodes + s * eps * dnodes).amplitude()[x] for s in (1.0, -1.0)]
+        out.append(((amp[0] - amp[1]) / (2.0 * eps), float(dX[-2])))
+    return out
+
+
+def _cycle_rows(params: Params, obs: list[Observation], keys: list[str], diagram):
+    from .sensitivity import parameter_direction
+
+    model = get_model(params.model)
+    p = model.pack(params)
+    directions = [parameter_direction(model, params, key) for key in keys]
+    x = model.index("x")
+    values, rows = [], []
+    for o in obs:
+        stable = [c for c in diagram.cycles_at(o.at_speed_kmh) if c.stable and c.orbit is not None]
+        if not stable:
+            values.append(math.nan)
+            rows.append(np.full(len(keys), math.nan))
+            continue
+        orbit = stable[-1].orbit  # the largest stable cycle
+        derivs = _cycle_derivatives(model, p, orbit, directions)
+        f = 1.0 / orbit.period
+        df = np.array([-dt / orbit.period**2 for _, dt in derivs])
+        if o.quantity == "amplitude_mm":
+            values.append(1e3 * orbit.amplitude()[x])
+            rows.append(np.array([1e3 * da for da, _ in derivs]))
+        elif o.quantity == "cycle_frequency_hz":
+            values.append(f)
+            rows.append(df)
+        else:  # polygon order n = f 2 pi R_e / V; R_e enters here directly
+            radius, v = params.operating.rolling_radius_m, kmh_to_ms(o.at_speed_kmh)
+            n = f * 2.0 * math.pi * radius / v
+            row = df * 2.0 * math.pi * radius / v
+            row += np.array([n / radius if k == "operating.rolling_radius_m" else 0.0 for k in keys])
+            values.append(n)
+            rows.append(row)
     return values, rows
 
 
@@ -254,13 +333,20 @@ def predict(
         groups.setdefault(o.set, []).append(i)
     for conditions, index in groups.items():
         cond = with_updates(params, dict(conditions)) if conditions else params
-        for kind, rows_of in (("hopf", _HOPF), ("band", _BAND)):
+        diagram = None
+        for kind, rows_of in (("hopf", _HOPF), ("band", _BAND), ("cycle", _CYCLE)):
             mine = [i for i in index if observations[i].quantity in rows_of]
             if not mine:
                 continue
             obs = [observations[i] for i in mine]
-            vals, rows = (_hopf_rows(cond, obs, keys, speed_range_kmh, n_speeds) if kind == "hopf"
-                          else _band_rows(cond, obs, keys, speed_range_kmh))
+            if kind == "hopf":
+                vals, rows = _hopf_rows(cond, obs, keys, speed_range_kmh, n_speeds)
+            else:
+                if diagram is None:
+                    from .bifurcation import bifurcation_diagram
+
+                    diagram = bifurcation_diagram(cond, speed_range_kmh)
+                vals, rows = (_band_rows if kind == "band" else _cycle_rows)(cond, obs, keys, diagram)
             values[mine] = vals
             jac[mine] = rows
         for i in index:

@@ -429,10 +429,14 @@ def _sev_from_envelope(t, speed, x, fs, f0, t_start, t_end):
     present from ``t_start`` to ``t_end``."""
     bandwidth = max(0.05 * f0, 5.0)
     y, analytic, env = _envelope(x, fs, f0, bandwidth)
+    edge = int(round(fs / f0 * 20))  # filter and smoothing transients at the ends: no crossing there
+    env = env.copy()
+    env[:edge] = np.nan
+    env[-edge:] = np.nan
     inside = (t >= t_start) & (t <= t_end)
     if not np.any(inside) or np.all(inside):
         return None
-    plateau = float(np.percentile(env[inside], 90))
+    plateau = float(np.nanpercentile(env[inside], 90))
     developed = np.flatnonzero(inside & (env >= 0.5 * plateau))
     if developed.size == 0:
         return None
@@ -446,7 +450,7 @@ def _sev_from_envelope(t, speed, x, fs, f0, t_start, t_end):
         window = np.flatnonzero(~inside & (t < t_start))
     if window.size < 16:
         return None
-    floor = float(np.percentile(env[window], 25))  # robust to an order line crossing the band
+    floor = float(np.nanpercentile(env[window], 25))  # robust to an order line crossing the band
     rise_db = min(ONSET_DB, 0.75 * 20.0 * math.log10(plateau / floor)) if plateau > floor else 0.0
     result = _onset_offset(t, speed, env, on_index, off_index, floor, rise_db)
     result["floor"] = floor
@@ -477,13 +481,20 @@ def ramp_delay(
     disturbance_m: float,
     span_kmh: float = 20.0,
     seed: int = 0,
-) -> float | None:
-    """Delay [km/h] with which the onset detector sees SEV after a ramp passes a Hopf point.
+) -> tuple[float, float] | None:
+    """Delay with which the onset detector sees SEV after a ramp passes a Hopf point.
 
     The model is simulated from 25 km/h before the Hopf speed to ``span_kmh`` after it
     (signed ``rate_kmh_per_s``: negative for a coast-down), its tread kicked by Gaussian
     displacements of ``disturbance_m`` every 20 ms (``seed``), and the tread acceleration
-    goes through the same detector as a measurement. None: no onset within the span.
+    goes through the same detector as a measurement.
+
+    Returns
+    -------
+    (delay_kmh, frequency_shift_hz) or None
+        Detected onset minus the Hopf speed (in the ramp's direction), and the frequency
+        the detector reports at that onset minus the Hopf frequency. None: no onset
+        within the span.
     """
     from .runup import simulate_ramp
 
@@ -497,7 +508,7 @@ def ramp_delay(
     sev = _sev_from_envelope(run.t, run.speed_kmh, run.acceleration, fs, frequency_hz, t_hopf, run.t[-1] + 1.0)
     if sev is None or sev.get("onset") is None:
         return None
-    return direction * (sev["onset"]["speed_kmh"] - hopf_speed_kmh)
+    return direction * (sev["onset"]["speed_kmh"] - hopf_speed_kmh), sev.get("frequency_hz", math.nan) - frequency_hz
 
 
 # -- the analysis ----------------------------------------------------------------------------
@@ -528,6 +539,23 @@ class CampbellResult:
             "prediction": self.prediction,
             "notes": self.run.notes,
         }
+
+    def observations(self) -> list[dict]:
+        """The SEV onset and frequency as calibration observations (``[[observation]]``
+        entries of ``polywear calibrate``): only a ramp-corrected onset is a Hopf speed."""
+        onset = (self.sev or {}).get("onset") or {}
+        index = onset.get("hopf_index")
+        if onset.get("corrected_speed_kmh") is None or index not in (0, 1):
+            return []
+        prefix = ("first_hopf", "hopf") if index == 0 else ("second_hopf", "second_hopf")
+        source = f"measure campbell {Path(self.run.source).name}"
+        out = [{"quantity": f"{prefix[0]}_kmh", "value": onset["corrected_speed_kmh"],
+                "sigma": onset["corrected_uncertainty_kmh"], "label": f"{source}: ramp-corrected SEV onset"}]
+        if self.sev.get("corrected_frequency_hz") is not None:
+            out.append({"quantity": f"{prefix[1]}_frequency_hz", "value": self.sev["corrected_frequency_hz"],
+                        "sigma": max(self.sev["corrected_frequency_uncertainty_hz"], 1e-6),
+                        "label": f"{source}: SEV frequency at onset, ramp-corrected"})
+        return out
 
     def to_dataset(self):
         import xarray as xr
@@ -674,6 +702,12 @@ def campbell(
             else run.channels[strongest][0]
         t_start, t_end = times[ridge.segments[0]] - window_s / 2, times[ridge.segments[-1]] + window_s / 2
         sev = _sev_from_envelope(run.t, run.speed_kmh, x, fs, f0, t_start, t_end)
+        if sev is not None and sev.get("onset") and "frequency_hz" in sev:
+            # the frequency drifts with speed: an uncertain onset speed is an uncertain frequency
+            drift = _slope(speeds[ridge.segments], np.array(ridge.freqs))
+            sev["frequency_drift_hz_per_kmh"] = drift
+            sev["frequency_uncertainty_hz"] = math.hypot(sev["frequency_uncertainty_hz"],
+                                                         drift * sev["onset"]["uncertainty_kmh"])
         if sev is not None:
             sev.update(channel=strongest, unit=run.channels[strongest][1], ridge_frequency_hz=f0,
                        orders_removed=orders,
@@ -708,6 +742,8 @@ def _correct_onset(sev: dict, run: Run, params: Params, disturbance_m: float) ->
     hopf = min(entering, key=lambda h: abs(h.speed_kmh - onset["speed_kmh"]))
     runs = [(disturbance_m, seed) for seed in range(RAMP_SEEDS)] + [(disturbance_m / 10, 0), (disturbance_m * 10, 0)]
     delays = [ramp_delay(params, hopf.speed_kmh, hopf.frequency_hz, rate, d, seed=k) for d, k in runs]
+    shifts = [d[1] for d in delays[:RAMP_SEEDS] if d is not None and math.isfinite(d[1])]
+    delays = [None if d is None else d[0] for d in delays]
     same = [d for d in delays[:RAMP_SEEDS] if d is not None]
     if not same:
         onset["correction"] = "not corrected: the simulated ramp shows no onset within 20 km/h of the Hopf point"
@@ -716,8 +752,14 @@ def _correct_onset(sev: dict, run: Run, params: Params, disturbance_m: float) ->
     scatter = float(np.std(same, ddof=1)) if len(same) > 1 else 0.0
     levels = [d for d in delays[RAMP_SEEDS:] if d is not None] + [delay]
     level_spread = 0.5 * (max(levels) - min(levels))
+    if shifts and sev.get("frequency_hz") is not None:
+        sev["frequency_shift_hz"] = float(np.mean(shifts))
+        sev["corrected_frequency_hz"] = sev["frequency_hz"] - sev["frequency_shift_hz"]
+        sev["corrected_frequency_uncertainty_hz"] = math.hypot(
+            sev["frequency_uncertainty_hz"], float(np.std(shifts, ddof=1)) if len(shifts) > 1 else 0.0)
     onset.update(
         hopf_speed_kmh=hopf.speed_kmh,
+        hopf_index=hopfs.index(hopf),
         ramp_delay_kmh=delay,
         ramp_delay_scatter_kmh=scatter,
         ramp_delay_by_disturbance_kmh={f"{d:.2g}": x for (d, _), x in zip(runs[RAMP_SEEDS:], delays[RAMP_SEEDS:])},

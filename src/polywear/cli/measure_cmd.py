@@ -43,6 +43,8 @@ def campbell(
                                                   help="Correct the SEV onset for the ramp delay (simulated).")] = True,
     disturbance_m: Annotated[float, typer.Option("--disturbance", help="Tread kicks of the ramp simulation, every "
                                                  "20 ms [m] (x0.1 and x10 enter the uncertainty).")] = 1e-6,
+    observations: Annotated[Optional[Path], typer.Option("--observations", help="Write the ramp-corrected onset "
+                                                        "and the frequency as calibrate observations (TOML).")] = None,
     config: ConfigOpt = None,
     set_: SetOpt = None,
     json_: JsonOpt = False,
@@ -56,6 +58,7 @@ def campbell(
 
     output_file(out, "--out", (".nc",))
     output_file(plot, "--plot", PLOT_SUFFIXES)
+    output_file(observations, "--observations", (".toml",))
     if not (math.isfinite(window_s) and 0.01 <= window_s <= 60.0):
         raise UserError(f"--window {window_s}: must be between 0.01 and 60 s")
     if not (math.isfinite(disturbance_m) and 0.0 < disturbance_m < 1e-2):
@@ -72,6 +75,14 @@ def campbell(
                      disturbance_m=disturbance_m)
     if out:
         write_output(out, result.save, quiet)
+    if observations:
+        entries = result.observations()
+        if not entries:
+            info("note: no observations written: the SEV onset was not detected or not ramp-corrected", quiet)
+        else:
+            text = "".join("[[observation]]\n" + "".join(f"{k} = {v!r}\n".replace("'", '"') for k, v in e.items())
+                           + "\n" for e in entries)
+            write_output(observations, lambda tmp: tmp.write_text(text, encoding="utf-8"), quiet)
     if plot:
         from .common import one_axes
 
@@ -104,6 +115,10 @@ def campbell(
     if "frequency_hz" in sev:
         typer.echo(f"SEV frequency at onset {sev['frequency_hz']:.2f} +- {sev['frequency_uncertainty_hz']:.2f} Hz, "
                    f"{sev['frequency_range_hz'][0]:.1f}-{sev['frequency_range_hz'][1]:.1f} Hz over the run")
+    if "corrected_frequency_hz" in sev:
+        typer.echo(f"SEV frequency at the Hopf point {sev['corrected_frequency_hz']:.2f} +- "
+                   f"{sev['corrected_frequency_uncertainty_hz']:.2f} Hz (ramp-corrected by "
+                   f"{-sev['frequency_shift_hz']:+.2f} Hz, the simulated ramp's shift)")
     unc = sev.get("amplitude_uncertainty")
     typer.echo(f"SEV amplitude {sev['amplitude']:.4g}" + (f" +- {unc:.2g}" if unc is not None else "")
                + f" {sev['unit']} (channel {sev['channel']})")
