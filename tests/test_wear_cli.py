@@ -86,3 +86,15 @@ def test_wear_evolve_bad_input(args, fragment):
     assert code == 2 and out == ""
     lines = err.strip().splitlines()
     assert len(lines) == 1 and fragment in lines[0], err
+
+
+def test_wear_design_json():
+    code, out, err = run_main(["wear", "design", "--cycle", "40:0.5,50:0.5", "--target-km", "150000",
+                               "-k", "tread.lateral_damping_ns_per_m", "--json", "-q"])
+    assert code == 0, err
+    summary = json.loads(out)
+    assert summary["target_km"] == 150000.0 and summary["nominal_depth_at_target_mm"] > 0.1
+    (option,) = summary["options"]
+    assert option["key"] == "tread.lateral_damping_ns_per_m" and option["value"] > 80.0
+    code, _, err = run_main(["wear", "design", "-k", "tread.mass", "-q"])
+    assert code == 2 and "--key tread.mass" in err
