@@ -30,7 +30,8 @@ from .common import (
 )
 
 app = typer.Typer(
-    help="Polygonal wear: which orders grow at which speeds (map), the worn profile over distance (evolve).",
+    help="Polygonal wear: which orders grow at which speeds (map), the worn profile over distance (evolve), "
+    "what stops it (design).",
     no_args_is_help=True,
     rich_markup_mode=None,
 )
