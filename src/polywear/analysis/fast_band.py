@@ -166,6 +166,17 @@ class BandReference:
     """The stable cycle (PeriodicOrbit) of largest amplitude at each chosen speed, or None."""
     unusable: str = ""
     """Why the reference cannot serve the fast path ("" if it can)."""
+    speed_range_kmh: tuple[float, float] = (20.0, 300.0)
+    """The range of the reference's diagram [km/h]."""
+
+    def band_speed(self, label) -> float:
+        """Speed [km/h] of a label: ("H", k) Hopf point, ("F", j) fold, ("lo"|"hi", 0) range end."""
+        kind, k = label
+        if kind == "H":
+            return self.band.hopf_kmh[k]
+        if kind == "F":
+            return self.band.folds_kmh[k]
+        return self.speed_range_kmh[0 if kind == "lo" else 1]
 
 
 def _label(value: float, hopf: tuple, folds: tuple, speed_range) -> tuple | None:
@@ -233,6 +244,7 @@ def band_reference(diagram, amplitude_speeds_kmh=()) -> BandReference:
         stable_labels=labels["stable"] or (),
         cycles=tuple(cycles),
         unusable=unusable,
+        speed_range_kmh=tuple(diagram.speed_range_kmh),
     )
 
 
@@ -354,6 +366,21 @@ def _difference(p: np.ndarray, p_ref: np.ndarray) -> np.ndarray:
     """``p - p_ref``, zero in slots that are not parameters (NaN: a model's per-speed cache)."""
     both = np.isfinite(p) & np.isfinite(p_ref)
     return np.where(both, p - np.where(both, p_ref, 0.0), 0.0)
+
+
+def _rescaled(model, p_ref, p, guess, V, labels, ref_interval, interval, v_kmh):
+    """The reference's cycle at speed V [m/s] as a guess for ``p`` near a Hopf end of its
+    stable interval: deviation from the steady state scaled by ``sqrt(|v - v_H| / |v - v_H,ref|)``
+    (the amplitude law near a Hopf point), around the sample's steady state. None without a Hopf end."""
+    from dataclasses import replace
+
+    ends = [i for i in (0, 1) if labels[i][0] == "H"]
+    if not ends:
+        return None
+    i = min(ends, key=lambda j: abs(v_kmh - interval[j]))
+    ratio = np.sqrt(abs(v_kmh - interval[i]) / max(abs(v_kmh - ref_interval[i]), 1e-12))
+    u_ref, u_new = model.equilibrium(V, p_ref), model.equilibrium(V, p)
+    return replace(guess, nodes=u_new + ratio * (guess.nodes - u_ref))
 
 
 @dataclass(frozen=True)
@@ -497,14 +524,19 @@ class FastBand:
 
         stable = mapped(ref.stable_labels)
         amplitudes = []
+        ref_stable = tuple((ref.band_speed(a), ref.band_speed(b)) for a, b in ref.stable_labels)
         for v, guess in zip(self.amplitude_speeds_kmh, ref.cycles):
-            inside = any(a <= v <= b for a, b in stable)
-            if not inside:
+            k = next((i for i, (a, b) in enumerate(stable) if a <= v <= b), None)
+            if k is None:
                 amplitudes.append(0.0)
                 continue
             if guess is None:
                 raise _Fallback(f"no reference cycle to start from at {v:g} km/h")
-            point = solve_at_speed(model, p, guess, kmh_to_ms(v), self.settings)
+            V = kmh_to_ms(v)
+            point = solve_at_speed(model, p, guess, V, self.settings)
+            if point is None:  # near a Hopf end: rescale the guess by the square-root law
+                guess = _rescaled(model, ref.p, p, guess, V, ref.stable_labels[k], ref_stable[k], stable[k], v)
+                point = None if guess is None else solve_at_speed(model, p, guess, V, self.settings)
             if point is None or not point.stable:
                 raise _Fallback(f"stable cycle at {v:g} km/h not found from the reference's")
             amplitudes.append(float(point.orbit.amplitude()[ix]))
