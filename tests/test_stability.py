@@ -138,3 +138,18 @@ def test_unloaded_axle_equilibrium_follows_the_sliding_branch():
     assert np.all(np.diff(v_r) > 0)  # the sliding velocity grows with speed on this branch
     result = stability_analysis(params, (5.0, 300.0))
     assert result.summary()["running_alignment"]["toe_deg"] < 0.0  # compliance steer to toe-out
+
+
+@pytest.mark.parametrize("n_speeds", [5, 12, 40])
+def test_a_band_narrower_than_the_grid_is_not_missed(n_speeds):
+    """At c = 448.78 N s/m (just below the damping where the linear band closes) steady
+    rolling is unstable in a band about 0.2 km/h wide near 120 km/h. A grid of 5 to 40
+    speeds over 20-300 km/h (spacing 7-70 km/h) must still find both Hopf points: the
+    grid refines itself where a sorted eigenvalue real part peaks near zero. Oracle: the
+    Routh-Hurwitz condition on a 2000-point grid around the band."""
+    params = with_updates(Params(), {"tread.lateral_damping_ns_per_m": 448.78})
+    result = stability_analysis(params, (20.0, 300.0), n_speeds=n_speeds)
+    oracle = routh_hurwitz_hopf_speeds(MODEL.pack(params), 110 / 3.6, 130 / 3.6)
+    assert len(oracle) == 2 and 0.0 < (oracle[1] - oracle[0]) * 3.6 < 0.5
+    assert np.allclose([h.speed for h in result.hopf_points], oracle, rtol=1e-9)
+    assert len(result.unstable_intervals_kmh) == 1

@@ -307,9 +307,8 @@ def stability_analysis(
         raise ValueError(f"n_speeds = {n_speeds}: need at least 3")
     model = get_model(params.model)
     p = model.pack(params)
-    speeds_kmh = np.linspace(lo, hi, n_speeds)
+    speeds_kmh, states, eig = _refined_grid(model, p, np.linspace(lo, hi, n_speeds))
     speeds = kmh_to_ms(speeds_kmh)
-    states, eig = equilibrium_eigenvalues(model, p, speeds)
     unstable = _n_unstable(eig)
     hopfs: list[HopfPoint] = []
     reals: list[float] = []
@@ -333,6 +332,57 @@ def stability_analysis(
         settings={"n_speeds": n_speeds, "xtol_ms": xtol_ms},
         alignment_deg=None if alignment is None else np.degrees([alignment(u, p) for u in states]),
     )
+
+
+REFINE_POINTS = 16
+"""Speeds added across a grid point where a band may hide between neighbours."""
+REFINE_ROUNDS = 8
+"""Refinement rounds at most (each shrinks the spacing there by about REFINE_POINTS / 2)."""
+
+
+def _hidden_bands(speeds_kmh: np.ndarray, eig: np.ndarray) -> list[int]:
+    """Grid points where an unstable (or stable) band may lie between the neighbours.
+
+    The k-th largest real part of the eigenvalues is continuous in speed. Where it has a
+    local extremum at a grid point and keeps its sign there and at both neighbours, it
+    could still cross zero twice between the neighbours if it is steep enough: with
+    slopes up to ``L`` (twice the steeper of the two secants), the extreme value between
+    ``x[i-1]`` and ``x[i+1]`` can reach ``(y[i-1] + y[i+1] +- L (x[i+1] - x[i-1])) / 2``.
+    Those points are returned; the grid is refined around them.
+    """
+    real = np.sort(eig.real, axis=1)
+    found = []
+    for i in range(1, len(speeds_kmh) - 1):
+        x = speeds_kmh[i - 1 : i + 2]
+        for y in real[i - 1 : i + 2].T:
+            if not (y[0] * y[1] > 0 and y[1] * y[2] > 0) or (y[1] - y[0]) * (y[2] - y[1]) >= 0:
+                continue  # a sign change (located anyway) or no extremum
+            steepest = 2.0 * max(abs(y[1] - y[0]) / (x[1] - x[0]), abs(y[2] - y[1]) / (x[2] - x[1]))
+            reach = 0.5 * (y[0] + y[2] - np.sign(y[1]) * steepest * (x[2] - x[0]))  # towards zero
+            if np.sign(reach) != np.sign(y[1]):
+                found.append(i)
+                break
+    return found
+
+
+def _refined_grid(model, p, speeds_kmh: np.ndarray):
+    """Equilibria and eigenvalues on ``speeds_kmh``, refined where a band could fall
+    between grid points (:func:`_hidden_bands`): (speeds [km/h], states, eigenvalues)."""
+    states, eig = equilibrium_eigenvalues(model, p, kmh_to_ms(speeds_kmh))
+    for _ in range(REFINE_ROUNDS):
+        suspects = _hidden_bands(speeds_kmh, eig)
+        if not suspects:
+            break
+        extra = np.unique(np.concatenate([
+            np.linspace(speeds_kmh[i - 1], speeds_kmh[i + 1], REFINE_POINTS + 2)[1:-1] for i in suspects
+        ]))
+        extra = extra[~np.isin(extra, speeds_kmh)]
+        new_states, new_eig = equilibrium_eigenvalues(model, p, kmh_to_ms(extra))
+        order = np.argsort(np.concatenate([speeds_kmh, extra]), kind="stable")
+        speeds_kmh = np.concatenate([speeds_kmh, extra])[order]
+        states = np.concatenate([states, new_states])[order]
+        eig = np.concatenate([eig, new_eig])[order]
+    return speeds_kmh, states, eig
 
 
 def _hopf_in_bracket(model, p, V_lo, V_hi, eig_lo, eig_hi, xtol) -> tuple[list[HopfPoint], list[float]]:
