@@ -600,6 +600,10 @@ class CampbellResult:
                 ax.axvline(edge, color="tab:cyan", lw=0.8, ls=":")
         for h in self.prediction.get("hopf_points", []):
             ax.plot(h["speed_kmh"], h["frequency_hz"], "c^", ms=7, label="predicted Hopf point")
+        wear = self.prediction.get("wear_most_unstable_orders", [])
+        if wear:
+            ax.plot([w["speed_kmh"] for w in wear], [w["frequency_hz"] for w in wear], "o", mfc="none",
+                    color="tab:olive", ms=4, label="wear map: fastest-growing order")
         if self.sev and self.sev.get("onset"):
             on = self.sev["onset"]
             ax.axvline(on["speed_kmh"], color="tab:green", ls="--", label="detected SEV onset")
@@ -616,14 +620,22 @@ class CampbellResult:
         return mesh
 
 
-def _prediction(params: Params, speed_range) -> dict:
+def _prediction(params: Params, speed_range, run_speeds_kmh) -> dict:
+    """Hopf points and SEV band of the model; where steady rolling is stable, the wear
+    map's fastest-growing polygon order at 25 speeds of the run (its frequency n V/(2 pi R))."""
     from .bifurcation import bifurcation_diagram
+    from .wear_map import wear_map
 
     diagram = bifurcation_diagram(params, speed_range)
+    wear = wear_map(params, np.linspace(run_speeds_kmh.min(), run_speeds_kmh.max(), 25))
     return {
         "hopf_points": [h.summary() for h in diagram.hopf_points],
         "sev_band_kmh": [list(b) for b in diagram.sev_band_kmh],
         "linear_band_kmh": [list(b) for b in getattr(diagram, "linear_band_kmh", [])],
+        "wear_most_unstable_orders": [
+            {k: r[k] for k in ("speed_kmh", "order", "frequency_hz", "efold_km")}
+            for r in wear.rows() if r["order"] is not None and r["efold_km"] is not None
+        ],
     }
 
 
@@ -654,7 +666,8 @@ def campbell(
     peak_db, sev_db : float
         Peak prominence over the bin's median level, and the level SEV must reach [dB].
     predict : bool
-        Hopf points and SEV band of the model (a continuation) over the map.
+        Hopf points and SEV band of the model (a continuation) and the wear map's
+        fastest-growing orders over the map.
     correct_ramp : bool
         Simulate the ramp through the nearest destabilizing Hopf point and correct the onset.
     disturbance_m : float
@@ -712,8 +725,8 @@ def campbell(
             sev.update(channel=strongest, unit=run.channels[strongest][1], ridge_frequency_hz=f0,
                        orders_removed=orders,
                        frequency_range_hz=[feature["frequency_from_hz"], feature["frequency_to_hz"]])
-    prediction = _prediction(params, (max(5.0, 0.5 * run.speed_kmh.min()), max(300.0, 1.2 * run.speed_kmh.max()))) \
-        if predict else {}
+    prediction = _prediction(params, (max(5.0, 0.5 * run.speed_kmh.min()), max(300.0, 1.2 * run.speed_kmh.max())),
+                             run.speed_kmh) if predict else {}
     if sev is not None and sev.get("onset") and correct_ramp:
         _correct_onset(sev, run, params, disturbance_m)
     features = sorted((f for f, _ in classified), key=lambda f: -f["level_db"])
