@@ -84,6 +84,7 @@ WRITERS = [
     (["map"], "--plot", ".png"),
     (["excitation"], "--plot", ".png"),
     (["design"], "--plot", ".png"),
+    (["design"], "--out", ".csv"),
     (["friction", "curve"], "--out", ".nc"),
     (["friction", "curve"], "--plot", ".png"),
     (["friction", "loops"], "--out", ".nc"),
