@@ -324,6 +324,8 @@ def test_help_keeps_units_and_has_no_bool_metavars():
 def test_usage_errors_are_one_line():
     _one_line_error(*run_main(["bifurcation", "--no-such-option"]), "--no-such-option")
     _one_line_error(*run_main(["simulate", "--duration", "abc"]), "--duration")
+    code, out, err = run_main(["friction"])  # a group without a command: its help, not an "error"
+    assert code == 2 and (out + err).startswith("Usage: polywear friction") and "error" not in err
 
 
 # -- stdout / stderr / -q --------------------------------------------------------------------

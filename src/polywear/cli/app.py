@@ -147,6 +147,9 @@ def main() -> None:
         if _is_user_error(exc):
             typer.echo(f"error: {exc}", err=True)
             sys.exit(2)
+        if type(exc).__name__ == "NoArgsIsHelpError":  # a bare group: its help, as click shows it
+            exc.show()
+            sys.exit(exc.exit_code)
         # click (vendored by typer) usage errors carry .format_message() and .exit_code (2)
         if hasattr(exc, "format_message") and hasattr(exc, "exit_code"):
             command = getattr(getattr(exc, "ctx", None), "command_path", "polywear")
