@@ -345,9 +345,9 @@ def _classify(ridge: _Ridge, speeds, radius_m, min_segments) -> dict | None:
         return feature
     slope = float(np.polyfit(np.log(v), np.log(f), 1)[0])
     feature["slope"] = slope
-    if abs(slope - 1.0) < 0.3:
+    if abs(slope - 1.0) < 0.25:
         feature.update(kind="order", order=float(np.median(f * 2.0 * math.pi * radius_m / (v / 3.6))))
-    elif abs(slope) < 0.3:
+    elif abs(slope) < 0.5:  # an SEV cycle's frequency drifts with speed (slopes up to about 0.3 seen)
         feature["kind"] = "constant_frequency"
     else:
         feature["kind"] = "unclassified"
@@ -479,6 +479,7 @@ def ramp_delay(
     frequency_hz: float,
     rate_kmh_per_s: float,
     disturbance_m: float,
+    band_hz: float | None = None,
     span_kmh: float = 20.0,
     seed: int = 0,
 ) -> tuple[float, float] | None:
@@ -487,7 +488,8 @@ def ramp_delay(
     The model is simulated from 25 km/h before the Hopf speed to ``span_kmh`` after it
     (signed ``rate_kmh_per_s``: negative for a coast-down), its tread kicked by Gaussian
     displacements of ``disturbance_m`` every 20 ms (``seed``), and the tread acceleration
-    goes through the same detector as a measurement.
+    goes through the same detector as a measurement, in the band around ``band_hz`` (the
+    measured feature's frequency; default the Hopf frequency).
 
     Returns
     -------
@@ -505,7 +507,8 @@ def ramp_delay(
     run = simulate_ramp(params, start, end, abs(rate_kmh_per_s), fs, perturbation_m=0.0, kick_m=disturbance_m,
                         seed=seed)
     t_hopf = abs(hopf_speed_kmh - start) / abs(rate_kmh_per_s)
-    sev = _sev_from_envelope(run.t, run.speed_kmh, run.acceleration, fs, frequency_hz, t_hopf, run.t[-1] + 1.0)
+    sev = _sev_from_envelope(run.t, run.speed_kmh, run.acceleration, fs, band_hz or frequency_hz, t_hopf,
+                             run.t[-1] + 1.0)
     if sev is None or sev.get("onset") is None:
         return None
     return direction * (sev["onset"]["speed_kmh"] - hopf_speed_kmh), sev.get("frequency_hz", math.nan) - frequency_hz
@@ -754,7 +757,8 @@ def _correct_onset(sev: dict, run: Run, params: Params, disturbance_m: float) ->
         return
     hopf = min(entering, key=lambda h: abs(h.speed_kmh - onset["speed_kmh"]))
     runs = [(disturbance_m, seed) for seed in range(RAMP_SEEDS)] + [(disturbance_m / 10, 0), (disturbance_m * 10, 0)]
-    delays = [ramp_delay(params, hopf.speed_kmh, hopf.frequency_hz, rate, d, seed=k) for d, k in runs]
+    delays = [ramp_delay(params, hopf.speed_kmh, hopf.frequency_hz, rate, d, band_hz=sev["ridge_frequency_hz"], seed=k)
+              for d, k in runs]
     shifts = [d[1] for d in delays[:RAMP_SEEDS] if d is not None and math.isfinite(d[1])]
     delays = [None if d is None else d[0] for d in delays]
     same = [d for d in delays[:RAMP_SEEDS] if d is not None]
