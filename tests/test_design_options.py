@@ -88,6 +88,20 @@ def test_signed_changes_and_units_in_summary_and_text(design):
     assert "Not in model tread1dof: operating.camber_deg" in text
 
 
+def test_saved_table_and_json_keep_signs_and_units(design, tmp_path):
+    import json
+
+    import pandas as pd
+
+    design.save(tmp_path / "d.csv")
+    table = pd.read_csv(tmp_path / "d.csv")
+    toe = table[table.param == "operating.toe_deg"].iloc[0]
+    assert toe.unit == "deg" and toe.relative_change < -0.5 and not toe.within_bound and toe["rank"] == 1
+    design.save(tmp_path / "d.json")
+    saved = json.loads((tmp_path / "d.json").read_text())
+    assert saved["options"] == json.loads(json.dumps(design.summary()["options"]))
+
+
 def test_engineering_options_ranked_before_road_options(design):
     """mu_s clears with a smaller change within the bound, but it is a road/compound option."""
     cats = [o.category for o in design.options]
@@ -159,3 +173,16 @@ def test_cli_design_quiet_prints_only_the_result():
     assert code == 0, err
     assert err == ""
     assert "toe angle 0.5° → 0.2" in out and "beyond the ±50 % bound" in out and "clears the range" in out
+
+
+@pytest.mark.slow
+def test_axle4dof_toe_option_clears_and_is_nearly_least():
+    params = with_updates(Params(), {"model": "axle4dof"})
+    result = clear_operating_range(params, RANGE, keys=("operating.toe_deg",))
+    (toe,) = result.options
+    (value,) = toe.values
+    assert toe.achieved and value < 0.5  # a reduction raises the first bifurcation speed above the range
+    fresh = bifurcation_diagram(perturbed(params, "operating.toe_deg", value)).sev_band_kmh
+    assert fresh and fresh[0][0] >= RANGE[1] + MARGIN - 1e-6
+    weaker = bifurcation_diagram(perturbed(params, "operating.toe_deg", 0.5 - 0.97 * (0.5 - value))).sev_band_kmh
+    assert any(a < RANGE[1] and b > RANGE[0] for a, b in weaker)

@@ -31,6 +31,7 @@ from typing import Callable
 
 import numpy as np
 
+from .. import __version__
 from ..models import get_model
 from ..params import Params
 from .bifurcation import BifurcationDiagram, bifurcation_diagram
@@ -167,8 +168,8 @@ class DesignOption:
             "values": list(self.values),
             "relative_changes": list(self.relative_changes),
             "relative_change": self.relative_change,
-            "achieved": self.achieved,
-            "within_bound": self.within_bound,
+            "achieved": bool(self.achieved),
+            "within_bound": bool(self.within_bound),
             "outcome": self.outcome,
             "sev_band_kmh": [list(b) for b in self.sev_band_kmh],
             "value_changes": self.value_changes(),
@@ -210,6 +211,31 @@ class DesignResult:
             "options": [{**o.summary(), "text": o.text(self.max_relative_change)} for o in self.options],
             "lines": self.lines(),
         }
+
+    def table(self):
+        """pandas DataFrame, one row per option and key (signed relative change, units, outcome)."""
+        import pandas as pd
+
+        rows = []
+        for rank, o in enumerate(self.options, 1):
+            for k, unit, n, v, r in zip(o.keys, (parameter_unit(k) for k in o.keys), o.nominal, o.values,
+                                        o.relative_changes):
+                rows.append({"rank": rank, "option": " + ".join(o.keys), "category": o.category, "param": k,
+                             "unit": unit, "nominal": n, "value": v, "relative_change": r, "achieved": o.achieved,
+                             "within_bound": o.within_bound, "outcome": o.outcome,
+                             "sev_band_kmh": "; ".join(f"{a:.3f}-{b:.3f}" for a, b in o.sev_band_kmh), "note": o.note})
+        return pd.DataFrame(rows)
+
+    def save(self, path) -> None:
+        """CSV of the options (.csv) or the JSON summary (.json)."""
+        import json
+
+        path = str(path)
+        if path.endswith(".csv"):
+            self.table().to_csv(path, index=False)
+        else:
+            with open(path, "w") as fh:
+                json.dump({**self.summary(), "polywear_version": __version__}, fh, indent=2, ensure_ascii=False)
 
     def lines(self) -> list[str]:
         """The result as text: the band now, then the options by group, ranked."""
@@ -257,9 +283,11 @@ class DesignResult:
         if chosen:
             best = chosen[min(option, len(chosen) - 1)]
             artists += _amplitude_lines(ax, best.diagram, i, "tab:blue", f"changed: {best.change_text()}")
+        ax.set_title(f"{self.params.model}: keeping {lo:g}-{hi:g} km/h free of SEV"
+                     + ("" if chosen else " (no option clears it)"), fontsize=10)
         ax.set_xlabel("speed [km/h]")
         ax.set_ylabel("amplitude of x [mm]" if state == "x" else f"amplitude of {state}")
-        ax.legend(fontsize=8, loc="best")
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
         return artists
 
 
@@ -352,12 +380,16 @@ class _Search:
         p = self.params
         for k, v in zip(self.keys, values):
             p = perturbed(p, k, v)  # ParameterError (a ValueError) outside the parameter rules
-        option = DesignOption(self.keys, tuple(self.nominal), values, False, [])
+        option = DesignOption(self.keys, tuple(float(v) for v in self.nominal), values, False, [])
         self.progress(option.change_text())
         diagram = bifurcation_diagram(p, self.speed_range)
         band = diagram.sev_band_kmh
         g = _gap(band, self.low, self.high)
-        option.achieved = g is None or g <= 0.0
+        lost = [info["at_speed_kmh"] for info in diagram.branch_info if info["failed"]]
+        option.achieved = (g is None or g <= 0.0) and not lost
+        if lost:  # cycles beyond a lost branch are unknown: a clear range cannot be confirmed
+            option.note = (f"continuation failed (a cycle branch lost at {', '.join(f'{v:.1f}' for v in lost)} km/h), "
+                           "so a clear range cannot be confirmed")
         option.sev_band_kmh = band
         option.diagram = diagram
         option.outcome = _outcome(band, self.low, self.high) if option.achieved else ""
@@ -409,7 +441,7 @@ def _best_option(search: _Search, grad_first, grad_second, original_band) -> Des
     else:  # the steepest directions for each edge, in relative terms
         directions = [v / np.abs(v).max() for v in (grad_first, -grad_second) if np.any(v)]
     have_grad = np.any(grad_first) or np.any(grad_second)
-    nominal = tuple(search.nominal)
+    nominal = tuple(float(v) for v in search.nominal)
     plans, far = [], []
     for d in directions:
         rates = ((math.log(search.high / a), float(grad_first @ d)), (math.log(b / search.low), float(-grad_second @ d)))

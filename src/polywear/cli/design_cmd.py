@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
@@ -23,6 +24,7 @@ from .common import (
     output_file,
     progress,
     write_figure,
+    write_output,
 )
 
 
@@ -54,6 +56,7 @@ def design(
     ] = (20.0, 300.0),
     json_: JsonOpt = False,
     plot: PlotOpt = None,
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write the options (.csv or .json).")] = None,
     quiet: QuietOpt = False,
 ) -> None:
     """Least change of each parameter (or a combination) that clears the operating range of SEV.
@@ -64,6 +67,7 @@ def design(
     Keys: any numeric configuration key, or adhesion_scale (mu_s and mu_c scaled together).
     """
     output_file(plot, "--plot", PLOT_SUFFIXES)
+    output_file(out, "--out", (".csv", ".json"))
     speed_range = check_speed_range(speed_range)
     operating_range = check_speed_range(operating_range, "--operating-range")
     if not (math.isfinite(max_change) and 0.0 < max_change <= 10.0):
@@ -92,6 +96,8 @@ def design(
             )
         except ValueError as exc:
             raise UserError(str(exc)) from None
+    if out:
+        write_output(out, result.save, quiet)
     if plot:
         write_figure(plot, lambda: one_axes(result.plot), quiet)
     if json_:
