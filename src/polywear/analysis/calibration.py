@@ -59,8 +59,6 @@ _HOPF = {"first_hopf_kmh": (0, "speed"), "second_hopf_kmh": (1, "speed"),
          "hopf_frequency_hz": (0, "frequency"), "second_hopf_frequency_hz": (1, "frequency")}
 _BAND = {"first_bifurcation_kmh": "first_bifurcation", "second_bifurcation_kmh": "second_bifurcation"}
 _CYCLE = ("amplitude_mm", "cycle_frequency_hz", "polygon_order")
-_FRICTION_KEYS = ("friction.mu_static", "friction.mu_coulomb", "friction.stribeck_velocity_m_per_s",
-                  "friction.stribeck_exponent", "friction.sigma2_s_per_m")
 CHI2_95 = 3.841458820694124
 """chi^2 quantile (1 degree of freedom) of a 95 % profile-likelihood interval."""
 Z_95 = 1.959963984540054
