@@ -7,7 +7,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, SetOpt, UserError, emit_json, info, load
+from .common import ConfigOpt, JsonOpt, QuietOpt, SetOpt, check_speed_range, emit_json, info, load, output_folder
 
 
 def report(
@@ -22,21 +22,24 @@ def report(
         typer.Option("--operating-range", help="Speeds to keep free of SEV [km/h] (default: operating speed -30/+20)."),
     ] = None,
     json_: JsonOpt = False,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
+    quiet: QuietOpt = False,
 ) -> None:
     """The main job: full analysis with figures, data and report.html in --out.
 
     Stability, bifurcation diagram, verdict at the operating speed with wear indicators,
     phase portraits, sensitivities and design options."""
+    output_folder(out, "--out", "report.html")
+    speed_range = check_speed_range(speed_range)
+    if operating_range is not None:
+        operating_range = check_speed_range(operating_range, "--operating-range")
     params = load(config, set_)
-    if not 0.0 < speed_range[0] < speed_range[1]:
-        raise UserError(f"--speed-range {speed_range[0]} {speed_range[1]}: need 0 < low < high [km/h]")
-    if operating_range is not None and not operating_range[0] < operating_range[1]:
-        raise UserError(f"--operating-range {operating_range[0]} {operating_range[1]}: need low < high [km/h]")
+    from ..io import fresh_directory
     from ..report import run_report, text_summary
 
-    result = run_report(params, out, tuple(speed_range), operating_range,
-                        progress=lambda message: info(f"polywear report: {message} ...", quiet))
+    # written into a new folder that replaces --out only when complete: never a mix of two runs
+    with fresh_directory(out) as folder:
+        result = run_report(params, folder, speed_range, operating_range,
+                            progress=lambda message: info(f"polywear report: {message} ...", quiet))
     if json_:
         emit_json(result.summary)
         return
