@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import __version__
+from .io import atomic_path, write_text
 from .params import Params, to_toml
 
 __all__ = ["Report", "operating_verdict", "run_report"]
@@ -213,14 +214,19 @@ def run_report(
     speed_range_kmh = (min(speed_range_kmh[0], operating_range[0]), max(speed_range_kmh[1], operating_range[1]))
 
     def save(fig, name, caption):
-        fig.savefig(out_dir / name, dpi=120, bbox_inches="tight")
+        with atomic_path(out_dir / name) as tmp:
+            fig.savefig(tmp, dpi=120, bbox_inches="tight")
         plt.close(fig)
         files[name] = caption
 
+    def save_result(result, name):
+        with atomic_path(out_dir / name) as tmp:
+            result.save(tmp)
+
     say("bifurcation diagram (continuation)")
     diagram = bifurcation_diagram(params, speed_range_kmh)
-    diagram.save(out_dir / "bifurcation.nc")
-    diagram.save(out_dir / "cycles.csv")
+    save_result(diagram, "bifurcation.nc")
+    save_result(diagram, "cycles.csv")
     files["bifurcation.nc"] = "bifurcation diagram: branch table and equilibria (netCDF)"
     files["cycles.csv"] = "cycle branch table (CSV)"
     save(diagram.figure(operating_range_kmh=operating_range), "bifurcation.png",
@@ -246,7 +252,7 @@ def run_report(
 
     say("exact sensitivities of the bifurcation speeds")
     sens = local_sensitivity(params, diagram=diagram)
-    sens.save(out_dir / "sensitivity.csv")
+    save_result(sens, "sensitivity.csv")
     files["sensitivity.csv"] = "sensitivity rows (CSV)"
     if sens.rows:
         save(sens.figure(), "sensitivity.png", "Normalized sensitivities S = (p/V) dV/dp of every bifurcation speed (paper Fig. 9)")
@@ -278,11 +284,11 @@ def run_report(
         "design": design.summary(),
         "wear": wear,
     }
-    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
-    (out_dir / "params.toml").write_text(to_toml(params))
+    write_text(out_dir / "summary.json", json.dumps(summary, indent=2, default=float))
+    write_text(out_dir / "params.toml", to_toml(params))
     files["summary.json"] = "everything above as JSON"
     files["params.toml"] = "the parameter set used"
-    (out_dir / "report.html").write_text(_html(params, summary, verdict, files))
+    write_text(out_dir / "report.html", _html(params, summary, verdict, files))
     files["report.html"] = "this report"
     return Report(params, summary, files)
 
