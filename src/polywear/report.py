@@ -258,10 +258,8 @@ def run_report(
         save(sens.figure(), "sensitivity.png", "Normalized sensitivities S = (p/V) dV/dp of every bifurcation speed (paper Fig. 9)")
 
     say("design options for the operating range")
-    design = clear_operating_range(
-        params, operating_range, combine=("operating.toe_deg", "adhesion_scale"), speed_range_kmh=speed_range_kmh,
-        diagram=diagram, progress=lambda message: say(f"design diagram: {message}"),
-    )
+    design = clear_operating_range(params, operating_range, speed_range_kmh=speed_range_kmh, diagram=diagram,
+                                   progress=lambda message: say(f"design diagram: {message}"))
     if design.best is not None:
         fig, ax = plt.subplots(figsize=(8, 4.5))
         design.plot(ax)
