@@ -21,7 +21,8 @@ Fast dynamics and slow wear alternate (``docs/wear.md``). For a distance step ``
    (the response to harmonic n lands on harmonic n only), so it is integrated exactly
    as ``W_n exp(N S_n / W_n)``; locked, the cycle writes its own pattern at a rate that
    does not depend on ``W``, and ``W + N S`` is exact. Harmonics below ``1e-6`` of the
-   profile's RMS, or an exponent above 1 in a step, take the additive form.
+   profile's RMS, or an exponent above ``MAX_EXPONENT`` in a step, take the additive
+   form. The step is shortened while the change exceeds ``MAX_CHANGE`` (see there).
 """
 
 from __future__ import annotations
@@ -49,8 +50,12 @@ VIBRATION_RMS = 0.01
 [m/s]: 10 um at 150 Hz, far above the response to a worn profile of a tenth of a
 millimetre and far below the SEV of a vibrating tire (0.1-0.3 m/s)."""
 MAX_CHANGE = 0.3
-"""A distance step is shortened so that no harmonic changes by more than this fraction of
-the largest one (fast growth after locking is resolved, not jumped over) [-]."""
+"""A distance step is shortened so that the change of the profile stays below this
+fraction of its largest harmonic (fast growth after locking is resolved, not jumped
+over) [-]: the whole change where the tread vibrates, only the part added rather than
+integrated exactly where rolling is steady (there the exponential update is exact)."""
+MAX_EXPONENT = 3.0
+"""Largest exponent |N S_n / W_n| integrated exactly in one step; above, the write is added [-]."""
 RESOLVABLE = 0.25
 """A drifting line is separated in a window of M revolutions when eps M >= this [-]."""
 SIDEBANDS = 2
@@ -234,18 +239,21 @@ def _settle_times(base, params, V: float) -> tuple[float, float, bool]:
     return first, min(first, max(4.0 * T, 8.0 / rate)), bool(np.max(lam.real) > 0.0)
 
 
-def _update(W: np.ndarray, written_coherent: np.ndarray, locked: bool) -> np.ndarray:
-    """W after a step whose coherent writes total ``written_coherent`` (see module notes)."""
+def _update(W: np.ndarray, written_coherent: np.ndarray, locked: bool) -> tuple[np.ndarray, np.ndarray]:
+    """W after a step whose coherent writes total ``written_coherent`` (see module notes),
+    and the part of the change that was added rather than integrated exactly."""
     if locked:
-        return W + written_coherent
+        return W + written_coherent, written_coherent
     rms = math.sqrt(0.5 * float(np.sum(np.abs(W) ** 2)))
     out = W + written_coherent
+    added = written_coherent.copy()
     big = np.abs(W) > 1e-6 * rms
     rate = np.zeros_like(W)
     rate[big] = written_coherent[big] / W[big]
-    exp_ok = big & (np.abs(rate) <= 1.0)
+    exp_ok = big & (np.abs(rate) <= MAX_EXPONENT)
     out[exp_ok] = W[exp_ok] * np.exp(rate[exp_ok])
-    return out
+    added[exp_ok] = 0.0
+    return out, added
 
 
 def peak_to_valley(W: np.ndarray, points: int) -> float:
@@ -468,12 +476,17 @@ def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000
             states[j] = win.end_state
             wins.append(win)
         any_locked = any(w.locked and math.isfinite(w.order) for w in wins)
+        vibrating = any(math.isfinite(w.order) for w in wins)
         for _ in range(8):  # shorten the step where the profile would change by more than MAX_CHANGE
             n_revs = [share * h * 1000.0 / (2.0 * math.pi * R) for _, share in cycle]
             coherent_total = sum(n * w.coherent for n, w in zip(n_revs, wins))
             drifting_total = sum(w.written(n) - n * w.coherent for n, w in zip(n_revs, wins))
-            W_new = _update(W, coherent_total, any_locked) + drifting_total
-            change = float(np.max(np.abs(W_new - W))) / max(float(np.max(np.abs(W))), 1e-30)
+            W_new, added = _update(W, coherent_total, any_locked)
+            W_new = W_new + drifting_total
+            # vibrating: the coherent write is not exactly proportional to W (locking pulls), so the
+            # whole change is limited; steady rolling: only what was not integrated exactly
+            limited = (W_new - W) if vibrating else (added + drifting_total)
+            change = float(np.max(np.abs(limited))) / max(float(np.max(np.abs(W))), 1e-30)
             if change <= MAX_CHANGE:
                 break
             h *= 0.8 * MAX_CHANGE / change
