@@ -7,7 +7,18 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, QuietOpt, SetOpt, check_speed_range, emit_json, info, load, output_folder
+from .common import (
+    ConfigOpt,
+    JsonOpt,
+    QuietOpt,
+    SetOpt,
+    UserError,
+    check_speed_range,
+    emit_json,
+    info,
+    load,
+    output_folder,
+)
 
 
 def report(
@@ -21,6 +32,11 @@ def report(
         Optional[tuple[float, float]],
         typer.Option("--operating-range", help="Speeds to keep free of SEV [km/h] (default: operating speed -30/+20)."),
     ] = None,
+    wear_km: Annotated[
+        Optional[float],
+        typer.Option("--wear-km", help="Also evolve the worn profile over this distance [km] at the operating speed "
+                     "and on the drive cycle (minutes); the wear map is always included."),
+    ] = None,
     json_: JsonOpt = False,
     quiet: QuietOpt = False,
 ) -> None:
@@ -32,6 +48,8 @@ def report(
     speed_range = check_speed_range(speed_range)
     if operating_range is not None:
         operating_range = check_speed_range(operating_range, "--operating-range")
+    if wear_km is not None and not (wear_km > 0.0 and wear_km <= 1e6):
+        raise UserError(f"--wear-km {wear_km:g}: must be in (0, 1e6]")
     params = load(config, set_)
     from ..io import fresh_directory
     from ..report import run_report, text_summary
@@ -39,7 +57,8 @@ def report(
     # written into a new folder that replaces --out only when complete: never a mix of two runs
     with fresh_directory(out) as folder:
         result = run_report(params, folder, speed_range, operating_range,
-                            progress=lambda message: info(f"polywear report: {message} ...", quiet))
+                            progress=lambda message: info(f"polywear report: {message} ...", quiet),
+                            wear_evolution_km=wear_km)
     if json_:
         emit_json(result.summary)
         return
