@@ -12,9 +12,9 @@ a straight line: toe, for example, moves the speeds of the tread model exactly a
 ``1 / sin(toe)``, which a linear estimate in ``p`` gets badly wrong when toe is reduced.
 The exact normalized sensitivities ``S`` give the first estimate; a safeguarded secant
 iteration on full bifurcation diagrams (continuation) then brackets the least change
-that clears, to a 1 % step or to 0.5 km/h of the band edge. Every reported option is a
-computed diagram. Combined changes move along ``dx ∝ S`` of the edge to move (the least
-change in the relative sense).
+that clears, to 1 % of the step (5 % beyond the bound) or to 0.5 km/h of the band
+edge. Every reported option is a computed diagram. Combined changes move along
+``dx ∝ S`` of the edge to move (the least change in the relative sense).
 
 Options are ranked: the parameters an engineer sets (alignment, axle bushings, tread)
 first, then road/compound options (friction), then the rest; within a group the ones
@@ -63,6 +63,7 @@ ENGINEERING = ("alignment", "axle bushing", "tread")
 """Categories of the parameters an engineer controls (ranked first)."""
 _CATEGORY_RANK = {"alignment": 0, "axle bushing": 0, "tread": 0, "road/compound": 1, "other": 2}
 
+
 def parameter_category(key: str) -> str:
     """'alignment', 'axle bushing', 'tread', 'road/compound' (friction) or 'other'."""
     if key in ALIGNMENT_KEYS:
@@ -77,9 +78,9 @@ def parameter_category(key: str) -> str:
 
 
 def parameter_unit(key: str) -> str:
-    """Unit of a configuration key from its description ('deg', 'N/m', ...); 'x' for adhesion_scale."""
+    """Unit of a configuration key from its description ('deg', 'N/m', ...); '' if dimensionless."""
     if key == ADHESION_SCALE:
-        return "x"
+        return ""  # a factor on mu_s and mu_c
     table, name = key.split(".", 1)
     description = Params.model_fields[table].annotation.model_fields[name].description or ""
     units = re.findall(r"\[([^\]]*)\]", description)
@@ -90,11 +91,13 @@ def parameter_label(key: str) -> str:
     return PARAMETER_LABELS.get(key, key)
 
 
-def _with_unit(value: float, unit: str) -> str:
+def _with_unit(key: str, value: float) -> str:
+    """'0.22°', '80 N s/m', '×1.15' (adhesion_scale), '0.6048'."""
+    unit = parameter_unit(key)
+    if key == ADHESION_SCALE:
+        return f"×{value:.4g}"
     if unit == "deg":
         return f"{value:.4g}°"
-    if unit == "x":
-        return f"×{value:.4g}"
     return f"{value:.4g} {unit}" if unit else f"{value:.4g}"
 
 
@@ -138,7 +141,7 @@ class DesignOption:
 
     def value_changes(self) -> list[str]:
         """Per key: '0.5° → 0.2228°'."""
-        return [f"{_with_unit(n, parameter_unit(k))} → {_with_unit(v, parameter_unit(k))}"
+        return [f"{_with_unit(k, n)} → {_with_unit(k, v)}"
                 for k, n, v in zip(self.keys, self.nominal, self.values)]
 
     def change_text(self) -> str:
@@ -403,6 +406,7 @@ class _Search:
         ok_t, ok_g, best, last, note = math.inf, None, None, None, ""
         t = min(t_start, t_max)
         edge_tol = 0.5 / self.high  # 0.5 km/h at the range edge, in ln speed
+        t_bound = self.t_limit(d, self.max_relative_change)
         for _ in range(self.max_evaluations):
             try:
                 option, g = self.run(t * d)
@@ -415,7 +419,9 @@ class _Search:
             else:
                 fail_t, fail_g, last = t, g, option
                 fails.append((t, g))
-            if best is not None and (ok_t - fail_t <= 0.01 * ok_t or (ok_g is not None and -ok_g <= edge_tol)):
+            # 1 % of the step; 5 % once the least change is known to lie beyond the bound (flagged anyway)
+            tol = 0.05 if fail_t >= t_bound else 0.01
+            if best is not None and (ok_t - fail_t <= tol * ok_t or (ok_g is not None and -ok_g <= edge_tol)):
                 break
             if best is None:  # not bracketed yet: extrapolate the gap (secant), at most 4x
                 if t >= t_max:
