@@ -37,7 +37,6 @@ from ..models.base import kmh_to_ms
 from ..models.profile import coupled_model, patch_sinc, profile_vector
 from ..params import Params, to_toml
 from ..solvers.integrate import integrate
-from .wear import rolling_frequency
 from .wear_law import energetic_rate, friction_power, profile_samples
 
 __all__ = ["WindowWear", "window_wear", "EvolutionResult", "evolve", "initial_roughness", "coherence",
