@@ -57,7 +57,7 @@ def test_wear_map_bad_input_is_one_line_exit_2(args, fragment):
 def test_wear_evolve_json_and_files(tmp_path):
     nc, png = tmp_path / "e.nc", tmp_path / "polar.png"
     code, out, err = run_main(["wear", "evolve", "--speed", "40", "--distance-km", "2000", "--step-km", "1000",
-                               "--json", "-q", "-o", str(nc), "--polar", str(png)])
+                               "--json", "-q", "-o", str(nc), "--polar", str(png), "--polar-km", "0,2000"])
     assert code == 0, err
     summary = json.loads(out)
     assert summary["distance_km"] == 2000.0 and summary["distances_scale_as"] == "1/k_e"
@@ -80,6 +80,7 @@ def test_wear_evolve_json_and_files(tmp_path):
     (["--step-km", "0"], "--step-km"),
     (["--revolutions", "2"], "--revolutions"),
     (["--polar", "x.gif"], "--polar"),
+    (["--distance-km", "1000", "--polar-km", "500,2000"], "--polar-km"),
 ])
 def test_wear_evolve_bad_input(args, fragment):
     code, out, err = run_main(["wear", "evolve", *args])

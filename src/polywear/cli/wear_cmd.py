@@ -184,6 +184,9 @@ def evolve_(
     json_: JsonOpt = False,
     plot: PlotOpt = None,
     polar: Annotated[Optional[Path], typer.Option("--polar", help="Polar figure of the worn tire (png, pdf, svg).")] = None,
+    polar_km: Annotated[
+        Optional[str], typer.Option("--polar-km", help="Distances of the polar figure [km], e.g. 20000,40000,60000 (default: four).")
+    ] = None,
     waterfall: Annotated[Optional[Path], typer.Option("--waterfall", help="Order amplitudes over distance (png, pdf, svg).")] = None,
     out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write w(distance, angle) and the harmonics (.nc).")] = None,
     quiet: QuietOpt = False,
@@ -203,6 +206,14 @@ def evolve_(
         raise UserError("--speed and --cycle: give one of them")
     if speed is not None and not (math.isfinite(speed) and 0.0 < speed <= MAX_SPEED_KMH):
         raise UserError(f"--speed {speed:g}: must be in (0, {MAX_SPEED_KMH:g}] km/h")
+    chosen = None
+    if polar_km is not None:
+        try:
+            chosen = [float(v) for v in polar_km.split(",") if v.strip()]
+        except ValueError:
+            raise UserError(f"--polar-km {polar_km!r}: expected comma-separated distances in km") from None
+        if not chosen or not all(math.isfinite(v) and 0.0 <= v <= distance_km for v in chosen):
+            raise UserError(f"--polar-km {polar_km!r}: distances must lie in [0, --distance-km]")
     params = load(config, set_)
     pairs = ((float(speed), 1.0),) if speed is not None else (parse_cycle(cycle) if cycle else None)
     from ..analysis.wear_evolution import evolve
@@ -224,7 +235,7 @@ def evolve_(
     if plot:
         write_figure(plot, lambda: one_axes(result.plot, (8, 4.5)), quiet)
     if polar:
-        write_figure(polar, lambda: _polar_figure(result), quiet)
+        write_figure(polar, lambda: _polar_figure(result, chosen), quiet)
     if waterfall:
         write_figure(waterfall, lambda: one_axes(result.plot_waterfall, (8, 4.5)), quiet)
     summary = result.summary()
@@ -244,11 +255,11 @@ def evolve_(
                else f"polygon not visible ({summary['visible_depth_mm']} mm) within the distance")
 
 
-def _polar_figure(result):
+def _polar_figure(result, distances_km=None):
     import matplotlib.pyplot as plt
 
     fig = plt.figure(figsize=(5.5, 5.5))
-    result.plot_polar(fig.add_subplot(projection="polar"))
+    result.plot_polar(fig.add_subplot(projection="polar"), distances_km)
     return fig
 
 
