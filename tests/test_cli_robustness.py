@@ -208,12 +208,29 @@ def test_cli_overwrites_atomically(tmp_path):
 
 
 # -- Ctrl-C ----------------------------------------------------------------------------------
-def _interrupt_after(args: list[str], seconds: float, cwd: Path, group: bool = False):
-    """Run ``polywear *args``, send SIGINT after ``seconds`` (to the process group if
-    ``group``, as a terminal's Ctrl-C does); (exit code, stdout, stderr)."""
+def _cpu_seconds(pid: int) -> float:
+    """User + system CPU time of a process [s] (Linux /proc)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _children(pid: int) -> list[int]:
+    return [int(c) for c in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
+
+
+def _interrupt_after(args: list[str], cwd: Path, cpu_s: float = 0.0, children: int = 0, group: bool = False):
+    """Run ``polywear *args``, wait until it computes (``cpu_s`` of CPU time used and
+    ``children`` child processes running: past the imports, whatever the machine's load),
+    then send SIGINT (to the process group if ``group``, as a terminal's Ctrl-C does);
+    (exit code, stdout, stderr)."""
     proc = subprocess.Popen([str(POLYWEAR), *args], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, start_new_session=group)
-    time.sleep(seconds)
+    deadline = time.monotonic() + 120.0
+    while not (_cpu_seconds(proc.pid) >= cpu_s and len(_children(proc.pid)) >= children):
+        assert proc.poll() is None, "the command ended before it could be interrupted"
+        assert time.monotonic() < deadline, "the command did not start computing"
+        time.sleep(0.1)
+    time.sleep(0.5)
     assert proc.poll() is None, "the command ended before it could be interrupted"
     if group:
         os.killpg(proc.pid, signal.SIGINT)
@@ -234,7 +251,7 @@ def _assert_interrupted(code, out, err, folder: Path, expected: set[str]):
 def test_ctrl_c_in_compiled_integration(tmp_path):
     """SIGINT while numba's integrator runs: exit 130, one line, no file (it used to be a
     SystemError traceback, a segmentation fault, or exit 0 with the file written)."""
-    code, out, err = _interrupt_after(["simulate", "--duration", "60", "--out", "run.nc", "-q"], 4.0, tmp_path)
+    code, out, err = _interrupt_after(["simulate", "--duration", "60", "--out", "run.nc", "-q"], tmp_path, cpu_s=2.0)
     _assert_interrupted(code, out, err, tmp_path, set())
     assert err.strip() == "interrupted"
 
@@ -244,7 +261,7 @@ def test_ctrl_c_with_worker_processes(tmp_path):
     """Ctrl-C to the whole process group during a study on local worker processes."""
     code, out, err = _interrupt_after(
         ["study", "-q", "-w", "2", "-s", "study.outputs=bifurcation", "-s", "study.n_base=64", "--out", "s.nc"],
-        6.0, tmp_path, group=True)
+        tmp_path, children=2, group=True)
     _assert_interrupted(code, out, err, tmp_path, set())
 
 
@@ -253,7 +270,7 @@ def test_ctrl_c_keeps_the_previous_report(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
     (out / "report.html").write_text("previous run")
-    code, _, err = _interrupt_after(["report", "-q", "--out", "out"], 6.0, tmp_path)
+    code, _, err = _interrupt_after(["report", "-q", "--out", "out"], tmp_path, cpu_s=3.0)
     _assert_interrupted(code, "", err, tmp_path, {"out"})
     assert sorted(p.name for p in out.iterdir()) == ["report.html"]
     assert (out / "report.html").read_text() == "previous run"

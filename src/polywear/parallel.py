@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 import os
+from contextlib import contextmanager
 from typing import Any, Callable, Sequence
 
 __all__ = ["BACKENDS", "map_batched", "default_batch_size"]
@@ -103,6 +104,25 @@ def _gather(completed, futures: dict, batches: list[list], report) -> list:
     return [value for batch in results for value in batch]
 
 
+@contextmanager
+def _interrupts_ignored_by_new_processes():
+    """SIGINT ignored while worker processes start, so they inherit the ignored signal
+    (an ignored signal survives exec, and Python then keeps it ignored): a Ctrl-C while a
+    worker is still importing gives no traceback from it. Main thread only; a Ctrl-C in
+    this short window is lost."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def _ignore_interrupt() -> None:
     """Worker initializer: Ctrl-C is the parent's to handle (no traceback per worker)."""
     import signal
@@ -120,7 +140,8 @@ def _processes(func, items, workers, batch_size, report) -> list:
     pool = ProcessPoolExecutor(max_workers=min(workers, len(batches)), mp_context=context,
                                initializer=_ignore_interrupt)
     try:
-        futures = {pool.submit(run_batch, func, batch): i for i, batch in enumerate(batches)}
+        with _interrupts_ignored_by_new_processes():  # the workers start during the submits
+            futures = {pool.submit(run_batch, func, batch): i for i, batch in enumerate(batches)}
         return _gather(as_completed(futures), futures, batches, report)
     except BaseException:
         # interrupted or failed: stop the pool's workers now instead of waiting for their batches
