@@ -102,17 +102,21 @@ class BifurcationDiagram:
     def stable_cycle_intervals_kmh(self) -> list[tuple[float, float]]:
         """Speed intervals [km/h] covered by stable cycles.
 
-        A stable run of a branch ends at its Hopf point, at a fold (located), at the
-        edge of the speed range, or where the largest multiplier modulus crosses 1
-        (interpolated in log|mu| between the two points, for PD/NS).
+        A stable run of a branch ends at its Hopf point, at a fold or a PD/NS point
+        (located), at the edge of the speed range, or else where the largest multiplier
+        modulus crosses 1 (interpolated in log|mu| between the two points).
         """
         intervals = []
         for b, branch in enumerate(self.branches):
             pts = [c for c in self.cycles if c.branch == b]
             if not pts:
                 continue
-            # cycle points of a branch start with its Hopf end, hence index + 1
-            folds = {idx + 1: ms_to_kmh(pt.orbit.speed) for label, pt, idx in branch.special if label == "LP"}
+            # cycle points of a branch start with its Hopf end, hence index + 1; the located
+            # special point between two points is the edge there (a fold before a PD/NS)
+            folds = {}
+            for label, pt, idx in branch.special:
+                if label == "LP" or idx + 1 not in folds:
+                    folds[idx + 1] = ms_to_kmh(pt.orbit.speed)
             info = self.branch_info[b]
             run_start = info["from_hopf_kmh"] if pts[0].stable else None
             for i in range(1, len(pts)):
