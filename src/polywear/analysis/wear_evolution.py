@@ -87,7 +87,9 @@ def _dominant_order(t, signal, f_rot: float) -> float:
     x = signal - signal.mean()
     dt = t[1] - t[0]
     n = x.size
-    pad = 8 * n
+    from scipy.fft import next_fast_len
+
+    pad = next_fast_len(8 * n, real=True)  # a length FFTs like: 8 n itself can be nearly prime
     xw = x * np.hanning(n)  # low leakage: neighbouring lines one order away barely bias the peak
     spectrum = np.abs(np.fft.rfft(xw, pad))
     k = int(np.argmax(spectrum[1:])) + 1
