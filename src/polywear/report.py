@@ -378,7 +378,8 @@ def _design_html(design: dict) -> str:
             status = f"yes, {e(o['outcome'])}" + ("" if o["within_bound"] else f" <b>(beyond the &plusmn;{bound * 100:g} % bound)</b>")
         else:
             status = f"no: {e(o['note'])}"
-        bands = ", ".join(f"{a:.1f}-{b:.1f} km/h" for a, b in o["sev_band_kmh"]) or "none"
+        bands = ("&mdash;" if o["relative_change"] == 0.0
+                 else ", ".join(f"{a:.1f}-{b:.1f} km/h" for a, b in o["sev_band_kmh"]) or "none")
         rows.append(f"<tr><td>{e(groups[o['category']])}</td><td>{change}</td><td>{relative}</td><td>{status}</td>"
                     f"<td>{bands}</td></tr>")
     return (f"<p>Least change of each parameter that keeps the SEV band {design['margin_kmh']:g} km/h clear of "

@@ -567,5 +567,6 @@ def clear_operating_range(
         g1 = np.array([grad.get(("first_bifurcation", k), 0.0) for k in group])
         g2 = np.array([grad.get(("second_bifurcation", k), 0.0) for k in group])
         options.append(_best_option(search, g1, g2, band))
-    options.sort(key=lambda o: (_CATEGORY_RANK[o.category], not o.achieved, not o.within_bound, o.relative_change))
+    options.sort(key=lambda o: (_CATEGORY_RANK[o.category], not o.achieved, not o.within_bound,
+                                o.values == o.nominal, o.relative_change))  # computed before not searched
     return result(options)
