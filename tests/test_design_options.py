@@ -186,3 +186,18 @@ def test_axle4dof_toe_option_clears_and_is_nearly_least():
     assert fresh and fresh[0][0] >= RANGE[1] + MARGIN - 1e-6
     weaker = bifurcation_diagram(perturbed(params, "operating.toe_deg", 0.5 - 0.97 * (0.5 - value))).sev_band_kmh
     assert any(a < RANGE[1] and b > RANGE[0] for a, b in weaker)
+
+
+@pytest.mark.parametrize("args, option", [
+    (["--search-factor", "50"], "--search-factor"),
+    (["--max-change", "nan"], "--max-change"),
+    (["--margin", "-1"], "--margin"),
+    (["--operating-range", "130", "80"], "--operating-range"),
+    (["--out", "options.txt"], "--out"),
+])
+def test_cli_design_bad_input_is_one_line(args, option):
+    code, out, err = run_main(["design", *args])
+    assert code == 2
+    (line,) = err.strip().splitlines()
+    assert line.startswith("error:") and option in line
+

@@ -72,8 +72,8 @@ def design(
     operating_range = check_speed_range(operating_range, "--operating-range")
     if not (math.isfinite(max_change) and 0.0 < max_change <= 10.0):
         raise UserError(f"--max-change {max_change:g}: must be in (0, 10] (a relative change)")
-    if not (math.isfinite(search_factor) and 1.0 < search_factor <= 100.0):
-        raise UserError(f"--search-factor {search_factor:g}: must be in (1, 100]")
+    if not (math.isfinite(search_factor) and 1.0 < search_factor <= 10.0):
+        raise UserError(f"--search-factor {search_factor:g}: must be in (1, 10]")
     if not (math.isfinite(margin) and 0.0 <= margin <= 100.0):
         raise UserError(f"--margin {margin:g}: must be in [0, 100] km/h")
     params = load(config, set_)
