@@ -53,6 +53,10 @@ MAX_CHANGE = 0.3
 fraction of its largest harmonic (fast growth after locking is resolved, not jumped
 over) [-]: the whole change where the tread vibrates, only the part added rather than
 integrated exactly where rolling is steady (there the exponential update is exact)."""
+LINEAR_LOAD = 1e-3
+"""While the profile can change the load by less than this fraction of N0, a speed where
+rolling is steady is in the linear regime: its window is simulated once and its rates
+S_n / W_n (those of the linear wear map) are reused [-]."""
 MAX_EXPONENT = 3.0
 """Largest exponent |N S_n / W_n| integrated exactly in one step; above, the write is added [-]."""
 RESOLVABLE = 0.25
@@ -123,6 +127,16 @@ class WindowWear:
     end_state: np.ndarray
     energy_per_rev: float
     """friction energy per revolution [J]"""
+    profile: np.ndarray
+    """the harmonics W_n the window ran with [m]"""
+
+    def rescaled(self, W: np.ndarray) -> WindowWear:
+        """This steady-rolling window's writes for the profile ``W``: in the linear regime each
+        harmonic's coherent write is proportional to it (the rates S_n / W_n are the map's)."""
+        rates = np.where(self.profile != 0, self.coherent / np.where(self.profile != 0, self.profile, 1), 0)
+        return WindowWear(coherent=rates * W, drifting=self.drifting[:0], ratios=self.ratios[:0],
+                          mean_per_rev=self.mean_per_rev, revolutions=self.revolutions, order=self.order,
+                          locked=False, end_state=self.end_state, energy_per_rev=self.energy_per_rev, profile=W.copy())
 
     def written(self, revolutions: float) -> np.ndarray:
         """Harmonics written over ``revolutions`` following the window [m] (coherent + drifting)."""
@@ -165,7 +179,7 @@ def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float,
     energy = float(np.dot(power[:-1], np.diff(t))) / revolutions
     return WindowWear(coherent=coherent, drifting=drifting, ratios=ratios, mean_per_rev=mean,
                       revolutions=revolutions, order=nu, locked=bool(locked), end_state=run.u_end.copy(),
-                      energy_per_rev=energy)
+                      energy_per_rev=energy, profile=np.array(W))
 
 
 def _split(D, nu, eps, revolutions):
@@ -467,14 +481,23 @@ def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000
     history, means, energies, distance = [W.copy()], [0.0], [0.0], [0.0]
     orders_hist, locked_hist = [], []
     mean = energy = done = 0.0
+    linear = [None] * len(cycle)  # per speed: the steady-rolling window whose rates S_n / W_n are reused
+    sinc = patch_sinc(np.arange(1, W.size + 1), params.tire.contact_length_m, R)
+    load_scale = LINEAR_LOAD * params.operating.vertical_load_n / params.tire.vertical_stiffness_n_per_m \
+        if params.tire.vertical_stiffness_n_per_m > 0 else math.inf
     while done < distance_km * (1.0 - 1e-12):
         h = min(step, distance_km - done)
         wins = []
+        small = float(np.sum(np.abs(sinc * W))) < load_scale  # |w_c| bounded by the sum of |sinc_n W_n|
         for j, (v_kmh, share) in enumerate(cycle):
+            if small and linear[j] is not None:
+                wins.append(linear[j].rescaled(W))
+                continue
             V = float(kmh_to_ms(v_kmh))
             win = window_wear(params, V, W, states[j], settles[j][0], windows[j], base)
             settles[j][0] = settles[j][1]
             states[j] = win.end_state
+            linear[j] = win if (small and not math.isfinite(win.order)) else None
             wins.append(win)
         any_locked = any(w.locked and math.isfinite(w.order) for w in wins)
         vibrating = any(math.isfinite(w.order) for w in wins)
