@@ -23,6 +23,8 @@ Fast dynamics and slow wear alternate (``docs/wear.md``). For a distance step ``
    does not depend on ``W``, and ``W + N S`` is exact. Harmonics below ``1e-6`` of the
    profile's RMS, or an exponent above ``MAX_EXPONENT`` in a step, take the additive
    form. The step is shortened while the change exceeds ``MAX_CHANGE`` (see there).
+4. **Linear regime.** At a speed where rolling is steady and the profile is small
+   (``LINEAR_LOAD``), the window's rates ``S_n / W_n`` are reused instead of simulating.
 """
 
 from __future__ import annotations
