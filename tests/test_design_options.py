@@ -201,3 +201,19 @@ def test_cli_design_bad_input_is_one_line(args, option):
     (line,) = err.strip().splitlines()
     assert line.startswith("error:") and option in line
 
+
+
+@pytest.mark.slow
+def test_combination_moves_along_the_normalized_sensitivities(diagram):
+    """toe and adhesion_scale together: ln(p / p0) proportional to S of the first bifurcation
+    speed (the steepest way up for the edge to move), and a fresh diagram confirms the clear range."""
+    keys = ("operating.toe_deg", "adhesion_scale")
+    result = clear_operating_range(Params(), RANGE, keys=(), combine=keys, diagram=diagram)
+    (combo,) = result.options
+    assert combo.achieved and combo.category == "road/compound"
+    S = {r["param"]: r["normalized"] for r in local_sensitivity(Params(), keys=keys, diagram=diagram).rows
+         if r["quantity"] == "first_bifurcation"}
+    (toe, scale) = combo.values
+    assert math.log(toe / 0.5) / math.log(scale) == pytest.approx(S["operating.toe_deg"] / S["adhesion_scale"], rel=1e-9)
+    p = perturbed(perturbed(Params(), "operating.toe_deg", toe), "adhesion_scale", scale)
+    assert not any(a < RANGE[1] + MARGIN and b > RANGE[0] - MARGIN for a, b in bifurcation_diagram(p).sev_band_kmh)
