@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import os
 import re
 import subprocess
 import sys
@@ -82,3 +83,23 @@ def test_mkdocs_build_strict(tmp_path):
     assert done.returncode == 0, done.stderr[-3000:]
     api = (tmp_path / "api" / "index.html").read_text()
     assert "stability_analysis" in api and "bifurcation_diagram" in api
+
+
+def _blocks(text: str, language: str) -> list[str]:
+    return re.findall(rf"^```{language}\n(.*?)^```", text, flags=re.MULTILINE | re.DOTALL)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("page", ["docs/guide.md", "README.md"])
+def test_python_in_the_guide_and_readme_runs(page, tmp_path):
+    """The Python blocks of the page run in order, as one script (with the page's TOML file
+    saved as my_car.toml where the page shows one) and write the figure they promise."""
+    text = (ROOT / page).read_text()
+    for toml in _blocks(text, "toml")[:1]:
+        (tmp_path / "my_car.toml").write_text(toml)
+    code = "\n".join(_blocks(text, "python"))
+    assert "import polywear as pw" in code
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=300,
+                          env={**os.environ, "MPLBACKEND": "Agg"})
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert any(p.suffix == ".png" and p.read_bytes()[:4] == b"\x89PNG" for p in tmp_path.iterdir())
