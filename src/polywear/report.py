@@ -200,7 +200,7 @@ def run_report(
     import matplotlib.pyplot as plt
 
     from .analysis.bifurcation import bifurcation_diagram
-    from .analysis.design import clear_operating_range
+    from .analysis.design import clear_operating_range, default_operating_range
     from .analysis.sensitivity import local_sensitivity
     from .analysis.simulation import simulate_disturbances
 
@@ -209,7 +209,7 @@ def run_report(
     out_dir.mkdir(parents=True, exist_ok=True)
     files: dict[str, str] = {}
     speed = params.operating.speed_kmh
-    operating_range = operating_range_kmh or (max(speed - 30.0, 1.0), speed + 20.0)
+    operating_range = operating_range_kmh or default_operating_range(speed)
     # the analysed range holds the operating range (the diagram widens it further where needed)
     speed_range_kmh = (min(speed_range_kmh[0], operating_range[0]), max(speed_range_kmh[1], operating_range[1]))
 

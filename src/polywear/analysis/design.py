@@ -44,7 +44,14 @@ from .sensitivity import (
     perturbed,
 )
 
-__all__ = ["DEFAULT_KEYS", "DesignOption", "DesignResult", "clear_operating_range", "parameter_category"]
+__all__ = [
+    "DEFAULT_KEYS",
+    "DesignOption",
+    "DesignResult",
+    "clear_operating_range",
+    "default_operating_range",
+    "parameter_category",
+]
 
 ALIGNMENT_KEYS = ("operating.toe_deg", "operating.camber_deg")
 BUSHING_KEYS = (
@@ -62,6 +69,11 @@ Keys that do not enter the model (camber, axle keys in tread1dof) are skipped.""
 ENGINEERING = ("alignment", "axle bushing", "tread")
 """Categories of the parameters an engineer controls (ranked first)."""
 _CATEGORY_RANK = {"alignment": 0, "axle bushing": 0, "tread": 0, "road/compound": 1, "other": 2}
+
+
+def default_operating_range(speed_kmh: float) -> tuple[float, float]:
+    """The speeds kept free of SEV when none are given: operating speed −30/+20 km/h."""
+    return max(speed_kmh - 30.0, 1.0), speed_kmh + 20.0
 
 
 def parameter_category(key: str) -> str:

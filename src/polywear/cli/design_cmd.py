@@ -32,8 +32,9 @@ def design(
     config: ConfigOpt = None,
     set_: SetOpt = None,
     operating_range: Annotated[
-        tuple[float, float], typer.Option("--operating-range", help="Speeds to keep free of SEV [km/h].")
-    ] = (80.0, 130.0),
+        Optional[tuple[float, float]],
+        typer.Option("--operating-range", help="Speeds to keep free of SEV [km/h] (default: operating speed -30/+20)."),
+    ] = None,
     param: Annotated[
         Optional[list[str]],
         typer.Option("--param", "-p", help="Parameter to change alone (repeatable; default: toe, camber, "
@@ -69,7 +70,8 @@ def design(
     output_file(plot, "--plot", PLOT_SUFFIXES)
     output_file(out, "--out", (".csv", ".json"))
     speed_range = check_speed_range(speed_range)
-    operating_range = check_speed_range(operating_range, "--operating-range")
+    if operating_range is not None:
+        operating_range = check_speed_range(operating_range, "--operating-range")
     if not (math.isfinite(max_change) and 0.0 < max_change <= 10.0):
         raise UserError(f"--max-change {max_change:g}: must be in (0, 10] (a relative change)")
     if not (math.isfinite(search_factor) and 1.0 < search_factor <= 10.0):
@@ -77,9 +79,10 @@ def design(
     if not (math.isfinite(margin) and 0.0 <= margin <= 100.0):
         raise UserError(f"--margin {margin:g}: must be in [0, 100] km/h")
     params = load(config, set_)
-    from ..analysis.design import DEFAULT_KEYS, clear_operating_range
+    from ..analysis.design import DEFAULT_KEYS, clear_operating_range, default_operating_range
     from ..params import study_keys
 
+    operating_range = operating_range or default_operating_range(params.operating.speed_kmh)
     keys = tuple(dict.fromkeys(param or DEFAULT_KEYS))
     known = study_keys()
     for key in (*keys, *(combine or ())):
