@@ -112,6 +112,7 @@ class SteadyCurve(_Saveable):
         return falling_branch(self.friction)
 
     def summary(self) -> dict[str, Any]:
+        """mu_s, mu_c, the falling branch [m/s] and the velocity range [m/s]."""
         branch = self.falling_branch
         return {
             "mu_static": self.friction.mu_static,
@@ -121,6 +122,7 @@ class SteadyCurve(_Saveable):
         }
 
     def to_dataset(self):
+        """xarray Dataset: mu against velocity, with the friction parameters as TOML."""
         import xarray as xr
 
         return xr.Dataset(

@@ -157,9 +157,11 @@ class FrictionFit(_ParameterFit):
         return self.signed_mu - steady_friction(self.velocity, *_steady_args(self.friction))
 
     def summary(self) -> dict[str, Any]:
+        """What ``polywear friction fit --json`` prints: the fit's parameters, errors, quality."""
         return {**super().summary(), "negative_velocity_data": "magnitudes" if self.magnitudes else "signed"}
 
     def to_dataset(self):
+        """xarray Dataset: measured points, residuals and the covariance of the fitted keys."""
         import xarray as xr
 
         return xr.Dataset(
@@ -389,6 +391,7 @@ class LoopFit(_ParameterFit):
         return self.mu - self.model_mu
 
     def to_dataset(self):
+        """xarray Dataset: measured and fitted loops per point, and the covariance."""
         import xarray as xr
 
         point = lambda values, attrs: ("point", values, attrs)  # noqa: E731

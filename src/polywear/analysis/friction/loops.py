@@ -168,6 +168,7 @@ class HysteresisLoops(_Saveable):
         return steady_curve(self.friction, np.linspace(lo, hi, points))
 
     def summary(self) -> dict[str, Any]:
+        """What ``polywear friction loops --json`` prints: per frequency, deviation and area."""
         return {
             "v_mean_m_per_s": self.v_mean,
             "v_amplitude_m_per_s": self.v_amplitude,
@@ -181,6 +182,7 @@ class HysteresisLoops(_Saveable):
         }
 
     def to_dataset(self):
+        """xarray Dataset over (frequency, phase): velocity, deflection, friction, static curve."""
         import xarray as xr
 
         dims = ("frequency", "phase")
