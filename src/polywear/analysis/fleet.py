@@ -323,8 +323,9 @@ class FleetResult:
         v = self.values[ok]
 
         def quantiles(col):
-            x = v[:, col][np.isfinite(v[:, col])]
-            return {f"p{q}": float(np.percentile(x, q)) for q in (5, 50, 95)} | {"n": int(x.size)} if x.size else {}
+            x, at_end = self._inside_range(v[:, col])
+            out = {f"p{q}": float(np.percentile(x, q)) for q in (5, 50, 95)} if x.size else {}
+            return out | {"n": int(x.size), "n_at_range_end": at_end}
 
         hard = int(np.nansum(v[:, 3])) if n else 0
         hard_ci = (np.nan, np.nan)
@@ -358,6 +359,14 @@ class FleetResult:
             **self._wear_summary(v, n),
             "settings": self.settings,
         }
+
+    def _inside_range(self, speeds) -> tuple[np.ndarray, int]:
+        """Finite speeds strictly inside the speed range, and how many sit at a range end
+        (the band reaches it: the true bifurcation speed lies beyond, censored)."""
+        lo, hi = self.spec.speed_range_kmh
+        x = speeds[np.isfinite(speeds)]
+        at_end = np.isclose(x, lo, rtol=1e-12) | np.isclose(x, hi, rtol=1e-12)
+        return x[~at_end], int(at_end.sum())
 
     def _wear_summary(self, v, n) -> dict:
         """Share of cars with an order whose wear e-folds within ``spec.mileage_km`` (CI)."""
@@ -408,7 +417,9 @@ class FleetResult:
         v = self.values[self.ok]
         artists = []
         for col, label in ((0, "first bifurcation speed"), (1, "second bifurcation speed")):
-            x = v[:, col][np.isfinite(v[:, col])]
+            x, at_end = self._inside_range(v[:, col])
+            if at_end:
+                label += f" ({at_end} cars at the range end, not shown)"
             if x.size:
                 artists.append(ax.hist(x, bins=40, alpha=0.6, label=label)[2])
         for u in self.spec.usage:
