@@ -62,6 +62,8 @@ class CyclePoint:
     label: str = ""
     orbit: object = field(default=None, repr=False, compare=False)
     """The PeriodicOrbit (None for the zero-amplitude ends at Hopf points)."""
+    resolved: bool = True
+    """False: certainly unstable, but too strongly for the count of unstable multipliers to be known."""
 
 
 @dataclass
@@ -308,6 +310,7 @@ class BifurcationDiagram:
             "n_unstable_multipliers": ("cycle", np.array([c.n_unstable for c in cyc], dtype=int)),
             "max_multiplier_modulus": ("cycle", np.array([c.max_multiplier for c in cyc])),
             "trivial_multiplier_error": ("cycle", np.array([c.trivial_multiplier_error for c in cyc])),
+            "multipliers_resolved": ("cycle", np.array([c.resolved for c in cyc], dtype=bool)),
             "label": ("cycle", np.array([c.label for c in cyc], dtype=str)),
             "equilibrium": (("speed", "state"), self.stability.equilibria),
             "equilibrium_stable": ("speed", (self.stability.eigenvalues.real <= 0).all(axis=1)),
@@ -607,6 +610,7 @@ def _cycle_point(branch_index, point, label="") -> CyclePoint:
         trivial_multiplier_error=point.trivial_multiplier_error,
         label=label or point.label,
         orbit=orbit,
+        resolved=point.resolved,
     )
 
 
@@ -687,7 +691,9 @@ def bifurcation_diagram(
                 "end_reason": branch.end_reason,
                 "recoveries": list(branch.recoveries),
                 "n_points": len(branch.points),
-                "max_trivial_multiplier_error": max((pt.trivial_multiplier_error for pt in branch.points), default=0.0),
+                "max_trivial_multiplier_error": max((pt.trivial_multiplier_error for pt in branch.points if pt.resolved),
+                                                    default=0.0),
+                "n_unresolved_points": sum(not pt.resolved for pt in branch.points),
             }
         )
         points = [_cycle_point(b, pt) for pt in branch.points]

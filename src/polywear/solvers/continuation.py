@@ -36,7 +36,9 @@ __all__ = [
     "solve_at_speed",
     "switching_times",
     "fold_near",
+    "certainly_unstable",
     "same_special_point",
+    "stability_decided",
     "trivial_error",
 ]
 
@@ -118,6 +120,10 @@ class BranchPoint:
     """Unit tangent of the branch (same layout as the collocation unknowns)."""
     newton_iterations: int
     label: str = ""
+    resolved: bool = True
+    """False for a cycle so strongly unstable that the monodromy product cannot resolve its
+    trivial multiplier on the finest mesh: it is certainly unstable (see
+    :func:`certainly_unstable`), but the count of unstable multipliers is not known."""
 
     @property
     def tangent_speed(self) -> float:
@@ -272,6 +278,7 @@ def continue_from_hopf(
         return 3.6 * (branch.points[-1].orbit.speed if branch.points else hopf.speed)
 
     for _ in range(settings.max_steps):
+        resolved = True
         out = stepper.correct(X0, t0, ds, phase_ref)
         if out is not None and settings.align_kinks:
             stepper, X0, t0, phase_ref, out = _align_to_kinks(
@@ -282,12 +289,15 @@ def continue_from_hopf(
                 model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale,
                 branch.recoveries,
             )
-            if out is not None and not stability_decided(out[3], settings.multiplier_tol):
+            if out is not None and certainly_unstable(out[3], settings.multiplier_tol):
+                resolved = False  # keep going: unstable for sure, only the count is unknown
+            elif out is not None and not stability_decided(out[3], settings.multiplier_tol):
                 mu = out[3]
                 finish(BranchEnd.MULTIPLIER_CHECK_LOST,
                        f"beyond {last_kmh():.3f} km/h |mu - 1| of the trivial multiplier is "
                        f"{trivial_error(mu):.1e} with {stepper.coll.N} mesh intervals (largest multiplier "
-                       f"{np.abs(mu).max():.1e}); stability there is unknown")
+                       f"{np.abs(mu).max():.1e}); stability there is unknown; "
+                       + _period_detail(model, p, stepper.coll.unpack(out[0]), period_scale))
                 break
         c = stepper.coll
         if out is None:
@@ -314,12 +324,12 @@ def continue_from_hopf(
         if prev_harmonic is not None and np.real(np.vdot(prev_harmonic, harmonic)) < 0:
             finish(BranchEnd.HOPF_REACHED)
             break
-        point = BranchPoint(orbit, multipliers, t, iterations)
+        point = BranchPoint(orbit, multipliers, t, iterations, resolved=resolved)
         if prev is not None and np.sign(point.tangent_speed) != np.sign(prev.tangent_speed):
             fold = _locate_fold(stepper, X0, t0, ds, phase_ref, prev, point, settings)
             if fold is not None:
                 _add_special(branch, "LP", fold)
-        if prev is not None:
+        if prev is not None and prev.resolved and resolved:  # counts of unresolved cycles are unknown
             for label in _multiplier_events(prev, point):
                 _add_special(branch, label, _locate_crossing(stepper, X0, t0, ds, phase_ref, prev, point, label))
         branch.points.append(point)
@@ -387,6 +397,14 @@ def stability_decided(multipliers: np.ndarray, tol: float) -> bool:
     return error <= 1e-2 and bool(np.all(np.abs(np.abs(others) - 1.0) > 10.0 * error))
 
 
+def certainly_unstable(multipliers: np.ndarray, tol: float) -> bool:
+    """True if the largest multiplier exceeds 1 by more than 100 times the error of the
+    trivial one (or ``tol``). The dominant multiplier of the monodromy product is accurate
+    relative to its size even when 1 cannot be resolved next to it (rounding of a matrix
+    of norm 1e17 is about 10), so such a cycle is unstable whatever the error."""
+    return float(np.abs(multipliers).max()) - 1.0 > 100.0 * max(trivial_error(multipliers), tol)
+
+
 def trivial_error(multipliers: np.ndarray, cluster: float = 1e-2) -> float:
     """|mu - 1| of the trivial Floquet multiplier, the accuracy check of the monodromy matrix.
 
@@ -437,7 +455,8 @@ def _refine_step(model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales
 
 
 def _period_detail(model, p, orbit: PeriodicOrbit, hopf_period: float) -> str:
-    """Where the period limit was hit, and how close the orbit comes to the steady state."""
+    """The orbit's period against the Hopf period, and how close it comes to the steady state
+    (in units of its own range, max over states): near 0 for an orbit close to a homoclinic one."""
     _, u = orbit.dense(16)
     span = np.ptp(u, axis=0)
     moving = span > 0.0
