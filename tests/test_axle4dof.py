@@ -17,7 +17,7 @@ from scipy.integrate import simpson, solve_ivp
 from scipy.optimize import brentq
 
 from polywear.models import _axle4dof_generated as gen
-from polywear.models import axle4dof, tread1dof
+from polywear.models import axle4dof, axle4dof_kernels, tread1dof
 from polywear.models.axle4dof import MODEL
 from polywear.models.base import kmh_to_ms
 from polywear.params import Params, with_updates
@@ -91,7 +91,7 @@ def rise(q, p):
 def potential_energy(q, V, p):
     """Springs, tire spring, and the potentials of the constant load N0 and preloads."""
     preload = np.empty(NQ)
-    gen._preload(V, p, preload)
+    axle4dof_kernels.preload(V, p, preload)
     k = p[[slot("k_alpha"), slot("k_beta"), slot("k_gamma"), slot("k")]]
     dz = rise(q, p)
     return 0.5 * np.sum(k * q**2) + 0.5 * p[slot("k_z")] * dz**2 - p[slot("N0")] * dz - preload @ q

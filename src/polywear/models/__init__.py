@@ -19,7 +19,7 @@ def get_model(name: str):
     return import_module(f"polywear.models.{name}").MODEL
 
 
-_SUBMODULES = ("base", "tread1dof", "axle4dof", "axle4dof_derivation", "kernels", "profile", "pure")
+_SUBMODULES = ("base", "tread1dof", "axle4dof", "axle4dof_kernels", "axle4dof_derivation", "kernels", "profile", "pure")
 
 
 def __getattr__(name: str) -> object:

@@ -4,8 +4,9 @@ One trailing arm of the twist beam with its wheel carrier and wheel is a rigid b
 rotating about the bushing centre O, ``R = Rz(toe0 + alpha) Ry(-gamma) Rx(camber0 + beta)``;
 the tread is a particle at the contact point C, sliding along the body y axis on a
 spring and damper, with LuGre friction against the drum and a vertical tire spring.
-The equations are derived in :mod:`.axle4dof_derivation` and compiled from the
-generated module ``_axle4dof_generated`` (see ``docs/model_axle4dof.md``).
+The equations are derived in :mod:`.axle4dof_derivation` into the generated module
+``_axle4dof_generated`` (symbolic expressions); the kernels built on them are in
+:mod:`.axle4dof_kernels` (see ``docs/model_axle4dof.md``).
 
 States ``u = (alpha, beta, gamma [rad], x [m], alpha', beta', gamma' [rad/s], x' [m/s],
 z [m])``: dynamic toe (toe-in positive), dynamic camber (top outward positive), arm
@@ -21,6 +22,7 @@ import math
 import numpy as np
 
 from . import _axle4dof_generated as _gen
+from . import axle4dof_kernels as _kernels
 from .base import DEG, Model, ParamSlot
 
 _KEYS = {
@@ -103,7 +105,7 @@ def equilibrium(V, p):
     deterministically. :func:`running_alignment` gives the resulting toe and camber.
     """
     u = np.empty(len(STATE_NAMES))
-    _gen.running_equilibrium(float(V), p, u)
+    _kernels.running_equilibrium(float(V), p, u)
     if p[_REFERENCE] == 0.0:
         return u
     q = np.array(p, dtype=float)
@@ -158,7 +160,7 @@ def prepare(V, p):
     q = np.array(p, dtype=float)
     q[_PRELOAD_SPEED] = math.nan
     P = np.empty(4)
-    _gen._preload(float(V), q, P)
+    _kernels.preload(float(V), q, P)
     q[_PRELOAD_SPEED + 1 : _PRELOAD_SPEED + 4] = P[:3]
     q[_PRELOAD_SPEED] = float(V)
     return q
@@ -170,10 +172,10 @@ def running_alignment(u, p) -> tuple[float, float]:
 
 
 class _Kernels:
-    rhs = _gen.rhs
-    jac = _gen.jac
-    dfdv = _gen.dfdv
-    aux = _gen.aux
+    rhs = _kernels.rhs
+    jac = _kernels.jac
+    dfdv = _kernels.dfdv
+    aux = _kernels.aux
     equilibrium = staticmethod(equilibrium)
     prepare = staticmethod(prepare)
     running_alignment = staticmethod(running_alignment)
@@ -190,7 +192,7 @@ def _pure_rhs():
     from ..physics import lugre
     from .pure import pure_python_namespace
 
-    return pure_python_namespace(lugre, _gen)["rhs_python"]
+    return pure_python_namespace(lugre, _gen, _kernels)["rhs_python"]
 
 MODEL = Model(
     name="axle4dof",

@@ -34,7 +34,7 @@ from types import SimpleNamespace
 import numpy as np
 from numba import njit
 
-from . import _axle4dof_generated as _axle
+from . import axle4dof_kernels as _axle
 from . import tread1dof as _tread
 from .base import Model
 

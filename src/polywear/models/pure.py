@@ -14,7 +14,8 @@ import re
 __all__ = ["pure_python_namespace"]
 
 _DECORATOR = re.compile(r"^@njit\(.*\)\s*$", re.M)
-_RELATIVE_IMPORT = re.compile(r"^from \.+\S* import .*$", re.M)
+_RELATIVE_IMPORT = re.compile(r"^from \.+\S* import (?:\([^)]*\)|.*)$", re.M)
+"""A package-relative import, on one line or parenthesized over several."""
 
 
 def pure_python_namespace(*modules) -> dict:
