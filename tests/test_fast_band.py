@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.fast_band import FastBand, band_reference
+from polywear.analysis.fast_band import _FIXED_RANGE, FastBand, band_reference
 from polywear.analysis.global_sensitivity import DEFAULT_KEYS, sample_params
 from polywear.params import Params, get_value, with_updates
 
@@ -21,7 +21,7 @@ AMPLITUDE_SPEEDS = (80.0, 130.0)
 @pytest.fixture(scope="module")
 def tread_solver():
     base = with_updates(Params(), {"model": "tread1dof"})
-    ref = band_reference(bifurcation_diagram(base), AMPLITUDE_SPEEDS)
+    ref = band_reference(bifurcation_diagram(base, **_FIXED_RANGE), AMPLITUDE_SPEEDS)
     return base, FastBand((ref,), amplitude_speeds_kmh=AMPLITUDE_SPEEDS)
 
 
@@ -81,3 +81,20 @@ def test_random_samples_agree_with_full_continuation(tread_solver):
         paths.append(fast.path)
         assert_agrees(fast, full)
     assert paths.count("fast") >= 4, paths
+
+
+@pytest.mark.slow
+def test_axle4dof_samples_agree_with_full_continuation():
+    """axle4dof, +-5 % around the defaults (at +-10 % many samples change topology and fall back)."""
+    base = with_updates(Params(), {"model": "axle4dof"})
+    solver = FastBand((band_reference(bifurcation_diagram(base, **_FIXED_RANGE), AMPLITUDE_SPEEDS),),
+                      amplitude_speeds_kmh=AMPLITUDE_SPEEDS)
+    rng = np.random.default_rng(20261201)
+    nominal = np.array([get_value(base, k) for k in DEFAULT_KEYS])
+    paths = []
+    for _ in range(3):
+        params = sample_params(base, DEFAULT_KEYS, nominal * (1.0 + 0.05 * (2.0 * rng.random(len(nominal)) - 1.0)))
+        fast = solver(params)
+        paths.append(fast.path)
+        assert_agrees(fast, solver.full(params))
+    assert paths.count("fast") >= 2, paths
