@@ -28,7 +28,10 @@ from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 
-import sympy as sp
+try:
+    import sympy as sp
+except ImportError as exc:
+    raise ImportError("the axle4dof derivation needs sympy: pip install 'polywear[generate]'") from exc
 from sympy.physics.mechanics import (
     LagrangesMethod,
     Lagrangian,
