@@ -245,9 +245,11 @@ def continue_from_hopf(
 
     ``amplitude_ref`` [m] sets the scale of the tread displacement ``x`` (other states
     scale with the critical eigenvector); ``on_step(branch)`` is called after every step.
-    The branch ends when it leaves the speed range, returns to an equilibrium (a Hopf
+    The branch ends (``Branch.end``, a :class:`BranchEnd`, with ``end_speed`` and
+    ``end_detail``) when it leaves the speed range, returns to an equilibrium (a Hopf
     point: detected when the first harmonic of the orbit changes sign, i.e. the
-    amplitude passed through zero), exceeds the amplitude limit, or fails to converge.
+    amplitude passed through zero), exceeds the amplitude or period limit, or fails
+    after the rescues (finer meshes) listed in ``recoveries``.
     """
     q = hopf.q / hopf.q[model.index("x")]  # x component 1
     scales = np.maximum(np.abs(q), 1e-6 * np.abs(q).max()) * amplitude_ref + 0.1 * np.abs(hopf.u)
@@ -357,11 +359,9 @@ def continue_from_hopf(
             # scales never shrink and follow each state's excursion from the Hopf equilibrium
             scales = np.maximum(scales, np.abs(orbit.nodes - hopf.u).max(axis=0))
             branch.scales = scales
-            new_mesh = c.adapted_mesh(orbit)
-            if settings.align_kinks:
-                new_mesh = _with_kinks(new_mesh, switching_times(model, p, orbit))
             stepper, X0, t0, phase_ref = _remesh(
-                model, p, stepper, new_mesh, X0, t0, settings, scales, speed_scale, period_scale
+                model, p, stepper, _finer_mesh(model, p, c, orbit, settings, factor=1), X0, t0, settings, scales,
+                speed_scale, period_scale
             )
     else:
         finish(BranchEnd.MAX_STEPS, f"{settings.max_steps} steps, the last at {last_kmh():.3f} km/h")
@@ -425,7 +425,8 @@ def trivial_error(multipliers: np.ndarray, cluster: float = 1e-2) -> float:
 
 def _finer_mesh(model, p, coll: Collocation, orbit: PeriodicOrbit, settings: ContinuationSettings,
                 factor: int = 2) -> np.ndarray:
-    """``factor`` times the intervals, equidistributed for ``orbit`` (AUTO's rule), kinks on mesh points."""
+    """``factor`` times the intervals, equidistributed for ``orbit`` (AUTO's rule), kinks on mesh points
+    (with ``settings.align_kinks``)."""
     mesh = coll.adapted_mesh(orbit, factor * coll.N)
     return _with_kinks(mesh, switching_times(model, p, orbit)) if settings.align_kinks else mesh
 
