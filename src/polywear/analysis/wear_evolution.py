@@ -177,23 +177,42 @@ def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float,
     nu = _dominant_order(t, xdot, 1.0 / T) if vibrating else math.nan
     eps = [abs(j * nu - round(j * nu)) for j in range(1, SIDEBANDS + 1)] if vibrating else []
     locked = vibrating and eps[0] < LOCK_TOLERANCE
-    coherent, drifting, ratios = _split(D, nu, eps, revolutions)
+    slow = _slow_orders(nu, eps, revolutions, K)
+    reference = None
+    if slow:  # the same window without those harmonics: what the vibration writes there by itself
+        W_ref = np.array(W)
+        W_ref[[m - 1 for m in slow]] = 0.0
+        p_ref = profile_vector(base, params, V, sinc * W_ref.real, -sinc * W_ref.imag)
+        run_ref = integrate(coupled, state, V, p_ref, t_end, rtol=_RTOL, atol=atol, dense_from=settle_s)
+        u_ref = run_ref.dense(t)
+        reference = _per_revolution(t, friction_power(coupled, u_ref, V, p_ref), u_ref[:, -1], per_rev, revolutions,
+                                    params, K)[0]
+    coherent, drifting, ratios = _split(D, nu, eps, revolutions, reference)
     energy = float(np.dot(power[:-1], np.diff(t))) / revolutions
     return WindowWear(coherent=coherent, drifting=drifting, ratios=ratios, mean_per_rev=mean,
                       revolutions=revolutions, order=nu, locked=bool(locked), end_state=run.u_end.copy(),
                       energy_per_rev=energy, profile=np.array(W))
 
 
-def _split(D, nu, eps, revolutions):
+def _slow_orders(nu, eps, revolutions, K) -> list[int]:
+    """Harmonics m = round(j nu) of drifting lines too slow to separate in the window."""
+    return sorted({int(round(j * nu)) for j in range(1, len(eps) + 1)
+                   if LOCK_TOLERANCE <= eps[j - 1] and eps[j - 1] * revolutions < RESOLVABLE
+                   and 1 <= round(j * nu) <= K})
+
+
+def _split(D, nu, eps, revolutions, reference=None):
     """Coherent part S (K,), drifting parts C (R, K) and their ratios r (R,) of the
     per-revolution writes D (M, K) of a vibration at order nu (see module notes).
 
     A line whose pattern turns by at least RESOLVABLE of a period over the window is
     separated by least squares with its known ratio. A slower one cannot be told apart
     from a coherent write within the window; it writes essentially on its nearest
-    harmonic m = round(j nu) only, where the vibration's own write dominates the
-    response to the profile, so the whole write at m is counted as drifting (turning by
-    r per revolution) and the step sum bounds it by 1/|sin(pi eps)|."""
+    harmonic m = round(j nu) only. With ``reference``, the writes of the same window run
+    without the profile's harmonic m, the vibration's own write at m is the reference's
+    (drifting, turning by r per revolution, bounded over the step by 1/|sin(pi eps)|) and
+    the difference is the profile's coherent feedback. Without it, the whole write at m
+    is counted as drifting."""
     M, K = D.shape
     k = np.arange(M)
     fast, slow = [], []
@@ -211,8 +230,9 @@ def _split(D, nu, eps, revolutions):
             continue
         r = np.exp(2j * math.pi * j * nu)
         c = np.zeros(K, dtype=complex)
-        c[m - 1] = np.mean(D[:, m - 1] * r ** -k)
-        coherent[m - 1] = 0.0
+        own = D[:, m - 1] if reference is None else reference[:, m - 1]
+        c[m - 1] = np.mean(own * r ** -k)
+        coherent[m - 1] = 0.0 if reference is None else np.mean(D[:, m - 1] - reference[:, m - 1])
         for other in drifting:
             other[m - 1] = 0.0
         drifting.append(c)
