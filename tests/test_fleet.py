@@ -176,6 +176,19 @@ def test_risk_matches_the_toe_law(tmp_path, reference):
 
 
 @pytest.mark.slow
+def test_band_every_keeps_risk_exact(tmp_path, reference):
+    """band_every = 3: risk, hard excitation and the first speed of every car as with whole
+    bands; both speeds for cars 0, 3, 6; the second speed left out for the others."""
+    whole = fleet_risk(Params(), _spec(tmp_path, samples=9, every=9), backend="serial", reference=reference)
+    text = TOE_SPEC.replace("[[fleet.parameter]]", "band_every = 3\n[[fleet.parameter]]", 1)
+    lazy = fleet_risk(Params(), _spec(tmp_path, samples=9, every=9, text=text), backend="serial", reference=reference)
+    np.testing.assert_array_equal(whole.values[:, 2:4], lazy.values[:, 2:4])
+    np.testing.assert_allclose(whole.values[:, 0], lazy.values[:, 0], rtol=1e-12)
+    np.testing.assert_array_equal(whole.values[::3, :2], lazy.values[::3, :2])
+    assert np.all(np.isnan(np.delete(lazy.values[:, 1], [0, 3, 6])))
+
+
+@pytest.mark.slow
 def test_resume_is_bit_identical(tmp_path, reference):
     spec = _spec(tmp_path, samples=10, every=4)
     whole = fleet_risk(Params(), spec, backend="serial", reference=reference)

@@ -140,6 +140,10 @@ class FleetSpec(_Spec):
     usage: tuple[FleetUsage, ...]
     correlation: FleetCorrelation | None = None
     speed_range_kmh: tuple[float, float] = (10.0, 600.0)
+    band_every: int = Field(1, ge=1)
+    """Every k-th car gets its whole band (both bifurcation speeds); the others only what
+    their risk needs: the Hopf points, and the folds only where a fold's position decides
+    whether a usage speed lies in the band. Risk and hard share stay exact for every car."""
     mileage_km: float | None = Field(None, gt=0.0)
     """With it, the share of cars with a polygon order whose wear grows by e within this
     distance at a usage speed where rolling is stable (linear wear map)."""
@@ -231,26 +235,38 @@ class FleetEvaluator:
     solver: object  # FastBand
     usage_speeds_kmh: tuple[float, ...]
     wear: bool = False
+    band_every: int = 1
 
-    def __call__(self, values) -> tuple[tuple[float, ...], str]:
+    def __call__(self, item) -> tuple[tuple[float, ...], str]:
+        """``item = (car index, parameter values)``."""
         from .global_sensitivity import sample_params
 
+        index, values = item
         try:
             params = sample_params(self.params, self.keys, values)
-            band = self.solver(params)
+            verdict = None if index % self.band_every == 0 else self.solver.usage_verdict(params, self.usage_speeds_kmh)
+            band = None if verdict is not None else self.solver(params)
         except Exception as exc:  # invalid parameters or a numerical failure: recorded, never dropped
             return (np.nan,) * len(OUTPUTS), f"failed: {type(exc).__name__}: {exc}"
+        efold = self._efold(params) if self.wear else np.nan
+        if isinstance(efold, str):
+            return (np.nan,) * len(OUTPUTS), efold
+        if verdict is not None:  # Hopf points alone decided: no second speed for this car
+            at_risk, hard, first = verdict
+            return (first, np.nan, float(at_risk), float(hard), 1.0, efold), "ok"
         inside = lambda intervals: any(a <= v <= b for v in self.usage_speeds_kmh for a, b in intervals)
-        efold = np.nan
-        if self.wear:
-            from .wear_map import wear_map
-
-            try:
-                efold = float(np.nanmin(wear_map(params, self.usage_speeds_kmh).efold_km, initial=np.inf))
-            except Exception as exc:
-                return (np.nan,) * len(OUTPUTS), f"failed: wear map: {type(exc).__name__}: {exc}"
         return (band.first_bifurcation_kmh, band.second_bifurcation_kmh, float(inside(band.sev_band_kmh)),
                 float(inside(band.hard_regions_kmh)), float(band.path == "fast"), efold), "ok"
+
+
+    def _efold(self, params) -> float | str:
+        """Shortest e-folding distance [km] of any order at the usage speeds, or the failure."""
+        from .wear_map import wear_map
+
+        try:
+            return float(np.nanmin(wear_map(params, self.usage_speeds_kmh).efold_km, initial=np.inf))
+        except Exception as exc:
+            return f"failed: wear map: {type(exc).__name__}: {exc}"
 
 
 def _spec_hash(params: Params, spec: FleetSpec) -> str:
@@ -472,7 +488,8 @@ def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", w
         reference = band_reference(bifurcation_diagram(nominal, spec.speed_range_kmh, **_FIXED_RANGE))
     solver = FastBand((reference,), speed_range_kmh=tuple(spec.speed_range_kmh))
     usage = tuple(u.speed_kmh for u in spec.usage if u.share > 0)
-    evaluator = FleetEvaluator(params, keys, solver, usage, wear=spec.mileage_km is not None)
+    evaluator = FleetEvaluator(params, keys, solver, usage, wear=spec.mileage_km is not None,
+                               band_every=spec.band_every)
     values = np.full((spec.samples, len(OUTPUTS)), np.nan)
     status: list[str] = []
     digest = _spec_hash(params, spec)
@@ -488,7 +505,7 @@ def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", w
             on_progress(done)
     for start in range(len(status), spec.samples, spec.checkpoint_every):
         chunk = X[start:start + spec.checkpoint_every]
-        results = map_batched(evaluator, list(chunk), backend=backend, workers=workers, scheduler=scheduler,
+        results = map_batched(evaluator, list(enumerate(chunk, start)), backend=backend, workers=workers, scheduler=scheduler,
                               batch_size=batch_size, on_progress=on_progress)
         values[start:start + len(chunk)] = [r[0] for r in results]
         status += [r[1] for r in results]
