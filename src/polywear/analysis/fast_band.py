@@ -383,6 +383,26 @@ def _rescaled(model, p_ref, p, guess, V, labels, ref_interval, interval, v_kmh):
     return replace(guess, nodes=u_new + ratio * (guess.nodes - u_ref))
 
 
+def _crosses_between(params, a_kmh: float, b_kmh: float, peak: bool) -> bool:
+    """Whether the largest growth rate's extremum between two grid speeds changes sign
+    (a negative local maximum that is positive, or a positive minimum that is negative):
+    a narrow band the grid missed. Bounded scalar search, as ``fast_linear_band`` does."""
+    from scipy.optimize import minimize_scalar
+
+    from .stability import equilibrium_eigenvalues
+
+    model = get_model(params.model)
+    p = model.pack(params)
+
+    def rate(V):
+        return float(equilibrium_eigenvalues(model, p, [V])[1].real.max())
+
+    sign = -1.0 if peak else 1.0
+    best = minimize_scalar(lambda V: sign * rate(V), bounds=(kmh_to_ms(a_kmh), kmh_to_ms(b_kmh)), method="bounded",
+                           options={"xatol": 1e-6})
+    return (rate(best.x) > 0.0) == peak
+
+
 @dataclass(frozen=True)
 class FastBand:
     """Picklable solver: ``FastBand(references, ...)(params) -> Band`` (fast path or fallback).
@@ -507,8 +527,9 @@ class FastBand:
         inner = r[1:-1]
         peak = (inner >= r[:-2]) & (inner >= r[2:]) & (inner <= 0.0)
         trough = (inner <= r[:-2]) & (inner <= r[2:]) & (inner > 0.0)
-        if np.any(peak | trough):
-            raise _Fallback("growth rate extremum of the wrong sign between grid points (narrow band?)")
+        for i in np.flatnonzero(peak | trough) + 1:
+            if _crosses_between(params, stab.speeds_kmh[i - 1], stab.speeds_kmh[i + 1], bool(peak[i - 1])):
+                raise _Fallback(f"a narrow band near {stab.speeds_kmh[i]:.1f} km/h, between grid speeds")
         return stab
 
     def _fold(self, model, p, ref, j) -> BranchPoint:
