@@ -73,6 +73,8 @@ def agreement(model: str, n: int, seed: int, amplitude_speeds=(80.0, 130.0)) -> 
         worst_edge, worst_amp = max(worst_edge, edge), max(worst_amp, amp)
         if edge > 1e-6:
             bad.append((i, f"edges differ by {edge:.2e}", fast.summary(), full.summary()))
+        elif amp > 1e-4:
+            bad.append((i, f"amplitudes differ by {amp:.2e} of the largest", fast.summary(), full.summary()))
     n_fast = paths["fast"]
     print(f"  samples {n}: fast path {n_fast}, fallback {n - n_fast}: {dict(reasons)}")
     print(f"  disagreements (fast path vs continuation): {len(bad)}; worst edge {worst_edge:.2e} relative, "
