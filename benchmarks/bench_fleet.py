@@ -135,28 +135,31 @@ def _fleet_reference(spec):
 
 
 def fleet(n: int) -> None:
-    spec = _fleet_spec(n)
-    reference = _fleet_reference(spec)
-    for backend, workers in (("serial", 1), ("processes", 2)):
-        t = time.perf_counter()
-        result = fleet_risk(Params(), spec, backend=backend, workers=workers, reference=reference)
-        dt = time.perf_counter() - t
-        s = result.summary()
-        print(f"tread1dof fleet of {n} on {backend} ({workers}): {dt:.1f} s = {1e3 * dt / n:.1f} ms per car; "
-              f"fast path {s['fast_path_share']:.1%}, risk {s['risk_probability']:.3f} {s['risk_ci']}; "
-              f"1e5 cars: ~{dt * 1e5 / n / 60:.0f} min")
+    """Whole bands for every car, and for every 100th (band_every = 100: the others get the
+    Hopf points and only the folds their risk needs), serial and on 2 local processes."""
+    reference = _fleet_reference(_fleet_spec(n))
+    for every, size in ((1, n // 10), (100, n)):
+        spec = _fleet_spec(size).model_copy(update={"band_every": every})
+        for backend, workers in (("serial", 1), ("processes", 2)):
+            t = time.perf_counter()
+            result = fleet_risk(Params(), spec, backend=backend, workers=workers, reference=reference)
+            dt = time.perf_counter() - t
+            s = result.summary()
+            print(f"tread1dof fleet of {size}, band_every {every}, {backend} ({workers}): {dt:.1f} s = "
+                  f"{1e3 * dt / size:.1f} ms per car; fast path {s['fast_path_share']:.1%}, "
+                  f"risk {s['risk_probability']:.3f} {s['risk_ci']}; 1e5 cars: ~{dt * 1e5 / size / 60:.0f} min")
 
 
 def dask(n: int) -> None:
     from distributed import LocalCluster
 
-    spec = _fleet_spec(n)
+    spec = _fleet_spec(n).model_copy(update={"band_every": 100})
     reference = _fleet_reference(spec)
     times = {}
     for workers in (1, 2):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, host="127.0.0.1", dashboard_address=None)
         try:
-            fleet_risk(Params(), _fleet_spec(4), backend="dask", scheduler=cluster.scheduler_address,
+            fleet_risk(Params(), _fleet_spec(8), backend="dask", scheduler=cluster.scheduler_address,
                        reference=reference)  # warm the workers (imports, numba caches)
             t = time.perf_counter()
             fleet_risk(Params(), spec, backend="dask", scheduler=cluster.scheduler_address, reference=reference)
