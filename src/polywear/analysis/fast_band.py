@@ -10,27 +10,26 @@ continues whole branches; the fast path solves the defining systems directly:
    Lyapunov coefficient (:func:`~polywear.analysis.stability.stability_analysis`).
 2. **Folds of cycles**: each fold of a *reference* (a solved nearby parameter set) is
    followed in the parameters along the straight line ``p(theta) = p_ref + theta (p -
-   p_ref)`` from ``theta = 0`` to 1: predictor ``V + dtheta dV/dtheta`` with the exact
-   derivative (left null vector of the collocation system,
-   :func:`~polywear.analysis.sensitivity.fold_speed_derivative`), corrector
-   Newton onto the new cycle branch, arclength probes on both sides until the speed
-   component of the tangent changes sign, then the continuation's bracketed secant. The first try is one step;
-   a step whose result misses the prediction by more than a fifth of the predicted
-   change is halved. At ``theta = 1`` the mesh is adapted to the fold orbit and the fold
-   re-located, as the continuation's mesh is adapted to its orbits.
+   p_ref)`` from ``theta = 0`` to 1. Predictor: the exact fold-speed gradient of the
+   reference (left null vector of the collocation system,
+   :func:`~polywear.analysis.sensitivity.fold_speed_derivative`), then secants.
+   Corrector (:func:`_relocate_fold`): Newton onto the new cycle branch, pseudo-arclength
+   steps towards the fold until the speed component of the tangent changes sign, secant
+   iteration inside that bracket. The first try is one step; a step whose fold misses the
+   prediction by more than a quarter of the predicted change is halved, a good one doubled.
 3. **Bands by label**: every end of the reference's SEV band, hard regions and
    stable-cycle intervals is labelled by the special point it sits at (Hopf point k, fold
    j, an end of the speed range); the sample's bands are the same intervals with its own
    speeds at the labels.
 4. **Amplitudes** at chosen speeds: Newton at fixed speed
    (:func:`~polywear.solvers.continuation.solve_at_speed`) from the reference's stable
-   cycle at that speed.
+   cycle at that speed (near a Hopf end rescaled by the square-root amplitude law).
 
 The fast path applies only while the topology is the reference's. It falls back to the
 full continuation, and says why (``Band.path``, ``Band.reason``), when: the number of
 Hopf points or any criticality differs (a band closes or opens, a Bautin point is
-crossed), a real eigenvalue crosses, the growth rate has an extremum of the wrong sign
-between grid points (a narrow band may hide there), a fold cannot be followed or its
+crossed), a real eigenvalue crosses, a narrow band lies between grid speeds (a
+growth-rate extremum of the wrong sign there, refined by a bounded search), a fold cannot be followed or its
 amplitude shrinks below ``min_fold_amplitude`` of the reference's (towards a Bautin
 point), a fold leaves the speed range, the order of the special speeds changes, or a
 cycle at a chosen speed is not found or is unstable. A reference whose bands have an
@@ -55,7 +54,8 @@ from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params
 from ..solvers.continuation import BranchPoint, ContinuationSettings, solve_at_speed
 
-__all__ = ["Band", "BandReference", "FastBand", "band_from_diagram", "band_reference"]
+__all__ = ["Band", "BandReference", "FastBand", "band_from_diagram", "band_reference", "fold_curvature"]
+
 
 def _fixed_range() -> dict:
     """Keyword that keeps the full diagram on the given speed range (where it can widen it):
