@@ -17,7 +17,13 @@ import numpy as np
 from numba import njit
 from numpy import sin
 
-from ..physics.lugre import bristle_rate, bristle_rate_partials, real_sign, stribeck, stribeck_dv
+from ..physics.lugre import (
+    bristle_rate,
+    bristle_rate_partials,
+    real_sign,
+    stribeck,
+    stribeck_dv,
+)
 from ._axle4dof_generated import (
     _C,
     _C_ALPHA,
@@ -51,7 +57,7 @@ from ._axle4dof_generated import (
     _sliding_partials,
 )
 
-__all__ = ["rhs", "jac", "dfdv", "aux", "running_equilibrium", "preload", "rhs_python"]
+__all__ = ["aux", "dfdv", "jac", "preload", "rhs", "rhs_python", "running_equilibrium"]
 
 _NQ = 4
 """Generalized coordinates alpha, beta, gamma, x (then their rates)."""
@@ -205,7 +211,7 @@ def _evaluate(u, V, p, M, Q, GF, GN):
 @njit(cache=True)
 def rhs(u, V, p, out):
     """du/dt [rad/s, rad/s, rad/s, m/s, rad/s^2, rad/s^2, rad/s^2, m/s^2, m/s]."""
-    zero, M, Q, GF, GN = _workspace(u, V, p)
+    _zero_value, M, Q, GF, GN = _workspace(u, V, p)
     zd = _evaluate(u, V, p, M, Q, GF, GN)[2]
     _solve(M, Q)
     for i in range(_NQ):
@@ -278,7 +284,7 @@ def jac(u, V, p, out):
 def dfdv(u, V, p, out):
     """df/dV [per m/s]: through v_r, the wheel-spin rate V/R_e and the running preloads."""
     zero, M, Q, GF, GN = _workspace(u, V, p)
-    vr, g, zd, force, load, clamped = _evaluate(u, V, p, M, Q, GF, GN)
+    vr, g, _zd, _force, load, _clamped = _evaluate(u, V, p, M, Q, GF, GN)
     dvr = np.empty(2 * _NQ, dtype=M.dtype)
     dvr_dv = _sliding_partials(u, V, p, dvr)
     _solve(M, Q)
@@ -305,7 +311,7 @@ def dfdv(u, V, p, out):
 def aux(u, V, p, out):
     """Sliding velocity v_r [m/s], friction force F [N], normal load N [N], contact lost [0/1]."""
     zero, M, Q, GF, GN = _workspace(u, V, p)
-    vr, g, zd, force, load, clamped = _evaluate(u, V, p, M, Q, GF, GN)
+    vr, _g, _zd, force, load, clamped = _evaluate(u, V, p, M, Q, GF, GN)
     out[0] = vr
     out[1] = force
     out[2] = load

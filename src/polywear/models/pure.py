@@ -13,8 +13,8 @@ import re
 
 __all__ = ["pure_python_namespace"]
 
-_DECORATOR = re.compile(r"^@njit\(.*\)\s*$", re.M)
-_RELATIVE_IMPORT = re.compile(r"^from \.+\S* import (?:\([^)]*\)|.*)$", re.M)
+_DECORATOR = re.compile(r"^@njit\(.*\)\s*$", re.MULTILINE)
+_RELATIVE_IMPORT = re.compile(r"^from \.+\S* import (?:\([^)]*\)|.*)$", re.MULTILINE)
 """A package-relative import, on one line or parenthesized over several."""
 
 
@@ -25,5 +25,5 @@ def pure_python_namespace(*modules) -> dict:
         source = inspect.getsource(module)
         source = _DECORATOR.sub("", source)
         source = _RELATIVE_IMPORT.sub("", source)
-        exec(compile(source, f"<pure python {module.__name__}>", "exec"), namespace)
+        exec(compile(source, f"<pure python {module.__name__}>", "exec"), namespace)  # noqa: S102 (our own source)
     return namespace
