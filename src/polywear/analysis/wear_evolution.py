@@ -436,18 +436,18 @@ class EvolutionResult:
         if ax is None:
             _, ax = plt.subplots(subplot_kw={"projection": "polar"}, figsize=(5, 5))
         d = self.distance_km
-        chosen = distances_km if distances_km is not None else d[np.linspace(0, d.size - 1, 4).astype(int)]
+        chosen = distances_km if distances_km is not None else d[np.unique(np.linspace(0, d.size - 1, 4).astype(int))]
         pts = self.params.wear.profile_points
         phi = 2.0 * math.pi * np.arange(pts + 1) / pts
         depth = self.depth_mm
-        scale = exaggeration or (0.3 / max(float(depth.max()), 1e-12))  # deepest shown as 30 % of the radius
+        scale = exaggeration or (0.1 / max(float(depth.max()), 1e-12))  # deepest shown as 10 % of the radius
         artists = []
         for dist in chosen:
             i = int(np.argmin(np.abs(d - dist)))
             w = profile_samples(self.harmonics[i], pts) * 1e3
             r = 1.0 - scale * (w - w.min())
             artists += ax.plot(phi, np.append(r, r[0]), lw=1.0, label=f"{d[i]:,.0f} km")
-        ax.set_ylim(0.6, 1.02)
+        ax.set_ylim(0.75, 1.01)  # the centre is at 75 % of the radius: the shape, magnified
         ax.set_yticklabels([])
         ax.set_title(f"worn tread (depth x{scale:.3g} of the radius per mm)", fontsize=9)
         ax.legend(fontsize=7, loc="lower right")
