@@ -603,10 +603,12 @@ class FastBand:
             if guess is None:
                 raise _Fallback(f"no reference cycle to start from at {v:g} km/h")
             V = kmh_to_ms(v)
-            point = solve_at_speed(model, p, guess, V, self.settings)
-            if point is None:  # near a Hopf end: rescale the guess by the square-root law
-                guess = _rescaled(model, ref.p, p, guess, V, ref.stable_labels[k], ref_stable[k], stable[k], v)
-                point = None if guess is None else solve_at_speed(model, p, guess, V, self.settings)
+            # the guess rescaled by the square-root law of the nearest Hopf end (ratio ~ 1 far
+            # from it; near it Newton from the reference's tiny cycle fails), else as it is
+            scaled = _rescaled(model, ref.p, p, guess, V, ref.stable_labels[k], ref_stable[k], stable[k], v)
+            point = None if scaled is None else solve_at_speed(model, p, scaled, V, self.settings)
+            if point is None:
+                point = solve_at_speed(model, p, guess, V, self.settings)
             if point is None or not point.stable:
                 raise _Fallback(f"stable cycle at {v:g} km/h not found from the reference's")
             amplitudes.append(float(point.orbit.amplitude()[ix]))
