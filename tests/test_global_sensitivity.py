@@ -344,7 +344,7 @@ def test_study_table_round_trips_through_toml(tmp_path):
     ({"study.method": "fast"}, "'sobol' or 'morris'"),
     ({"study.outputs": "amplitude"}, "'hopf' or 'bifurcation'"),
     ({"study.confidence": 1.0}, "less than 1"),
-    ({"study.bootstrap": 5}, "at least 10"),
+    ({"study.bootstrap": 5}, "between 10 and"),
     ({"study.seed": -1}, ">= 0"),
     ({"study.speed_range_kmh": [300, 20]}, "0 < low < high"),
     ({"study.parameters": [{"key": "tread.mass", "low": 1, "high": 2}]}, "unknown or non-numeric key"),

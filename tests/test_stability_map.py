@@ -64,7 +64,7 @@ def test_toe_map_curves_follow_one_over_sin_toe(toe_map, nominal):
 
 @pytest.mark.parametrize("toe", [0.35, 0.8, 1.2])
 def test_toe_map_bands_match_one_parameter_diagrams(toe_map, toe):
-    diagram = bifurcation_diagram(perturbed(Params(), TOE, toe))
+    diagram = bifurcation_diagram(perturbed(Params(), TOE, toe), extend=False)  # the map's window
     bands = toe_map.bands_at(toe)
     assert np.allclose(_flat(bands["linear"]), _flat(diagram.linear_band_kmh), rtol=1e-8)
     assert np.allclose(_flat(bands["sev"]), _flat(diagram.sev_band_kmh), rtol=1e-5)
@@ -124,7 +124,7 @@ def test_bautin_point_of_the_mu_static_map(mu_map, nominal):
 
 @pytest.mark.parametrize("mu", [0.63, 0.75, 1.1])
 def test_mu_static_map_bands_match_one_parameter_diagrams(mu_map, mu):
-    diagram = bifurcation_diagram(perturbed(Params(), MU, mu))
+    diagram = bifurcation_diagram(perturbed(Params(), MU, mu), extend=False)  # the map's window
     bands = mu_map.bands_at(mu)
     assert np.allclose(_flat(bands["linear"]), _flat(diagram.linear_band_kmh), rtol=1e-8)
     assert np.allclose(_flat(bands["sev"]), _flat(diagram.sev_band_kmh), rtol=1e-5)
