@@ -383,6 +383,12 @@ def test_simulate_says_no_oscillation_for_a_decaying_motion():
     assert "no oscillation" in out and "Hz" not in out
 
 
+def test_simulate_unsettled_motion_is_not_given_an_amplitude():
+    """Safe car, 1 s: the slow decay has no whole cycle yet; say so instead of 'amplitude nan mm'."""
+    code, out, err = run_main(["simulate", "-s", "operating.toe_deg=0.05", "-q"])
+    assert code == 0 and "not settled" in out and "nan" not in out
+
+
 # -- study --scheduler -----------------------------------------------------------------------
 def test_unreachable_scheduler_fails_within_the_connect_timeout():
     import socket

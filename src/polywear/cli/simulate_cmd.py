@@ -63,6 +63,8 @@ def _status(run) -> str:
         head += " (the tire lost contact with the road)"
     if st.outcome == "equilibrium":
         return f"{head}: no oscillation, the disturbance decays"
+    if not math.isfinite(st.amplitude[x]):
+        return f"{head}: not settled and no whole cycle to measure (a longer --duration may settle it)"
     freq = f", {st.frequency:.2f} Hz, polygon order {run.polygon_order:.2f}" if math.isfinite(st.frequency) else ""
     return f"{head}, x amplitude {st.amplitude[x] * 1e3:.4g} mm{freq}"
 
