@@ -217,3 +217,16 @@ def test_combination_moves_along_the_normalized_sensitivities(diagram):
     assert math.log(toe / 0.5) / math.log(scale) == pytest.approx(S["operating.toe_deg"] / S["adhesion_scale"], rel=1e-9)
     p = perturbed(perturbed(Params(), "operating.toe_deg", toe), "adhesion_scale", scale)
     assert not any(a < RANGE[1] + MARGIN and b > RANGE[0] - MARGIN for a, b in bifurcation_diagram(p).sev_band_kmh)
+
+
+def test_open_band_is_not_printed_as_the_range_limit():
+    """toe 0.1 deg: the band runs past the 1000 km/h ceiling; text and JSON say 'open', never 1000."""
+    params = with_updates(Params(), {"operating.toe_deg": 0.1})
+    result = clear_operating_range(params, keys=("operating.toe_deg",), operating_range_kmh=(80.0, 130.0))
+    text = "\n".join(result.lines())
+    assert "open above" in text and "1000.0" not in text
+    first, second = result.summary()["original_sev_band_kmh"][0]
+    # first bifurcation speed from the default's first Hopf speed and the 1/sin(toe) law
+    v_h1 = bifurcation_diagram(Params()).hopf_points[0].speed_kmh
+    assert second is None
+    assert first == pytest.approx(v_h1 * math.sin(math.radians(0.5)) / math.sin(math.radians(0.1)), rel=1e-6)

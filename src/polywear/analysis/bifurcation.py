@@ -181,11 +181,19 @@ class BifurcationDiagram:
         return [edge for edge, hit in (("lower", sev and sev[0][0] <= lo + tol),
                                        ("upper", sev and sev[-1][1] >= hi - tol)) if hit]
 
-    def _bounds(self, intervals) -> list[list]:
-        """Intervals for the summary, a bound at a limit of the analysed range as None (a cut, not a bifurcation)."""
+    def open_bounds(self, intervals) -> list[list]:
+        """Intervals [km/h] for summaries, a bound at a limit of the analysed range as None (a cut, not a bifurcation)."""
         lo, hi = self.speed_range_kmh
         tol = 1e-9 * hi
         return [[None if a <= lo + tol else a, None if b >= hi - tol else b] for a, b in intervals]
+
+    def band_text(self, intervals=None) -> str:
+        """Intervals (default: the SEV band) as text, '290.4-open above 1000 km/h' at a cut end; 'none' if empty."""
+        lo, hi = self.speed_range_kmh
+        pieces = [f"{f'{a:.1f}' if a is not None else f'open below {lo:g}'}-"
+                  f"{f'{b:.1f}' if b is not None else f'open above {hi:g}'}"
+                  for a, b in self.open_bounds(self.sev_band_kmh if intervals is None else intervals)]
+        return f"{', '.join(pieces)} km/h" if pieces else "none"
 
     def trigger_amplitude(self, state: str = "x") -> list[dict]:
         """Per hard region: range of the unstable-cycle amplitude (the disturbance that starts SEV),
@@ -254,13 +262,13 @@ class BifurcationDiagram:
             "period_doublings": [ms_to_kmh(p.speed) for label, p in self.special if label == "PD"],
             "torus_bifurcations": [ms_to_kmh(p.speed) for label, p in self.special if label == "NS"],
             "real_eigenvalue_crossings_kmh": list(self.stability.real_crossings_kmh),
-            "linear_band_kmh": self._bounds(self.linear_band_kmh),
-            "divergence_kmh": self._bounds(self.divergence_kmh),
-            "sev_band_kmh": self._bounds(sev),
+            "linear_band_kmh": self.open_bounds(self.linear_band_kmh),
+            "divergence_kmh": self.open_bounds(self.divergence_kmh),
+            "sev_band_kmh": self.open_bounds(sev),
             "first_bifurcation_speed_kmh": sev[0][0] if sev and "lower" not in open_at else None,
             "second_bifurcation_speed_kmh": sev[-1][1] if sev and "upper" not in open_at else None,
-            "hard_regions_kmh": self._bounds(self.hard_regions_kmh),
-            "trigger_amplitude": [{**t, "speed_range_kmh": self._bounds([t["speed_range_kmh"]])[0]}
+            "hard_regions_kmh": self.open_bounds(self.hard_regions_kmh),
+            "trigger_amplitude": [{**t, "speed_range_kmh": self.open_bounds([t["speed_range_kmh"]])[0]}
                                   for t in self.trigger_amplitude("x")],
             "branches": self.branch_info,
             "band_edges_from_failed_branches_kmh": self.failed_band_edges_kmh(),

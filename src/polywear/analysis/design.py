@@ -163,8 +163,11 @@ class DesignOption:
 
     def text(self, max_relative_change: float | None = None) -> str:
         """One line: the signed change with units, the bound flag and what it does to the band."""
-        band = ", ".join(f"{a:.1f}-{b:.1f}" for a, b in self.sev_band_kmh)
-        after = f"SEV band {band} km/h" if band else "no SEV band"
+        if self.diagram is not None:
+            band = self.diagram.band_text(self.sev_band_kmh) if self.sev_band_kmh else ""
+        else:
+            band = ", ".join(f"{a:.1f}-{b:.1f} km/h" for a, b in self.sev_band_kmh)
+        after = f"SEV band {band}" if band else "no SEV band"
         if self.achieved:
             flag = "" if self.within_bound else (
                 f", beyond the ±{max_relative_change * 100:g} % bound" if max_relative_change is not None else ", beyond the bound")
@@ -186,7 +189,8 @@ class DesignOption:
             "achieved": bool(self.achieved),
             "within_bound": bool(self.within_bound),
             "outcome": self.outcome,
-            "sev_band_kmh": [list(b) for b in self.sev_band_kmh],
+            "sev_band_kmh": (self.diagram.open_bounds(self.sev_band_kmh) if self.diagram is not None
+                             else [list(b) for b in self.sev_band_kmh]),
             "value_changes": self.value_changes(),
             "change": self.change_text(),
             "note": self.note,
@@ -220,7 +224,7 @@ class DesignResult:
             "operating_range_kmh": list(self.operating_range_kmh),
             "margin_kmh": self.margin_kmh,
             "max_relative_change": self.max_relative_change,
-            "original_sev_band_kmh": [list(b) for b in self.original.sev_band_kmh],
+            "original_sev_band_kmh": self.original.open_bounds(self.original.sev_band_kmh),
             "reason": self.reason,
             "not_in_model": list(self.skipped),
             "options": [{**o.summary(), "text": o.text(self.max_relative_change)} for o in self.options],
@@ -238,7 +242,9 @@ class DesignResult:
                 rows.append({"rank": rank, "option": " + ".join(o.keys), "category": o.category, "param": k,
                              "unit": unit, "nominal": n, "value": v, "relative_change": r, "achieved": o.achieved,
                              "within_bound": o.within_bound, "outcome": o.outcome,
-                             "sev_band_kmh": "; ".join(f"{a:.3f}-{b:.3f}" for a, b in o.sev_band_kmh), "note": o.note})
+                             "sev_band_kmh": (o.diagram.band_text(o.sev_band_kmh) if o.diagram is not None and o.sev_band_kmh
+                                              else "; ".join(f"{a:.3f}-{b:.3f}" for a, b in o.sev_band_kmh)),
+                             "note": o.note})
         return pd.DataFrame(rows)
 
     def save(self, path) -> None:
@@ -255,7 +261,7 @@ class DesignResult:
     def lines(self) -> list[str]:
         """The result as text: the band now, then the options by group, ranked."""
         lo, hi = self.operating_range_kmh
-        band = ", ".join(f"{a:.1f}-{b:.1f} km/h" for a, b in self.original.sev_band_kmh) or "none"
+        band = self.original.band_text()
         out = [f"SEV band now: {band}; operating range {lo:g}-{hi:g} km/h (kept clear by {self.margin_kmh:g} km/h)"]
         if self.reason:
             return out + [self.reason]
