@@ -98,3 +98,28 @@ def test_axle4dof_samples_agree_with_full_continuation():
         paths.append(fast.path)
         assert_agrees(fast, solver.full(params))
     assert paths.count("fast") >= 2, paths
+
+
+@pytest.mark.slow
+def test_hard_region_the_continuation_missed_is_confirmed_by_simulation(tread_solver):
+    """A tread1dof car (sample 36 of the 200-sample agreement run) where the continuation
+    stepped over the fold and reported no hard region: the fast path finds the fold at
+    218.68 km/h. Time integration at 210 km/h decides: a 0.1 mm start decays to steady
+    rolling, a 2 mm start settles on the stable cycle whose amplitude the fast path gives."""
+    from polywear.analysis.simulation import simulate
+
+    base, _ = tread_solver
+    car = with_updates(base, {
+        "tread.lateral_stiffness_n_per_m": 1016870.045, "tread.lateral_damping_ns_per_m": 86.86956487,
+        "operating.toe_deg": 0.4860230639, "friction.mu_static": 0.823947039, "tread.mass_kg": 0.9337926137,
+        "operating.vertical_load_n": 3982.582287,
+    })
+    reference = band_reference(bifurcation_diagram(base, **_FIXED_RANGE), (210.0,))
+    band = FastBand((reference,), amplitude_speeds_kmh=(210.0,))(car)
+    assert band.path == "fast", band.reason
+    ((lo, hi),) = band.hard_regions_kmh
+    assert lo < 210.0 < hi and hi == pytest.approx(218.679, abs=1e-3)
+    small = simulate(car, 210.0, 3.0, disturbance=1e-4).steady
+    large = simulate(car, 210.0, 3.0, disturbance=2e-3).steady
+    assert small.outcome == "equilibrium" and large.outcome == "cycle"
+    assert large.amplitude[0] == pytest.approx(band.amplitude_x_m[0], rel=2e-3)

@@ -565,6 +565,9 @@ class FastBand:
         return fold
 
     def _fast(self, model, params, p, ref) -> Band:
+        if ref.band.amplitude_speeds_kmh != tuple(float(v) for v in self.amplitude_speeds_kmh):
+            raise ValueError(f"amplitude speeds {self.amplitude_speeds_kmh} differ from the reference's "
+                             f"{ref.band.amplitude_speeds_kmh}")
         lo, hi = self.speed_range_kmh
         stab = self._hopf(params, ref)
         hopf = tuple(h.speed_kmh for h in stab.hopf_points)
