@@ -24,6 +24,11 @@ def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: f
     import matplotlib.pyplot as plt
 
     from .analysis.wear_evolution import evolve
+    from .io import atomic_path
+
+    def save_result(result, name):
+        with atomic_path(out_dir / name) as tmp:
+            result.save(tmp)
     from .analysis.wear_map import wear_map
 
     say = progress or (lambda message: None)
@@ -31,7 +36,7 @@ def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: f
     lo, hi = speed_range_kmh
     speeds = np.linspace(lo, hi, 300)
     m = wear_map(params, speeds)
-    m.save(out_dir / "wear_map.nc")
+    save_result(m, "wear_map.nc")
     fig, ax = plt.subplots(figsize=(9, 5.5))
     m.plot(ax, sev_band_kmh=sev_band_kmh)
     save(fig, "wear_map.png", "Wear-stability map: growth of every polygon order over speed (Campbell form); "
@@ -47,7 +52,7 @@ def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: f
             say(f"polygonal wear: evolution over {evolution_km:,.0f} km, {label}")
             result = evolve(params, evolution_km, cycle, step_km=step_km)
             stem = "wear_evolution_operating" if label == "operating speed" else "wear_evolution_cycle"
-            result.save(out_dir / f"{stem}.nc")
+            save_result(result, f"{stem}.nc")
             fig, ax = plt.subplots(figsize=(8, 4.5))
             result.plot(ax)
             save(fig, f"{stem}.png", f"Worn depth and dominant order against distance, {label}")
