@@ -433,16 +433,18 @@ def _finer_mesh(model, p, coll: Collocation, orbit: PeriodicOrbit, settings: Con
 
 def _refine_step(model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale,
                  notes: list[str]):
-    """Re-solve a step whose trivial multiplier is off until it is resolved: first on a mesh
-    adapted afresh to the new orbit (the periodic adaptation lags behind, and aligning kinks
-    moves mesh points), then on meshes with twice the intervals up to ``settings.max_intervals``.
-    Stops early when Newton fails (``out`` None)."""
+    """Re-solve a converged step whose trivial multiplier is off, until it is resolved: first
+    on a mesh adapted afresh to the new orbit (the periodic adaptation lags behind, and
+    aligning kinks moves mesh points), then on meshes with twice the intervals up to
+    ``settings.max_intervals``. Stops when doubling does not halve the error (then it is
+    not the mesh: a strongly unstable cycle), or Newton fails on the finer mesh. Returns
+    the attempt with the smallest error, as ``(stepper, X0, t0, phase_ref, out)``."""
+    best = (stepper, X0, t0, phase_ref, out)
     factor = 1
-    while out is not None and not stability_decided(out[3], settings.multiplier_tol) \
-            and factor * stepper.coll.N <= settings.max_intervals:
+    while not stability_decided(best[4][3], settings.multiplier_tol) and factor * best[0].coll.N <= settings.max_intervals:
+        stepper, X0, t0, phase_ref, out = best
         error = trivial_error(out[3])
         mesh = _finer_mesh(model, p, stepper.coll, stepper.coll.unpack(out[0]), settings, factor)
-        factor = 2
         stepper, X0, t0, phase_ref = _remesh(model, p, stepper, mesh, X0, t0, settings, scales, speed_scale,
                                              period_scale)
         out = stepper.correct(X0, t0, ds, phase_ref)
@@ -450,9 +452,15 @@ def _refine_step(model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales
             stepper, X0, t0, phase_ref, out = _align_to_kinks(
                 model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale
             )
-        notes.append(f"trivial multiplier error {error:.1e} near {3.6 * X0[-1]:.3f} km/h: mesh adapted anew, "
-                     f"{stepper.coll.N} intervals")
-    return stepper, X0, t0, phase_ref, out
+        new_error = np.inf if out is None else trivial_error(out[3])
+        notes.append(f"trivial multiplier error {error:.1e} near {3.6 * X0[-1]:.3f} km/h: mesh adapted anew with "
+                     f"{stepper.coll.N} intervals, error {new_error:.1e}")
+        if new_error < error:
+            best = (stepper, X0, t0, phase_ref, out)
+        if factor == 2 and not new_error < 0.5 * error:
+            break
+        factor = 2
+    return best
 
 
 def _period_detail(model, p, orbit: PeriodicOrbit, hopf_period: float) -> str:
