@@ -699,8 +699,8 @@ def bifurcation_diagram(
                 "end_reason": branch.end_reason,
                 "recoveries": list(branch.recoveries),
                 "n_points": len(branch.points),
-                "max_trivial_multiplier_error": max((pt.trivial_multiplier_error for pt in branch.points if pt.resolved),
-                                                    default=0.0),
+                "max_trivial_multiplier_error": max(
+                    (pt.trivial_multiplier_error for pt in branch.points if pt.resolved), default=0.0),
                 "n_unresolved_points": sum(not pt.resolved for pt in branch.points),
             }
         )

@@ -307,9 +307,9 @@ def continue_from_hopf(
             if ds < settings.ds_min:
                 if 2 * c.N <= settings.max_intervals:
                     # rescue: the previous point on a finer adapted, kink-aligned mesh, steps anew
+                    finer = _adapted_mesh(model, p, c, c.unpack(X0), settings, 2 * c.N)
                     stepper, X0, t0, phase_ref = _remesh(
-                        model, p, stepper, _finer_mesh(model, p, c, c.unpack(X0), settings), X0, t0, settings,
-                        scales, speed_scale, period_scale,
+                        model, p, stepper, finer, X0, t0, settings, scales, speed_scale, period_scale
                     )
                     branch.recoveries.append(
                         f"Newton failed beyond {last_kmh():.3f} km/h: mesh refined to {stepper.coll.N} intervals")
@@ -359,8 +359,13 @@ def continue_from_hopf(
             # scales never shrink and follow each state's excursion from the Hopf equilibrium
             scales = np.maximum(scales, np.abs(orbit.nodes - hopf.u).max(axis=0))
             branch.scales = scales
+            # a mesh refined by a rescue is halved again once the last points are resolved 100x better
+            recent = branch.points[-settings.adapt_every:]
+            coarser = c.N > settings.n_intervals and all(
+                pt.resolved and pt.trivial_multiplier_error < 1e-2 * settings.multiplier_tol for pt in recent)
+            n_new = max(settings.n_intervals, c.N // 2) if coarser else c.N
             stepper, X0, t0, phase_ref = _remesh(
-                model, p, stepper, _finer_mesh(model, p, c, orbit, settings, factor=1), X0, t0, settings, scales,
+                model, p, stepper, _adapted_mesh(model, p, c, orbit, settings, n_new), X0, t0, settings, scales,
                 speed_scale, period_scale
             )
     else:
@@ -423,11 +428,11 @@ def trivial_error(multipliers: np.ndarray, cluster: float = 1e-2) -> float:
     return float(d[i])
 
 
-def _finer_mesh(model, p, coll: Collocation, orbit: PeriodicOrbit, settings: ContinuationSettings,
-                factor: int = 2) -> np.ndarray:
-    """``factor`` times the intervals, equidistributed for ``orbit`` (AUTO's rule), kinks on mesh points
+def _adapted_mesh(model, p, coll: Collocation, orbit: PeriodicOrbit, settings: ContinuationSettings,
+                  n_intervals: int) -> np.ndarray:
+    """``n_intervals`` intervals equidistributed for ``orbit`` (AUTO's rule), kinks on mesh points
     (with ``settings.align_kinks``)."""
-    mesh = coll.adapted_mesh(orbit, factor * coll.N)
+    mesh = coll.adapted_mesh(orbit, n_intervals)
     return _with_kinks(mesh, switching_times(model, p, orbit)) if settings.align_kinks else mesh
 
 
@@ -441,10 +446,11 @@ def _refine_step(model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales
     the attempt with the smallest error, as ``(stepper, X0, t0, phase_ref, out)``."""
     best = (stepper, X0, t0, phase_ref, out)
     factor = 1
-    while not stability_decided(best[4][3], settings.multiplier_tol) and factor * best[0].coll.N <= settings.max_intervals:
+    while (not stability_decided(best[4][3], settings.multiplier_tol)
+           and factor * best[0].coll.N <= settings.max_intervals):
         stepper, X0, t0, phase_ref, out = best
         error = trivial_error(out[3])
-        mesh = _finer_mesh(model, p, stepper.coll, stepper.coll.unpack(out[0]), settings, factor)
+        mesh = _adapted_mesh(model, p, stepper.coll, stepper.coll.unpack(out[0]), settings, factor * stepper.coll.N)
         stepper, X0, t0, phase_ref = _remesh(model, p, stepper, mesh, X0, t0, settings, scales, speed_scale,
                                              period_scale)
         out = stepper.correct(X0, t0, ds, phase_ref)
