@@ -31,7 +31,7 @@ from polywear.analysis.global_sensitivity import DEFAULT_KEYS, sample_params
 from polywear.params import Params, get_value, with_updates
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from tests.test_fast_band import _edges  # noqa: E402  (the test's flattening of the bands)
+from tests.test_fast_band import _edges  # the test's flattening of the bands
 
 
 def _samples(base, n, seed):

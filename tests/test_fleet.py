@@ -12,8 +12,15 @@ from scipy import stats
 
 from polywear.analysis.bifurcation import bifurcation_diagram
 from polywear.analysis.fast_band import _FIXED_RANGE, band_reference
-from polywear.analysis.fleet import FleetResult, FleetSpec, fleet_risk, load_fleet_spec, main_effects, sample_fleet
-from polywear.params import Params, ParameterError
+from polywear.analysis.fleet import (
+    FleetResult,
+    FleetSpec,
+    fleet_risk,
+    load_fleet_spec,
+    main_effects,
+    sample_fleet,
+)
+from polywear.params import ParameterError, Params
 
 from .cli_runner import run_main
 

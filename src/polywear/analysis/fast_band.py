@@ -309,10 +309,10 @@ def _relocate_fold(model, p, guess: BranchPoint, speed: float, scales, settings,
     limit = MAX_STEP  # halved at every failed step, grown by half at every good one
     step = float(np.clip(-1.2 * g / slope, -limit, limit))
     bracket = None
+    start = c.unpack(X)  # phase reference of the steps from X (X moves only while marching)
     for _ in range(MAX_MARCH):
         if abs(g) < settings.fold_tol:
             return best
-        start = c.unpack(X) if bracket is None else start
         if bracket is None:
             nxt = stepper.correct(X, t, step, start)
             if nxt is None:
@@ -331,6 +331,7 @@ def _relocate_fold(model, p, guess: BranchPoint, speed: float, scales, settings,
                 continue
             slope = (g_new - g) / step
             X, t, g = nxt[0], nxt[1], g_new
+            start = c.unpack(X)
             if slope == 0.0 or -g / slope * np.sign(step) < 0:  # moving away from the fold: turn round
                 step = -float(np.clip(2.0 * step, -limit, limit))
             else:

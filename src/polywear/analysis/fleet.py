@@ -43,7 +43,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from .. import __version__
-from ..params import ADHESION_SCALE, Params, ParameterError, get_value, to_toml
+from ..params import ADHESION_SCALE, ParameterError, Params, get_value, to_toml
 
 __all__ = ["FleetParameter", "FleetUsage", "FleetSpec", "load_fleet_spec", "sample_fleet", "FleetEvaluator",
            "FleetResult", "fleet_risk"]
