@@ -256,6 +256,21 @@ def test_ctrl_c_in_compiled_integration(tmp_path):
     assert err.strip() == "interrupted"
 
 
+def test_ctrl_c_while_the_command_line_starts(tmp_path):
+    """SIGINT during the imports (before main() runs): still one line and exit 130."""
+    proc = subprocess.Popen([str(POLYWEAR), "stability", "-q"], cwd=tmp_path, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    # Python itself starts in about 20 ms of CPU time; importing typer, click, rich and
+    # the package takes several times longer: 60 ms falls inside those imports
+    deadline = time.monotonic() + 30.0
+    while _cpu_seconds(proc.pid) < 0.06:
+        assert proc.poll() is None and time.monotonic() < deadline
+        time.sleep(0.002)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    _assert_interrupted(proc.returncode, out, err, tmp_path, set())
+
+
 @pytest.mark.slow
 def test_ctrl_c_with_worker_processes(tmp_path):
     """Ctrl-C to the whole process group during a study on local worker processes."""
