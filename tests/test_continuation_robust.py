@@ -111,6 +111,27 @@ def test_failed_branch_in_the_text_output(capsys):
     assert "FAILED" in line and f"{branch.end_speed * 3.6:.3f} km/h" in line and "maximum number of steps" in line
 
 
+@pytest.mark.parametrize("overrides, fold_kmh", [
+    # samples 36 (tread1dof) and 33 (axle4dof) of the fleet agreement run (docs/fleet.md): the
+    # branch used to step from before the fold onto the hard Hopf point, reporting no fold and
+    # no hard region; the fold speeds are the fast path's (an independent fold solver)
+    (["tread.lateral_stiffness_n_per_m=1016870.045", "tread.lateral_damping_ns_per_m=86.86956487",
+      "operating.toe_deg=0.4860230639", "friction.mu_static=0.823947039", "tread.mass_kg=0.9337926137",
+      "operating.vertical_load_n=3982.582287"], 218.679),
+    (["model=axle4dof", "tread.lateral_stiffness_n_per_m=1091200.975", "tread.lateral_damping_ns_per_m=79.32462911",
+      "operating.toe_deg=0.5416492073", "operating.camber_deg=-1.007150486", "friction.mu_static=0.949432896",
+      "tread.mass_kg=0.9341128655", "operating.vertical_load_n=3798.711896"], 150.38),
+], ids=["tread1dof", "axle4dof"])
+def test_a_fold_just_before_a_hopf_point_is_not_stepped_over(overrides, fold_kmh):
+    d = bifurcation_diagram(load_params(overrides=overrides), extend=False)
+    (fold,) = d.folds
+    assert fold.speed * 3.6 == pytest.approx(fold_kmh, abs=1e-2)
+    ((lo, hi),) = d.hard_regions_kmh
+    assert lo == pytest.approx(d.hopf_points[-1].speed_kmh) and hi == pytest.approx(fold.speed * 3.6)
+    (branch,) = d.branches
+    assert branch.end is BranchEnd.HOPF_REACHED
+
+
 def test_defaults_do_not_need_rescue():
     """On the default tire the multipliers are resolved on the first mesh: no refinement, no failure."""
     d = bifurcation_diagram(load_params(overrides=[]), (20.0, 300.0), extend=False)

@@ -72,6 +72,10 @@ class ContinuationSettings:
     (``BranchEnd.MULTIPLIER_CHECK_LOST``)."""
     max_intervals: int = 320
     """Finest mesh the rescue of a step may use (mesh intervals)."""
+    hopf_approach_step: float = 1e-4
+    """A step that passes through zero amplitude (onto another Hopf point) is retried with
+    half the step until the step is this short, so that a fold just before the Hopf point
+    is not stepped over; then the branch ends there (``BranchEnd.HOPF_REACHED``)."""
     max_period_factor: float = 10.0
     """The branch ends (``BranchEnd.PERIOD_LIMIT``) when the period exceeds this multiple
     of the period at its Hopf point: the cycles approach an orbit of infinite period
@@ -324,6 +328,9 @@ def continue_from_hopf(
         orbit = c.unpack(X)
         harmonic = _first_harmonic(orbit, scales)
         if prev_harmonic is not None and np.real(np.vdot(prev_harmonic, harmonic)) < 0:
+            if ds > settings.hopf_approach_step:  # approach in shorter steps: a fold may lie just before it
+                ds *= 0.5
+                continue
             finish(BranchEnd.HOPF_REACHED)
             break
         point = BranchPoint(orbit, multipliers, t, iterations, resolved=resolved)
