@@ -103,8 +103,8 @@ def test_axle4dof_samples_agree_with_full_continuation():
 @pytest.mark.slow
 def test_hard_region_the_continuation_missed_is_confirmed_by_simulation(tread_solver):
     """A tread1dof car (sample 36 of the 200-sample agreement run) where the continuation
-    stepped over the fold and reported no hard region: the fast path finds the fold at
-    218.68 km/h. Time integration at 210 km/h decides: a 0.1 mm start decays to steady
+    stepped over the fold and reported no hard region (until 613c3bb): the fast path finds
+    the fold at 218.68 km/h. Time integration at 210 km/h decides: a 0.1 mm start decays to steady
     rolling, a 2 mm start settles on the stable cycle whose amplitude the fast path gives."""
     from polywear.analysis.simulation import simulate
 
