@@ -17,6 +17,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, field_validator, model_validator
 
+from .units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH, MAX_SPEED_KMH
+
 __all__ = [
     "ParameterError",
     "Params",
@@ -37,11 +39,11 @@ __all__ = [
     "to_toml",
     "default_toml",
     "flat_items",
+    "DEFAULT_SPEED_RANGE_KMH",
+    "DEFAULT_OPERATING_RANGE_KMH",
 ]
 
 
-MAX_SPEED_KMH = 1000.0
-"""Highest speed any key or option accepts [km/h]."""
 MAX_STUDY_BASE = 65536
 """Largest study.n_base (sobol: N (2D + 2) runs, already about a million for D = 7)."""
 MAX_BOOTSTRAP = 100_000
@@ -312,9 +314,9 @@ class Study(_Table):
     seed: int = Field(12345, description="seed of the sampling and the bootstrap (numpy SeedSequence)")
     bootstrap: int = Field(1000, description="bootstrap resamples for the confidence intervals")
     confidence: float = Field(0.95, description="confidence level of the intervals", gt=0.0, lt=1.0)
-    speed_range_kmh: tuple[float, float] = Field((20.0, 300.0), description="speeds searched [km/h]")
+    speed_range_kmh: tuple[float, float] = Field(DEFAULT_SPEED_RANGE_KMH, description="speeds searched [km/h]")
     operating_range_kmh: tuple[float, float] = Field(
-        (80.0, 130.0), description="operating speeds for the largest amplitude [km/h]"
+        DEFAULT_OPERATING_RANGE_KMH, description="operating speeds for the largest amplitude [km/h]"
     )
     parameters: tuple[StudyParameter, ...] = Field(
         (), description="uncertain parameters ([[study.parameters]]); none: the paper's seven, +-10 % uniform"

@@ -16,6 +16,7 @@ from pathlib import Path
 from . import __version__
 from .io import atomic_path, write_text
 from .params import Params, to_toml
+from .units import DEFAULT_SPEED_RANGE_KMH
 
 __all__ = ["Report", "operating_verdict", "run_report"]
 
@@ -162,7 +163,7 @@ def _motion(a: dict) -> str:
 def run_report(
     params: Params,
     out_dir: Path,
-    speed_range_kmh: tuple[float, float] = (20.0, 300.0),
+    speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
     operating_range_kmh: tuple[float, float] | None = None,
     progress=None,
     wear_evolution_km: float | None = None,

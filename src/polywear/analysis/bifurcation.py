@@ -25,6 +25,7 @@ from .. import __version__
 from ..models import get_model
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, to_toml
+from ..units import DEFAULT_SPEED_RANGE_KMH
 from ..solvers.continuation import (Branch, BranchEnd, ContinuationSettings, continue_from_hopf,
                                    same_special_point)
 from .stability import HopfPoint, StabilityResult, stability_analysis
@@ -624,7 +625,7 @@ def _cycle_point(branch_index, point, label="") -> CyclePoint:
 
 def bifurcation_diagram(
     params: Params,
-    speed_range_kmh: tuple[float, float] = (20.0, 300.0),
+    speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
     settings: ContinuationSettings = ContinuationSettings(),
     n_speeds: int = 400,
     on_step=None,

@@ -34,6 +34,7 @@ import numpy as np
 from .. import __version__
 from ..models import get_model
 from ..params import Params
+from ..units import DEFAULT_SPEED_RANGE_KMH
 from .bifurcation import BifurcationDiagram, bifurcation_diagram
 from .sensitivity import (
     ADHESION_SCALE,
@@ -514,7 +515,7 @@ def clear_operating_range(
     combine: tuple[str, ...] = (),
     max_relative_change: float = 0.5,
     margin_kmh: float = 2.0,
-    speed_range_kmh: tuple[float, float] = (20.0, 300.0),
+    speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
     diagram: BifurcationDiagram | None = None,
     search_factor: float = 3.0,
     progress: Callable[[str], None] | None = None,

@@ -52,6 +52,7 @@ import numpy as np
 from ..models import get_model
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params
+from ..units import DEFAULT_SPEED_RANGE_KMH
 from ..solvers.continuation import BranchPoint, ContinuationSettings, solve_at_speed
 
 __all__ = ["Band", "BandReference", "FastBand", "band_from_diagram", "band_reference", "fold_curvature"]
@@ -166,7 +167,7 @@ class BandReference:
     """The stable cycle (PeriodicOrbit) of largest amplitude at each chosen speed, or None."""
     unusable: str = ""
     """Why the reference cannot serve the fast path ("" if it can)."""
-    speed_range_kmh: tuple[float, float] = (20.0, 300.0)
+    speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH
     """The range of the reference's diagram [km/h]."""
 
     def band_speed(self, label) -> float:
@@ -424,7 +425,7 @@ class FastBand:
     """
 
     references: tuple[BandReference, ...]
-    speed_range_kmh: tuple[float, float] = (20.0, 300.0)
+    speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH
     amplitude_speeds_kmh: tuple[float, ...] = ()
     n_grid: int = 48
     max_halvings: int = 6

@@ -47,6 +47,7 @@ from .. import __version__
 from ..models import get_model
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import ADHESION_SCALE, Params, ParameterError, StudyParameter, get_value, to_toml, with_updates
+from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH
 
 __all__ = [
     "HOPF_OUTPUTS",
@@ -96,7 +97,7 @@ def _growth_rates(model, p, speeds) -> np.ndarray:
 
 
 def fast_linear_band(
-    params: Params, speed_range_kmh=(20.0, 300.0), n_grid: int = 48, xtol_ms: float = 1e-9
+    params: Params, speed_range_kmh=DEFAULT_SPEED_RANGE_KMH, n_grid: int = 48, xtol_ms: float = 1e-9
 ) -> list[tuple[float, float]]:
     """Speed intervals [km/h] where steady rolling is unstable (the linear band), fast.
 
@@ -261,8 +262,8 @@ class StudyEvaluator:
     params: Params
     keys: tuple[str, ...]
     outputs: str = "hopf"
-    speed_range_kmh: tuple[float, float] = (20.0, 300.0)
-    operating_range_kmh: tuple[float, float] = (80.0, 130.0)
+    speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH
+    operating_range_kmh: tuple[float, float] = DEFAULT_OPERATING_RANGE_KMH
     fast: object = None
     """A :class:`~polywear.analysis.fast_band.FastBand` (amplitudes at the operating-range
     ends) tried first for ``outputs = "bifurcation"``; the continuation where it does not apply."""

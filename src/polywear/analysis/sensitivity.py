@@ -32,6 +32,7 @@ from .. import __version__
 from ..models import get_model
 from ..models.base import ms_to_kmh
 from ..params import Params, get_value, with_updates
+from ..units import DEFAULT_SPEED_RANGE_KMH
 from .bifurcation import BifurcationDiagram, bifurcation_diagram
 from .derivatives import rhs_directional
 from .stability import critical_eigenvalue_derivative
@@ -287,7 +288,7 @@ def local_sensitivity(
     keys=PAPER_PARAMETERS,
     method: str = "exact",
     step: float = 1e-4,
-    speed_range_kmh: tuple[float, float] = (20.0, 300.0),
+    speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
     diagram: BifurcationDiagram | None = None,
     **diagram_options,
 ) -> SensitivityResult:

@@ -43,6 +43,7 @@ from .. import __version__
 from ..models import get_model
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, ParameterError, to_toml
+from ..units import DEFAULT_SPEED_RANGE_KMH
 from ..solvers.continuation import BranchPoint, ContinuationSettings, fold_near
 from .sensitivity import PARAMETER_LABELS, fold_speed_derivative, nominal_value, parameter_direction, perturbed
 from .stability import critical_eigenvalue_derivative, first_lyapunov_coefficient
@@ -646,7 +647,7 @@ def stability_map(
     params: Params,
     key: str,
     value_range: tuple[float, float],
-    speed_range_kmh: tuple[float, float] = (20.0, 300.0),
+    speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
     operating_range_kmh: tuple[float, float] | None = None,
     folds: bool = True,
     settings: MapSettings = MapSettings(),

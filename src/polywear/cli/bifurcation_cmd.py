@@ -8,6 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
+from ..units import DEFAULT_SPEED_RANGE_KMH
 from .common import (
     MAX_GRID_POINTS,
     PLOT_SUFFIXES,
@@ -17,6 +18,7 @@ from .common import (
     PlotOpt,
     QuietOpt,
     SetOpt,
+    SpeedRangeOpt,
     UserError,
     check_count,
     check_speed_range,
@@ -43,9 +45,7 @@ class Method(str, Enum):
 def bifurcation(
     config: ConfigOpt = None,
     set_: SetOpt = None,
-    speed_range: Annotated[
-        tuple[float, float], typer.Option("--speed-range", help="Lowest and highest speed [km/h].")
-    ] = (20.0, 300.0),
+    speed_range: SpeedRangeOpt = DEFAULT_SPEED_RANGE_KMH,
     method: Annotated[
         Method, typer.Option("--method", help="continuation (default) or the paper's brute-force sweep.")
     ] = Method.continuation,

@@ -16,6 +16,8 @@ from typing import Annotated, Any, Callable, Iterator, Optional
 
 import typer
 
+from ..units import MAX_SPEED_KMH
+
 ConfigOpt = Annotated[
     Optional[Path],
     typer.Option("--config", "-c", help="TOML parameter file (defaults for missing keys)."),
@@ -28,6 +30,10 @@ JsonOpt = Annotated[bool, typer.Option("--json", help="Print the summary as JSON
 PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Write a figure (png, pdf, svg).")]
 OutOpt = Annotated[Optional[Path], typer.Option("--out", "-o", help="Write the result (netCDF .nc).")]
 QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="No progress output or notes on stderr.")]
+SpeedRangeOpt = Annotated[
+    tuple[float, float], typer.Option("--speed-range", help="Lowest and highest speed [km/h].")
+]
+"""``--speed-range LOW HIGH`` [km/h]; default ``DEFAULT_SPEED_RANGE_KMH``, check with :func:`check_speed_range`."""
 TirOpt = Annotated[
     Optional[Path],
     typer.Option("--tir", help="Tyre property file (.tir, Magic Formula): its values come before --config/--set."),
@@ -35,8 +41,6 @@ TirOpt = Annotated[
 
 PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".svgz", ".eps", ".ps", ".jpg", ".jpeg", ".tif", ".tiff", ".webp")
 """File types ``--plot`` writes (matplotlib's Agg, PDF, SVG and PS backends)."""
-MAX_SPEED_KMH = 1000.0
-"""Highest speed accepted anywhere [km/h] (the same limit as ``operating.speed_kmh``)."""
 MAX_GRID_POINTS = 20_000
 """Most speeds of a stability grid or sweep a command accepts (20 000 eigen-solves: seconds)."""
 

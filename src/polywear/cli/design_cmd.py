@@ -8,6 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
+from ..units import DEFAULT_SPEED_RANGE_KMH
 from .common import (
     PLOT_SUFFIXES,
     ConfigOpt,
@@ -15,6 +16,7 @@ from .common import (
     PlotOpt,
     QuietOpt,
     SetOpt,
+    SpeedRangeOpt,
     UserError,
     check_speed_range,
     emit_json,
@@ -52,9 +54,7 @@ def design(
     margin: Annotated[
         float, typer.Option("--margin", help="Keep the band this far from the operating range [km/h].")
     ] = 2.0,
-    speed_range: Annotated[
-        tuple[float, float], typer.Option("--speed-range", help="Speed range of the diagrams [km/h].")
-    ] = (20.0, 300.0),
+    speed_range: SpeedRangeOpt = DEFAULT_SPEED_RANGE_KMH,
     json_: JsonOpt = False,
     plot: PlotOpt = None,
     out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write the options (.csv or .json).")] = None,

@@ -8,6 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
+from ..units import DEFAULT_SPEED_RANGE_KMH
 from .common import (
     PLOT_SUFFIXES,
     ConfigOpt,
@@ -15,6 +16,7 @@ from .common import (
     PlotOpt,
     QuietOpt,
     SetOpt,
+    SpeedRangeOpt,
     UserError,
     check_speed_range,
     emit_json,
@@ -36,9 +38,7 @@ def map_(
         Optional[tuple[float, float]],
         typer.Option("--range", help="Lowest and highest parameter value [key units] (default: nominal x0.5 .. x1.5)."),
     ] = None,
-    speed_range: Annotated[
-        tuple[float, float], typer.Option("--speed-range", help="Lowest and highest speed [km/h].")
-    ] = (20.0, 300.0),
+    speed_range: SpeedRangeOpt = DEFAULT_SPEED_RANGE_KMH,
     operating_range: Annotated[
         Optional[tuple[float, float]],
         typer.Option("--operating-range", help="Operating speeds to keep free of SEV [km/h] (drawn, safe values)."),

@@ -7,11 +7,13 @@ from typing import Annotated, Optional
 
 import typer
 
+from ..units import DEFAULT_SPEED_RANGE_KMH
 from .common import (
     ConfigOpt,
     JsonOpt,
     QuietOpt,
     SetOpt,
+    SpeedRangeOpt,
     UserError,
     check_speed_range,
     emit_json,
@@ -25,9 +27,7 @@ def report(
     config: ConfigOpt = None,
     set_: SetOpt = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")] = Path("out"),
-    speed_range: Annotated[
-        tuple[float, float], typer.Option("--speed-range", help="Speed range of the analysis [km/h].")
-    ] = (20.0, 300.0),
+    speed_range: SpeedRangeOpt = DEFAULT_SPEED_RANGE_KMH,
     operating_range: Annotated[
         Optional[tuple[float, float]],
         typer.Option("--operating-range", help="Speeds to keep free of SEV [km/h] (default: operating speed -30/+20)."),

@@ -8,6 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
+from ..units import DEFAULT_SPEED_RANGE_KMH
 from .common import (
     PLOT_SUFFIXES,
     ConfigOpt,
@@ -15,6 +16,7 @@ from .common import (
     PlotOpt,
     QuietOpt,
     SetOpt,
+    SpeedRangeOpt,
     UserError,
     check_speed_range,
     emit_json,
@@ -50,9 +52,7 @@ def sensitivity(
         typer.Option("--param", "-p", help="Parameter key (repeatable; default: the paper's seven, adhesion read "
                      "both ways). 'adhesion_scale' scales mu_s and mu_c together."),
     ] = None,
-    speed_range: Annotated[
-        tuple[float, float], typer.Option("--speed-range", help="Lowest and highest speed [km/h].")
-    ] = (20.0, 300.0),
+    speed_range: SpeedRangeOpt = DEFAULT_SPEED_RANGE_KMH,
     json_: JsonOpt = False,
     plot: PlotOpt = None,
     out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write the rows (.csv, or JSON otherwise).")] = None,

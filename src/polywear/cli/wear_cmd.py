@@ -8,6 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
+from ..units import DEFAULT_SPEED_RANGE_KMH
 from .common import (
     MAX_GRID_POINTS,
     MAX_SPEED_KMH,
@@ -17,6 +18,7 @@ from .common import (
     PlotOpt,
     QuietOpt,
     SetOpt,
+    SpeedRangeOpt,
     UserError,
     check_count,
     check_speed_range,
@@ -63,9 +65,7 @@ def map_(
     speeds: Annotated[
         Optional[str], typer.Option("--speeds", help="Comma-separated speeds [km/h], e.g. 40,55,210 (else the range).")
     ] = None,
-    speed_range: Annotated[
-        tuple[float, float], typer.Option("--speed-range", help="Lowest and highest speed [km/h].")
-    ] = (20.0, 300.0),
+    speed_range: SpeedRangeOpt = DEFAULT_SPEED_RANGE_KMH,
     n_speeds: Annotated[int, typer.Option("--n-speeds", help="Speeds of the range.")] = 300,
     max_order: Annotated[
         Optional[int], typer.Option("--max-order", help="Highest polygon order (default wear.max_order).")

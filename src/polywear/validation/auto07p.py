@@ -53,6 +53,7 @@ from ..models import get_model
 from ..models.base import Model, kmh_to_ms, ms_to_kmh
 from ..models.tread1dof import MODEL
 from ..params import ParameterError, Params
+from ..units import DEFAULT_SPEED_RANGE_KMH
 
 __all__ = [
     "AutoSettings",
@@ -498,7 +499,7 @@ def _end_reason(point, lo: float, hi: float) -> str:
 
 def model_diagram(
     params: Params,
-    speed_range_kmh: tuple[float, float] = (20.0, 300.0),
+    speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
     settings: AutoSettings | None = None,
 ) -> dict[str, Any]:
     """Bifurcation diagram of ``params.model`` in the vehicle speed, by AUTO-07p.
@@ -641,7 +642,7 @@ def model_diagram(
 
 def tread1dof_diagram(
     params: Params,
-    speed_range_kmh: tuple[float, float] = (20.0, 300.0),
+    speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
     settings: AutoSettings = AutoSettings(),
 ) -> dict[str, Any]:
     """:func:`model_diagram` for ``tread1dof`` parameters (others are refused)."""
@@ -669,7 +670,7 @@ def headline_numbers(diagram: dict[str, Any]) -> dict[str, float]:
 
 def refinement_study(
     params: Params,
-    speed_range_kmh: tuple[float, float] = (20.0, 300.0),
+    speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
     settings: AutoSettings | None = None,
 ) -> dict[str, Any]:
     """Run the diagram at ``settings`` (default: the model's) and at ``settings.refined()``;
