@@ -140,8 +140,8 @@ class Tire(_Table):
 
 
 ADHESION_SCALE = "adhesion_scale"
-"""Study key scaling mu_s and mu_c together (nominal 1); the same name as
-``polywear.analysis.sensitivity.ADHESION_SCALE`` (a test keeps them equal)."""
+"""Study and sensitivity key scaling mu_s and mu_c together (nominal 1; the paper's
+adhesion coefficient, second reading)."""
 
 DISTRIBUTIONS = ("uniform", "loguniform", "triangular", "normal")
 

@@ -27,7 +27,7 @@ import numpy as np
 from .. import __version__
 from ..models import get_model
 from ..models.base import kmh_to_ms, ms_to_kmh
-from ..params import ParameterError, Params, get_value, study_keys, with_updates
+from ..params import ADHESION_SCALE, ParameterError, Params, get_value, study_keys, with_updates
 
 __all__ = [
     "QUANTITIES",
@@ -458,7 +458,7 @@ def calibrate(
     from scipy.optimize import least_squares
 
     keys = list(keys)
-    allowed = set(study_keys()) - {"adhesion_scale"}
+    allowed = set(study_keys()) - {ADHESION_SCALE}
     for key in keys:
         if key not in allowed:
             raise CalibrationError(f"--vary {key}: not a float parameter key (e.g. tread.lateral_damping_ns_per_m)")

@@ -33,11 +33,10 @@ import numpy as np
 
 from .. import __version__
 from ..models import get_model
-from ..params import Params
+from ..params import ADHESION_SCALE, Params
 from ..units import DEFAULT_SPEED_RANGE_KMH
 from .bifurcation import BifurcationDiagram, bifurcation_diagram
 from .sensitivity import (
-    ADHESION_SCALE,
     PARAMETER_LABELS,
     local_sensitivity,
     nominal_value,

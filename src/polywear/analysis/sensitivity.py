@@ -31,7 +31,7 @@ import numpy as np
 from .. import __version__
 from ..models import get_model
 from ..models.base import ms_to_kmh
-from ..params import Params, get_value, with_updates
+from ..params import ADHESION_SCALE, Params, get_value, with_updates
 from ..units import DEFAULT_SPEED_RANGE_KMH
 from .bifurcation import BifurcationDiagram, bifurcation_diagram
 from .derivatives import rhs_directional
@@ -46,9 +46,6 @@ __all__ = [
     "hopf_speed_derivative",
     "fold_speed_derivative",
 ]
-
-ADHESION_SCALE = "adhesion_scale"
-"""mu_s and mu_c scaled together (the paper's adhesion coefficient, second reading)."""
 
 PAPER_PARAMETERS = (
     "tread.lateral_stiffness_n_per_m",

@@ -28,9 +28,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..models import get_model
-from ..params import Params
+from ..params import ADHESION_SCALE, Params
 from .design import DEFAULT_KEYS, ENGINEERING, parameter_category, parameter_label
-from .sensitivity import ADHESION_SCALE, nominal_value, parameter_direction, perturbed
+from .sensitivity import nominal_value, parameter_direction, perturbed
 from .wear_map import wear_map
 
 __all__ = ["WearDesignOption", "WearDesignResult", "cycle_rates", "cycle_growth", "linear_depth_mm", "wear_design",
