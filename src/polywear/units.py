@@ -1,4 +1,4 @@
-"""Speed limits, default speed ranges, unit conversions and unit tables, in one place.
+"""Speed limits, default speed ranges, wheel rotation and unit tables, in one place.
 
 Plain Python (only :mod:`math`), so the command line may import it without slowing
 ``polywear --help``; the functions accept floats or numpy arrays alike.
@@ -6,10 +6,14 @@ Plain Python (only :mod:`math`), so the command line may import it without slowi
 
 from __future__ import annotations
 
+import math
+
 __all__ = [
     "MAX_SPEED_KMH",
     "DEFAULT_SPEED_RANGE_KMH",
     "DEFAULT_OPERATING_RANGE_KMH",
+    "wheel_rotation_frequency_hz",
+    "polygon_order",
 ]
 
 MAX_SPEED_KMH = 1000.0
@@ -20,3 +24,16 @@ DEFAULT_SPEED_RANGE_KMH: tuple[float, float] = (20.0, 300.0)
 
 DEFAULT_OPERATING_RANGE_KMH: tuple[float, float] = (80.0, 130.0)
 """Operating speeds of a study's largest-amplitude output by default [km/h]."""
+
+
+def wheel_rotation_frequency_hz(speed_ms, rolling_radius_m):
+    """Wheel rotation frequency ``V / (2 pi R_e)`` [Hz] at speed V [m/s], rolling radius R_e [m]."""
+    return speed_ms / (2.0 * math.pi * rolling_radius_m)
+
+
+def polygon_order(frequency_hz, speed_ms, rolling_radius_m):
+    """Wheel order ``n = f / f_rot = f 2 pi R_e / V`` of a frequency f [Hz] at speed V [m/s] [-].
+
+    Linear in f, so it also turns a derivative of f into one of n (at fixed V, R_e).
+    """
+    return frequency_hz / wheel_rotation_frequency_hz(speed_ms, rolling_radius_m)

@@ -28,6 +28,7 @@ from .. import __version__
 from ..models import get_model
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import ADHESION_SCALE, ParameterError, Params, get_value, study_keys, with_updates
+from ..units import polygon_order
 
 __all__ = [
     "QUANTITIES",
@@ -298,8 +299,8 @@ def _cycle_rows(params: Params, obs: list[Observation], keys: list[str], diagram
             rows.append(df)
         else:  # polygon order n = f 2 pi R_e / V; R_e enters here directly
             radius, v = params.operating.rolling_radius_m, kmh_to_ms(o.at_speed_kmh)
-            n = f * 2.0 * math.pi * radius / v
-            row = df * 2.0 * math.pi * radius / v
+            n = polygon_order(f, v, radius)
+            row = polygon_order(df, v, radius)
             row += np.array([n / radius if k == "operating.rolling_radius_m" else 0.0 for k in keys])
             values.append(n)
             rows.append(row)

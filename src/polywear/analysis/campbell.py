@@ -40,6 +40,7 @@ import numpy as np
 
 from .. import __version__
 from ..params import ParameterError, Params
+from ..units import polygon_order, wheel_rotation_frequency_hz
 
 __all__ = [
     "MeasurementError",
@@ -64,7 +65,7 @@ _HEADER = re.compile(r"^\s*(.*?)\s*[\[(]\s*([^\])]*?)\s*[\])]\s*$")
 
 def order_frequency_hz(order: float, speed_kmh, radius_m: float):
     """Frequency of wheel order n at vehicle speed V: ``n V / (2 pi R)`` [Hz]."""
-    return order * np.asarray(speed_kmh) / 3.6 / (2.0 * math.pi * radius_m)
+    return wheel_rotation_frequency_hz(order * np.asarray(speed_kmh) / 3.6, radius_m)
 
 
 @dataclass
@@ -346,7 +347,7 @@ def _classify(ridge: _Ridge, speeds, radius_m, min_segments) -> dict | None:
     slope = float(np.polyfit(np.log(v), np.log(f), 1)[0])
     feature["slope"] = slope
     if abs(slope - 1.0) < 0.25:
-        feature.update(kind="order", order=float(np.median(f * 2.0 * math.pi * radius_m / (v / 3.6))))
+        feature.update(kind="order", order=float(np.median(polygon_order(f, v / 3.6, radius_m))))
     elif abs(slope) < 0.5:  # an SEV cycle's frequency drifts with speed (slopes up to about 0.3 seen)
         feature["kind"] = "constant_frequency"
     else:

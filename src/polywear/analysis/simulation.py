@@ -37,7 +37,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .. import __version__
+from .. import __version__, units
 from ..models import get_model
 from ..models.base import kmh_to_ms
 from ..params import Params, get_value, to_toml, with_updates
@@ -138,8 +138,8 @@ def phase_pairs(model) -> list[tuple[str, str]]:
 
 
 def polygon_order(frequency_hz: float, speed_kmh: float, rolling_radius_m: float) -> float:
-    """Polygon order n = f_SEV / f_rot with f_rot = V / (2 pi R_e) [-]."""
-    return frequency_hz * 2.0 * math.pi * rolling_radius_m / float(kmh_to_ms(speed_kmh))
+    """Polygon order n = f_SEV / f_rot with f_rot = V / (2 pi R_e), V in km/h [-]."""
+    return units.polygon_order(frequency_hz, float(kmh_to_ms(speed_kmh)), rolling_radius_m)
 
 
 def initial_state(model, p, V: float, disturbance: float = 0.0, initial=None) -> np.ndarray:

@@ -24,17 +24,13 @@ carried by ``a_rms``, reported beside the indices; the indices have no tuned con
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["WearIndicators", "wear_indicators", "rolling_frequency"]
+from ..units import polygon_order
 
-
-def rolling_frequency(speed_ms: float, rolling_radius_m: float) -> float:
-    """Wheel rotation frequency V / (2 pi R_e) [Hz]."""
-    return speed_ms / (2.0 * math.pi * rolling_radius_m)
+__all__ = ["WearIndicators", "wear_indicators"]
 
 
 @dataclass(frozen=True)
@@ -69,7 +65,7 @@ def wear_indicators(model, p, orbit, rolling_radius_m: float, samples: int = 204
     p0 = float(steady[names.index("friction_force")] * steady[names.index("sliding_velocity")])
     power = float(np.mean(force * v_r))
     f = 1.0 / orbit.period
-    n = f / rolling_frequency(V, rolling_radius_m)
+    n = polygon_order(f, V, rolling_radius_m)
     return WearIndicators(
         speed_kmh=V * 3.6,
         frequency_hz=f,

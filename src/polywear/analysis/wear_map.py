@@ -30,8 +30,8 @@ from ..models import get_model
 from ..models.base import kmh_to_ms
 from ..models.profile import patch_sinc
 from ..params import Params, to_toml
+from ..units import wheel_rotation_frequency_hz
 from .stability import mode_label, stability_analysis
-from .wear import rolling_frequency
 from .wear_law import energetic_rate
 
 __all__ = ["WearMap", "wear_map", "load_to_power", "VIBRATING_NOTE"]
@@ -105,7 +105,7 @@ class WearMap:
     # -- derived quantities ---------------------------------------------------------------
     @property
     def revolutions_per_km(self) -> float:
-        return 1000.0 / (2.0 * math.pi * self.params.operating.rolling_radius_m)
+        return wheel_rotation_frequency_hz(1000.0, self.params.operating.rolling_radius_m)  # per 1000 m
 
     @property
     def growth_per_rev(self) -> np.ndarray:
@@ -134,7 +134,7 @@ class WearMap:
     @property
     def frequency_hz(self) -> np.ndarray:
         """n times the rotation frequency [Hz] (S, K)."""
-        f_rot = rolling_frequency(kmh_to_ms(self.speeds_kmh), self.params.operating.rolling_radius_m)
+        f_rot = wheel_rotation_frequency_hz(kmh_to_ms(self.speeds_kmh), self.params.operating.rolling_radius_m)
         return np.outer(f_rot, self.orders)
 
     def most_unstable(self) -> np.ndarray:
@@ -220,7 +220,7 @@ class WearMap:
         # cell corners: speeds half-way between grid speeds, orders n -+ 1/2 along each column
         v = self.speeds_kmh
         v_edges = np.concatenate(([v[0]], 0.5 * (v[1:] + v[:-1]), [v[-1]])) if v.size > 1 else np.array([v[0] - 0.5, v[0] + 0.5])
-        f_rot_edges = rolling_frequency(kmh_to_ms(v_edges), self.params.operating.rolling_radius_m)
+        f_rot_edges = wheel_rotation_frequency_hz(kmh_to_ms(v_edges), self.params.operating.rolling_radius_m)
         order_edges = np.concatenate((self.orders - 0.5, [self.orders[-1] + 0.5]))
         X = np.repeat(v_edges[:, None], order_edges.size, axis=1)
         Y = np.outer(f_rot_edges, order_edges)
