@@ -25,9 +25,10 @@ from .. import __version__
 from ..models import get_model
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, to_toml
-from ..units import DEFAULT_SPEED_RANGE_KMH
 from ..solvers.continuation import (Branch, BranchEnd, ContinuationSettings, continue_from_hopf,
                                    same_special_point)
+from ..units import DEFAULT_SPEED_RANGE_KMH, MAX_SPEED_KMH
+from .intervals import runs_of, subtract, union
 from .stability import HopfPoint, StabilityResult, stability_analysis
 
 __all__ = [
@@ -41,10 +42,12 @@ __all__ = [
 
 SPEED_FLOOR_KMH = 1.0
 """Lowest speed [km/h] the analysed range is extended to when the SEV band runs into its lower end."""
-SPEED_CEILING_KMH = 1000.0
+SPEED_CEILING_KMH = MAX_SPEED_KMH
 """Highest speed [km/h] the analysed range is extended to (the highest operating speed accepted)."""
 OPERATING_MARGIN = 1.1
 """The analysed range holds the operating speed V with a margin: from V / 1.1 to 1.1 V at least."""
+_JOIN_KMH = 1e-9
+"""Band pieces closer than this [km/h] are one band (cycle ends meet linear-band edges)."""
 
 
 @dataclass(frozen=True)
@@ -139,7 +142,7 @@ class BifurcationDiagram:
                 intervals.append((run_start, end))
         lo, hi = self.speed_range_kmh
         clipped = [(max(min(a, b), lo), min(max(a, b), hi)) for a, b in intervals]
-        return _union([iv for iv in clipped if iv[1] > iv[0]])
+        return union([iv for iv in clipped if iv[1] > iv[0]], gap=_JOIN_KMH)
 
     @cached_property
     def divergence_kmh(self) -> list[tuple[float, float]]:
@@ -158,19 +161,19 @@ class BifurcationDiagram:
             lam = np.linalg.eigvals(model.jacobian(model.equilibrium(V, p), V, p))
             if b > a and statically_divergent(lam):
                 out.append((a, b))
-        return _union(out)
+        return union(out, gap=_JOIN_KMH)
 
     @property
     def sev_band_kmh(self) -> list[tuple[float, float]]:
         """Where SEV persists after a large disturbance: stable cycles, or steady rolling
         unstable through an oscillatory mode (a Hopf pair; static divergence excluded)."""
-        oscillatory = _subtract(self.linear_band_kmh, self.divergence_kmh)
-        return _union(self.stable_cycle_intervals_kmh() + oscillatory)
+        oscillatory = subtract(self.linear_band_kmh, self.divergence_kmh)
+        return union(self.stable_cycle_intervals_kmh() + oscillatory, gap=_JOIN_KMH)
 
     @property
     def hard_regions_kmh(self) -> list[tuple[float, float]]:
         """SEV band minus linear band: stable rolling and stable SEV coexist."""
-        return _subtract(self.sev_band_kmh, self.linear_band_kmh)
+        return subtract(self.sev_band_kmh, self.linear_band_kmh)
 
     @property
     def open_edges(self) -> list[str]:
@@ -504,7 +507,7 @@ def sweep_bands(result) -> dict:
         on = np.zeros(len(speeds), dtype=bool)
         for start in starts:
             on |= np.array([r.outcome == "cycle" for r in result.runs[start]])
-        return _runs_of(speeds, on)
+        return runs_of(speeds, on)
 
     sev = band(("large", "up", "down"))
     # a band that reaches the first or last grid speed is cut there: no bifurcation speed
@@ -531,56 +534,10 @@ def _grid_bounds(interval, speeds) -> list:
     return [None if lo == speeds[0] else lo, None if hi == speeds[-1] else hi]
 
 
-def _runs_of(speeds, flags):
-    """Intervals [first, last] of consecutive grid speeds where ``flags`` holds."""
-    out, start = [], None
-    for v, f in zip(speeds, flags):
-        if f and start is None:
-            start = v
-        if f:
-            last = v
-        if not f and start is not None:
-            out.append((float(start), float(last)))
-            start = None
-    if start is not None:
-        out.append((float(start), float(last)))
-    return out
-
-
 def _json(payload) -> str:
     import json
 
     return json.dumps(payload, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o))
-
-
-def _union(intervals):
-    out: list[tuple[float, float]] = []
-    for lo, hi in sorted(intervals):
-        if out and lo <= out[-1][1] + 1e-9:
-            out[-1] = (out[-1][0], max(out[-1][1], hi))
-        else:
-            out.append((lo, hi))
-    return out
-
-
-def _subtract(a, b):
-    """Intervals of ``a`` not covered by ``b`` (both unions of closed intervals)."""
-    out = []
-    for lo, hi in a:
-        pieces = [(lo, hi)]
-        for blo, bhi in b:
-            nxt = []
-            for plo, phi in pieces:
-                if bhi <= plo or blo >= phi:
-                    nxt.append((plo, phi))
-                    continue
-                if plo < blo:
-                    nxt.append((plo, blo))
-                if bhi < phi:
-                    nxt.append((bhi, phi))
-            pieces = nxt
-        out += [p for p in pieces if p[1] - p[0] > 1e-9]
-    return out
 
 
 def _points_with_folds(branch: Branch) -> list:

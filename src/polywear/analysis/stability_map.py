@@ -43,8 +43,9 @@ from .. import __version__
 from ..models import get_model
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, ParameterError, to_toml
-from ..units import DEFAULT_SPEED_RANGE_KMH
 from ..solvers.continuation import BranchPoint, ContinuationSettings, fold_near
+from ..units import DEFAULT_SPEED_RANGE_KMH
+from .intervals import union
 from .sensitivity import PARAMETER_LABELS, fold_speed_derivative, nominal_value, parameter_direction, perturbed
 from .stability import critical_eigenvalue_derivative, first_lyapunov_coefficient
 
@@ -613,16 +614,6 @@ def _hard_side(curve: HopfCurve, theta_b, speed_b, scale_value, scale_speed, dis
     return float(curve.value[candidates[np.argmin(d[candidates])]])
 
 
-def _union(intervals):
-    out: list[tuple[float, float]] = []
-    for lo, hi in sorted(intervals):
-        if out and lo <= out[-1][1]:
-            out[-1] = (out[-1][0], max(out[-1][1], hi))
-        else:
-            out.append((lo, hi))
-    return out
-
-
 def _bands(params, key, value, speed_range_kmh, fold_curves) -> dict:
     from .global_sensitivity import fast_linear_band
 
@@ -640,7 +631,7 @@ def _bands(params, key, value, speed_range_kmh, fold_curves) -> dict:
                 a, b = max(min(vh, vf), lo), min(max(vh, vf), hi)
                 if b > a:
                     hard.append((a, b))
-    return {"linear": linear, "hard": hard, "sev": _union(linear + hard)}
+    return {"linear": linear, "hard": hard, "sev": union(linear + hard)}
 
 
 def stability_map(
