@@ -32,6 +32,8 @@ __all__ = [
     "Study",
     "StudyParameter",
     "study_keys",
+    "ADHESION_SCALE",
+    "PAPER_KEYS",
     "load_params",
     "parse_override",
     "with_updates",
@@ -142,6 +144,18 @@ class Tire(_Table):
 ADHESION_SCALE = "adhesion_scale"
 """Study and sensitivity key scaling mu_s and mu_c together (nominal 1; the paper's
 adhesion coefficient, second reading)."""
+
+PAPER_KEYS = (
+    "tread.lateral_stiffness_n_per_m",
+    "tread.lateral_damping_ns_per_m",
+    "operating.toe_deg",
+    "operating.camber_deg",
+    "friction.mu_static",
+    "tread.mass_kg",
+    "operating.vertical_load_n",
+)
+"""The paper's seven parameters (its Fig. 9), adhesion read as the peak friction mu_s;
+:data:`ADHESION_SCALE` is the other reading."""
 
 DISTRIBUTIONS = ("uniform", "loguniform", "triangular", "normal")
 

@@ -46,7 +46,16 @@ import numpy as np
 from .. import __version__
 from ..models import get_model
 from ..models.base import kmh_to_ms, ms_to_kmh
-from ..params import ADHESION_SCALE, Params, ParameterError, StudyParameter, get_value, to_toml, with_updates
+from ..params import (
+    ADHESION_SCALE,
+    PAPER_KEYS,
+    Params,
+    ParameterError,
+    StudyParameter,
+    get_value,
+    to_toml,
+    with_updates,
+)
 from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH
 
 __all__ = [
@@ -74,15 +83,7 @@ CONVERGED_HALF_WIDTH = 0.1
 DEFAULT_SPREAD = 0.10
 """Relative half-width of the default ranges (the paper's seven parameters, uniform)."""
 
-DEFAULT_KEYS = (
-    "tread.lateral_stiffness_n_per_m",
-    "tread.lateral_damping_ns_per_m",
-    "operating.toe_deg",
-    "operating.camber_deg",
-    "friction.mu_static",
-    "tread.mass_kg",
-    "operating.vertical_load_n",
-)
+DEFAULT_KEYS = PAPER_KEYS
 """The paper's seven parameters; adhesion read as the peak friction mu_s (the usual
 meaning of "adhesion coefficient"); give ``adhesion_scale`` explicitly for the other reading."""
 

@@ -31,7 +31,7 @@ import numpy as np
 from .. import __version__
 from ..models import get_model
 from ..models.base import ms_to_kmh
-from ..params import ADHESION_SCALE, Params, get_value, with_updates
+from ..params import ADHESION_SCALE, PAPER_KEYS, Params, get_value, with_updates
 from ..units import DEFAULT_SPEED_RANGE_KMH
 from .bifurcation import BifurcationDiagram, bifurcation_diagram
 from .derivatives import rhs_directional
@@ -47,16 +47,8 @@ __all__ = [
     "fold_speed_derivative",
 ]
 
-PAPER_PARAMETERS = (
-    "tread.lateral_stiffness_n_per_m",
-    "tread.lateral_damping_ns_per_m",
-    "operating.toe_deg",
-    "operating.camber_deg",
-    "friction.mu_static",
-    ADHESION_SCALE,
-    "tread.mass_kg",
-    "operating.vertical_load_n",
-)
+_MU = PAPER_KEYS.index("friction.mu_static") + 1
+PAPER_PARAMETERS = (*PAPER_KEYS[:_MU], ADHESION_SCALE, *PAPER_KEYS[_MU:])
 """The paper's seven parameters (Fig. 9), adhesion read both ways."""
 
 PARAMETER_LABELS = {
