@@ -14,6 +14,7 @@ __all__ = [
     "DEFAULT_OPERATING_RANGE_KMH",
     "wheel_rotation_frequency_hz",
     "polygon_order",
+    "plot_scale",
 ]
 
 MAX_SPEED_KMH = 1000.0
@@ -37,3 +38,11 @@ def polygon_order(frequency_hz, speed_ms, rolling_radius_m):
     Linear in f, so it also turns a derivative of f into one of n (at fixed V, R_e).
     """
     return frequency_hz / wheel_rotation_frequency_hz(speed_ms, rolling_radius_m)
+
+
+_PLOT_UNITS = {"m": (1e3, "mm"), "rad": (1e3, "mrad")}
+
+
+def plot_scale(unit: str) -> tuple[float, str]:
+    """(factor, unit) for plotting a quantity of SI ``unit``: m -> mm, rad -> mrad, else as is."""
+    return _PLOT_UNITS.get(unit, (1.0, unit))

@@ -27,7 +27,7 @@ from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, to_toml
 from ..solvers.continuation import (Branch, BranchEnd, ContinuationSettings, continue_from_hopf,
                                    same_special_point)
-from ..units import DEFAULT_SPEED_RANGE_KMH, MAX_SPEED_KMH
+from ..units import DEFAULT_SPEED_RANGE_KMH, MAX_SPEED_KMH, plot_scale
 from .intervals import runs_of, subtract, union
 from .stability import HopfPoint, StabilityResult, stability_analysis
 
@@ -385,9 +385,7 @@ class BifurcationDiagram:
         fig, axes = plt.subplots(len(states), 1, figsize=(10, sum(heights) + 1.0), sharex=True,
                                  gridspec_kw={"height_ratios": heights}, squeeze=False)
         for ax, state in zip(axes[:, 0], states):
-            unit = _UNITS.get(state)
-            self.plot(ax, state=state, scale=unit[0] if unit else 1.0, unit=unit[1] if unit else "",
-                      operating_range_kmh=operating_range_kmh)
+            self.plot(ax, state=state, operating_range_kmh=operating_range_kmh)
             if ax is not axes[-1, 0]:
                 ax.set_xlabel("")
             if ax is not axes[0, 0]:
@@ -407,7 +405,7 @@ class BifurcationDiagram:
             _, ax = plt.subplots(figsize=(8, 4.5))
         i = self.state_names.index(state)
         if scale is None:
-            scale, unit = _UNITS.get(state, (1.0, ""))
+            scale, unit = plot_scale(get_model(self.params.model).state_units[i])
         artists = []
         # equilibrium line (amplitude zero), stable solid, unstable dotted red
         V = self.stability.speeds_kmh
@@ -467,9 +465,6 @@ class BifurcationDiagram:
         ax.set_xlim(*self.speed_range_kmh)
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
         return artists
-
-
-_UNITS = {"x": (1e3, "mm"), "alpha": (1e3, "mrad"), "beta": (1e3, "mrad"), "gamma": (1e3, "mrad")}
 
 
 def statically_divergent(eigenvalues: np.ndarray) -> bool:

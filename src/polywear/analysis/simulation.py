@@ -38,6 +38,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from .. import __version__, units
+from ..units import plot_scale
 from ..models import get_model
 from ..models.base import kmh_to_ms
 from ..params import Params, get_value, to_toml, with_updates
@@ -55,16 +56,9 @@ __all__ = [
     "initial_state",
     "phase_pairs",
     "polygon_order",
-    "plot_scale",
 ]
 
 AUX_UNITS = {"sliding_velocity": "m/s", "friction_force": "N", "normal_load": "N", "contact_lost": "1"}
-_PLOT_UNITS = {"m": (1e3, "mm"), "rad": (1e3, "mrad")}
-
-
-def plot_scale(unit: str) -> tuple[float, str]:
-    """(factor, unit) for plotting a state of SI ``unit``: m -> mm, rad -> mrad."""
-    return _PLOT_UNITS.get(unit, (1.0, unit))
 
 
 @dataclass(frozen=True)

@@ -32,7 +32,8 @@ from ..models import get_model
 from ..models.base import kmh_to_ms
 from ..params import Params, to_toml
 from ..solvers.integrate import integrate
-from .simulation import SimulationSettings, classify_window, initial_state, plot_scale
+from ..units import plot_scale
+from .simulation import SimulationSettings, classify_window, initial_state
 
 __all__ = ["START_TYPES", "SteadyRun", "SweepResult", "settle", "sweep"]
 
