@@ -11,6 +11,7 @@ import math
 import tempfile
 from contextlib import contextmanager
 from contextvars import ContextVar
+from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any, Callable, Iterator, Optional
 
@@ -37,6 +38,26 @@ SpeedRangeOpt = Annotated[
 TirOpt = Annotated[
     Optional[Path],
     typer.Option("--tir", help="Tyre property file (.tir, Magic Formula): its values come before --config/--set."),
+]
+
+
+class Backend(str, Enum):
+    """Where the runs of a study or a fleet go: local processes, this process, or Dask."""
+
+    processes = "processes"
+    serial = "serial"
+    dask = "dask"
+
+
+BackendOpt = Annotated[
+    Optional[Backend],
+    typer.Option("--backend", help="processes (default), serial, or dask (implied by --scheduler)."),
+]
+SchedulerOpt = Annotated[
+    Optional[str], typer.Option("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786.")
+]
+WorkersOpt = Annotated[
+    Optional[int], typer.Option("--workers", "-w", min=1, help="Local worker processes (default: all CPUs).")
 ]
 
 PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".svgz", ".eps", ".ps", ".jpg", ".jpeg", ".tif", ".tiff", ".webp")
@@ -114,6 +135,38 @@ def check_count(value: int | None, option: str, low: int, high: int) -> int | No
     if value is not None and not low <= value <= high:
         raise UserError(f"{option} {value}: must be between {low} and {high}")
     return value
+
+
+def chosen_backend(backend: Backend | None, scheduler: str | None, connect_timeout_s: float) -> str:
+    """The backend ``--backend``/``--scheduler`` ask for (dask if only a scheduler is given),
+    checked; a Dask scheduler is probed once, failing within ``connect_timeout_s`` [s]."""
+    chosen = backend.value if backend else ("dask" if scheduler else "processes")
+    if chosen == "dask" and not scheduler:
+        raise UserError("--backend dask: give --scheduler tcp://host:port")
+    if scheduler and chosen != "dask":
+        raise UserError(f"--scheduler needs the dask backend, not {chosen}")
+    if chosen == "dask":
+        from distributed import Client
+
+        try:
+            with Client(scheduler, timeout=f"{connect_timeout_s}s"):
+                pass
+        except (OSError, ValueError, TypeError) as exc:  # unreachable, timed out, malformed address
+            raise UserError(
+                f"cannot reach the Dask scheduler {scheduler} within {connect_timeout_s:g} s: {exc}"
+            ) from None
+    return chosen
+
+
+def dask_connect_timeout(seconds: float | None):
+    """Dask's connect timeout set to ``seconds`` [s] for the block (nothing when None)."""
+    from contextlib import nullcontext
+
+    if seconds is None:
+        return nullcontext()
+    import dask
+
+    return dask.config.set({"distributed.comm.timeouts.connect": f"{seconds}s"})
 
 
 def output_file(path: Path | None, option: str, suffixes: tuple[str, ...]) -> Path | None:

@@ -9,12 +9,17 @@ import typer
 
 from .common import (
     PLOT_SUFFIXES,
+    BackendOpt,
     ConfigOpt,
     JsonOpt,
     PlotOpt,
     QuietOpt,
+    SchedulerOpt,
     SetOpt,
     UserError,
+    WorkersOpt,
+    chosen_backend,
+    dask_connect_timeout,
     emit_json,
     info,
     load,
@@ -23,23 +28,15 @@ from .common import (
     write_figure,
     write_output,
 )
-from .study_cmd import Backend, _connect_timeout, _probe_scheduler
 
 
 def fleet(
     spec: Annotated[Path, typer.Option("--spec", help="Fleet spec TOML with a [fleet] table (docs/fleet.md).")],
     config: ConfigOpt = None,
     set_: SetOpt = None,
-    backend: Annotated[
-        Optional[Backend],
-        typer.Option("--backend", help="processes (default), serial, or dask (implied by --scheduler)."),
-    ] = None,
-    scheduler: Annotated[
-        Optional[str], typer.Option("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786.")
-    ] = None,
-    workers: Annotated[
-        Optional[int], typer.Option("--workers", "-w", min=1, help="Local worker processes (default: all CPUs).")
-    ] = None,
+    backend: BackendOpt = None,
+    scheduler: SchedulerOpt = None,
+    workers: WorkersOpt = None,
     checkpoint: Annotated[
         Optional[Path], typer.Option("--checkpoint", help="Folder for the checkpoint (fleet_checkpoint.npz).")
     ] = None,
@@ -62,16 +59,10 @@ def fleet(
     from ..analysis.fleet import fleet_risk, load_fleet_spec
 
     fleet_spec = load_fleet_spec(spec, params)
-    chosen = backend.value if backend else ("dask" if scheduler else "processes")
-    if chosen == "dask" and not scheduler:
-        raise UserError("--backend dask: give --scheduler tcp://host:port")
-    if scheduler and chosen != "dask":
-        raise UserError(f"--scheduler needs the dask backend, not {chosen}")
-    if chosen == "dask":
-        _probe_scheduler(scheduler, 5.0)
+    chosen = chosen_backend(backend, scheduler, 5.0)
     info(f"fleet of {fleet_spec.samples} {params.model} cars, {len(fleet_spec.parameter)} parameters, on {chosen}",
          quiet)
-    with progress("fleet", total=fleet_spec.samples, enabled=not quiet) as advance, _connect_timeout(
+    with progress("fleet", total=fleet_spec.samples, enabled=not quiet) as advance, dask_connect_timeout(
         5.0 if chosen == "dask" else None
     ):
         result = fleet_risk(params, fleet_spec, backend=chosen, workers=workers, scheduler=scheduler,

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from enum import Enum
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -10,12 +9,17 @@ import typer
 
 from .common import (
     PLOT_SUFFIXES,
+    BackendOpt,
     ConfigOpt,
     JsonOpt,
     PlotOpt,
     QuietOpt,
+    SchedulerOpt,
     SetOpt,
     UserError,
+    WorkersOpt,
+    chosen_backend,
+    dask_connect_timeout,
     emit_json,
     info,
     load,
@@ -26,25 +30,12 @@ from .common import (
 )
 
 
-class Backend(str, Enum):
-    processes = "processes"
-    serial = "serial"
-    dask = "dask"
-
-
 def study(
     config: ConfigOpt = None,
     set_: SetOpt = None,
-    backend: Annotated[
-        Optional[Backend],
-        typer.Option("--backend", help="processes (default), serial, or dask (implied by --scheduler)."),
-    ] = None,
-    scheduler: Annotated[
-        Optional[str], typer.Option("--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786.")
-    ] = None,
-    workers: Annotated[
-        Optional[int], typer.Option("--workers", "-w", min=1, help="Local worker processes (default: all CPUs).")
-    ] = None,
+    backend: BackendOpt = None,
+    scheduler: SchedulerOpt = None,
+    workers: WorkersOpt = None,
     batch_size: Annotated[
         Optional[int], typer.Option("--batch-size", min=1, help="Samples per task (default: ~8 tasks per worker).")
     ] = None,
@@ -65,13 +56,7 @@ def study(
     if not 0.0 < connect_timeout <= 3600.0:
         raise UserError(f"--connect-timeout {connect_timeout}: must be in (0, 3600] [s]")
     params = load(config, set_)
-    chosen = backend.value if backend else ("dask" if scheduler else "processes")
-    if chosen == "dask" and not scheduler:
-        raise UserError("--backend dask: give --scheduler tcp://host:port")
-    if scheduler and chosen != "dask":
-        raise UserError(f"--scheduler needs the dask backend, not {chosen}")
-    if chosen == "dask":
-        _probe_scheduler(scheduler, connect_timeout)
+    chosen = chosen_backend(backend, scheduler, connect_timeout)
     from ..analysis.global_sensitivity import global_sensitivity, study_parameters
 
     study_ = params.study
@@ -82,7 +67,7 @@ def study(
         n_runs = study_.n_base * (D + 1)
     where = scheduler if chosen == "dask" else f"{workers or 'all'} local workers" if chosen == "processes" else "serial"
     info(f"{study_.method} study of {params.model}: {D} parameters, {n_runs} runs ({study_.outputs}) on {where}", quiet)
-    with progress(f"{study_.method} study", total=n_runs, enabled=not quiet) as advance, _connect_timeout(
+    with progress(f"{study_.method} study", total=n_runs, enabled=not quiet) as advance, dask_connect_timeout(
         connect_timeout if chosen == "dask" else None
     ):
         try:
@@ -99,28 +84,6 @@ def study(
         emit_json(summary)
     else:
         _print_summary(result)
-
-
-def _probe_scheduler(address: str, seconds: float) -> None:
-    """Connect to the Dask scheduler once before any work: a wrong address fails in ``seconds``."""
-    from distributed import Client
-
-    try:
-        with Client(address, timeout=f"{seconds}s"):
-            pass
-    except (OSError, ValueError, TypeError) as exc:  # unreachable, timed out, malformed address
-        raise UserError(f"cannot reach the Dask scheduler {address} within {seconds:g} s: {exc}") from None
-
-
-def _connect_timeout(seconds: float | None):
-    """Dask's connect timeout set to ``seconds`` for the block (nothing when None)."""
-    from contextlib import nullcontext
-
-    if seconds is None:
-        return nullcontext()
-    import dask
-
-    return dask.config.set({"distributed.comm.timeouts.connect": f"{seconds}s"})
 
 
 def _print_summary(result) -> None:
