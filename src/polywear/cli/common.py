@@ -130,6 +130,16 @@ def check_speed_range(pair: tuple[float, float], option: str = "--speed-range") 
     return float(lo), float(hi)
 
 
+def check_param_keys(keys, option: str = "--param", example: str = "operating.toe_deg") -> None:
+    """Each key a numeric configuration key or ``adhesion_scale``; else one line naming the first other."""
+    from ..params import ADHESION_SCALE, study_keys
+
+    known = study_keys()
+    for key in keys:
+        if key not in known:
+            raise UserError(f"{option} {key}: not a numeric parameter key (e.g. {example}, {ADHESION_SCALE})")
+
+
 def check_count(value: int | None, option: str, low: int, high: int) -> int | None:
     """An integer option checked against ``low <= value <= high`` (None passes)."""
     if value is not None and not low <= value <= high:

@@ -18,6 +18,7 @@ from .common import (
     SetOpt,
     SpeedRangeOpt,
     UserError,
+    check_param_keys,
     check_speed_range,
     emit_json,
     info,
@@ -80,14 +81,10 @@ def design(
         raise UserError(f"--margin {margin:g}: must be in [0, 100] km/h")
     params = load(config, set_)
     from ..analysis.design import DEFAULT_KEYS, clear_operating_range, default_operating_range
-    from ..params import study_keys
 
     operating_range = operating_range or default_operating_range(params.operating.speed_kmh)
     keys = tuple(dict.fromkeys(param or DEFAULT_KEYS))
-    known = study_keys()
-    for key in (*keys, *(combine or ())):
-        if key not in known:
-            raise UserError(f"--param {key}: not a numeric parameter key (e.g. operating.toe_deg, adhesion_scale)")
+    check_param_keys((*keys, *(combine or ())))
     info(f"design: {len(keys) + bool(combine)} options, each searched in both directions by bifurcation diagrams ...",
          quiet)
     with progress("design: bifurcation diagrams", total=None, enabled=not quiet) as advance:

@@ -18,6 +18,7 @@ from .common import (
     SetOpt,
     SpeedRangeOpt,
     UserError,
+    check_param_keys,
     check_speed_range,
     emit_json,
     load,
@@ -58,10 +59,8 @@ def map_(
     params = load(config, set_)
     from ..analysis.sensitivity import nominal_value
     from ..analysis.stability_map import stability_map
-    from ..params import study_keys
 
-    if param not in study_keys():
-        raise UserError(f"--param {param}: not a numeric parameter key (e.g. operating.toe_deg, adhesion_scale)")
+    check_param_keys([param])
     if range_ is None:
         nominal = nominal_value(params, param)
         if nominal == 0.0:

@@ -18,6 +18,7 @@ from .common import (
     SetOpt,
     SpeedRangeOpt,
     UserError,
+    check_param_keys,
     check_speed_range,
     emit_json,
     info,
@@ -67,14 +68,11 @@ def sensitivity(
     params = load(config, set_)
     from ..analysis.sensitivity import PAPER_PARAMETERS, local_sensitivity, parameter_direction
     from ..models import get_model
-    from ..params import study_keys
 
     keys = tuple(dict.fromkeys(param)) if param else PAPER_PARAMETERS
-    known = study_keys()
+    check_param_keys(keys, example="tread.mass_kg")
     model = get_model(params.model)
     for key in keys:
-        if key not in known:
-            raise UserError(f"--param {key}: not a numeric parameter key (e.g. tread.mass_kg, adhesion_scale)")
         if not parameter_direction(model, params, key).any():
             info(f"note: {key} does not enter model {params.model}; its sensitivity is 0", quiet)
     with progress(f"{method.value} sensitivity: continuation steps", total=None, enabled=not quiet) as advance:

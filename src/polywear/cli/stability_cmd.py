@@ -15,6 +15,7 @@ from .common import (
     PlotOpt,
     QuietOpt,
     SetOpt,
+    SpeedRangeOpt,
     UserError,
     check_count,
     check_speed_range,
@@ -31,9 +32,7 @@ from .common import (
 def stability(
     config: ConfigOpt = None,
     set_: SetOpt = None,
-    speed_range: Annotated[
-        tuple[float, float], typer.Option("--speed-range", help="Lowest and highest speed [km/h].")
-    ] = (5.0, 300.0),
+    speed_range: SpeedRangeOpt = (5.0, 300.0),
     n_speeds: Annotated[int, typer.Option("--n-speeds", help="Speed grid points for bracketing.")] = 400,
     json_: JsonOpt = False,
     plot: PlotOpt = None,

@@ -21,6 +21,7 @@ from .common import (
     SpeedRangeOpt,
     UserError,
     check_count,
+    check_param_keys,
     check_speed_range,
     emit_json,
     info,
@@ -292,11 +293,8 @@ def design_(
     params = load(config, set_)
     pairs = parse_cycle(cycle) if cycle else None
     from ..analysis.wear_design import verify_option, wear_design
-    from ..params import study_keys
 
-    for key in keys or ():
-        if key not in study_keys():
-            raise UserError(f"--key {key}: not a numeric parameter key (e.g. operating.toe_deg, adhesion_scale)")
+    check_param_keys(keys or (), "--key")
     info("wear design: searching with the linear wear map ...", quiet)
     result = wear_design(params, keys or None, target_km, pairs, max_factor)
     if verify_km is not None and result.options:
