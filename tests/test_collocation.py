@@ -132,3 +132,25 @@ def test_fold_of_cycles_located_at_closed_form(normal_form_branch):
     assert abs(fold.orbit.speed - 0.75) < 1e-9
     r2 = np.mean(np.sum(fold.orbit.nodes[:, :2] ** 2, axis=1))
     assert abs(r2 - 0.5) < 1e-6  # r^2 is flat in V at the fold: sqrt of the speed error
+
+
+@pytest.mark.parametrize("model_name", ["tread1dof", "axle4dof"])
+def test_kernels_give_inf_or_nan_instead_of_raising(model_name, capfd):
+    """A diverged Newton iterate can divide by zero in a kernel. Called through the compiled
+    solvers' first-class functions, a raised ZeroDivisionError cannot propagate: numba
+    printed it and handed back garbage. The kernels use numpy's error model, so a zero
+    friction coefficient (G = 0 in the bristle law) gives inf/NaN that Newton rejects."""
+    from polywear.models import get_model
+    from polywear.models.kernels import batch
+    from polywear.params import Params
+
+    model = get_model(model_name)
+    p = model.pack(Params(model=model_name)).copy()
+    names = model.param_names
+    p[names.index("mu_s")] = p[names.index("mu_c")] = 0.0
+    u = model.equilibrium(30.0, model.pack(Params(model=model_name)))
+    out = np.empty((1, model.n))
+    batch(model.compiled[0], np.ascontiguousarray(u[None, :]), 30.0, p, out)
+    err = capfd.readouterr().err
+    assert "ZeroDivisionError" not in err and "Exception ignored" not in err
+    assert not np.all(np.isfinite(out))

@@ -287,7 +287,7 @@ def generate_source() -> str:
     parts = [_HEADER.format(sympy=sp.__version__, digest=_inputs_hash(), state_names=repr(STATE_NAMES), param_names=repr(PARAM_NAMES))]
     parts.append("\n".join(f"_{name.upper()} = {i}" for i, name in enumerate(PARAM_NAMES)) + "\n")
     for group in _groups(d):
-        parts.append("\n@njit(cache=True)\n" + _emit(group, d, printer))
+        parts.append("\n@njit(cache=True, error_model=\"numpy\")\n" + _emit(group, d, printer))
     return "\n".join(parts)
 
 

@@ -65,13 +65,13 @@ _ZB = 8
 """Index of the bristle deflection z in the state."""
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _zero(u, V, p):
     """0 of the common dtype of u, V and p."""
     return 0.0 * (u[0] + V + p[0])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _solve(M, B):
     """Solve M X = B in place of B (B of shape (4, k)); M symmetric positive definite."""
     A = M.copy()
@@ -91,7 +91,7 @@ def _solve(M, B):
             B[j, k] = s / A[j, j]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def running_equilibrium(V, p, u0):
     """Steady state of the running reference: alpha = beta = gamma = 0, rates 0,
     z0 = sgn(v_r0) G(v_r0)/sigma0, k x0 = F0 G_F,x; fills u0, returns the friction force F0 [N]."""
@@ -109,7 +109,7 @@ def running_equilibrium(V, p, u0):
     return p[_N0] * mu0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _running_force_dv(V, p):
     """dF0/dV [N s/m] of the running equilibrium's friction force."""
     slip = sin(p[_TOE0]) - p[_EPS] * sin(p[_CAMBER0])
@@ -118,7 +118,7 @@ def _running_force_dv(V, p):
     return p[_N0] * dmu0 * slip
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def preload(V, p, P):
     """Constant generalized preloads P [N m, N m, N m, N].
 
@@ -152,7 +152,7 @@ def preload(V, p, P):
             P[i] -= (1.0 - r) * (F0 * GF[i] + p[_N0] * GN[i])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _preload_dv(V, p, dP):
     """dP/dV of :func:`preload` (from the running part only)."""
     r = p[_REFERENCE].real
@@ -174,7 +174,7 @@ def _preload_dv(V, p, dP):
         dP[i] = -(1.0 - r) * (dF0 * GF[i] + (F0 * dGF[i, 3] + p[_N0] * dGN[i, 3]) * dx0)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _workspace(u, V, p):
     """A zero of the common dtype and empty M (4, 4), Q (4, 1), G_F, G_N for :func:`_evaluate`."""
     zero = _zero(u, V, p)
@@ -182,7 +182,7 @@ def _workspace(u, V, p):
     return zero, M, np.empty((_NQ, 1), dtype=M.dtype), np.empty(_NQ, dtype=M.dtype), np.empty(_NQ, dtype=M.dtype)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _evaluate(u, V, p, M, Q, GF, GN):
     """Fill M, the total generalized force Q (4, 1), G_F and G_N at u;
     return (v_r, G(v_r), z', F, N, clamped)."""
@@ -208,7 +208,7 @@ def _evaluate(u, V, p, M, Q, GF, GN):
     return vr, g, zd, force, load, clamped
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def rhs(u, V, p, out):
     """du/dt [rad/s, rad/s, rad/s, m/s, rad/s^2, rad/s^2, rad/s^2, m/s^2, m/s]."""
     _zero_value, M, Q, GF, GN = _workspace(u, V, p)
@@ -220,7 +220,7 @@ def rhs(u, V, p, out):
     out[_ZB] = zd
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def jac(u, V, p, out):
     """df/du (9 x 9)."""
     n2 = 2 * _NQ
@@ -280,7 +280,7 @@ def jac(u, V, p, out):
     out[_ZB, _ZB] = dzd_dz
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def dfdv(u, V, p, out):
     """df/dV [per m/s]: through v_r, the wheel-spin rate V/R_e and the running preloads."""
     zero, M, Q, GF, GN = _workspace(u, V, p)
@@ -307,7 +307,7 @@ def dfdv(u, V, p, out):
     out[_ZB] = dzd_dvr * dvr_dv
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def aux(u, V, p, out):
     """Sliding velocity v_r [m/s], friction force F [N], normal load N [N], contact lost [0/1]."""
     zero, M, Q, GF, GN = _workspace(u, V, p)

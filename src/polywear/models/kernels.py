@@ -18,18 +18,18 @@ JAC_SIG = types.void(VEC, types.float64, VEC, MAT)
 def as_cfuncs(kernels):
     """``(rhs, jac, dfdv)`` of a kernel namespace as cached cfuncs."""
     return (
-        cfunc(RHS_SIG, cache=True)(kernels.rhs.py_func),
-        cfunc(JAC_SIG, cache=True)(kernels.jac.py_func),
-        cfunc(RHS_SIG, cache=True)(kernels.dfdv.py_func),
+        cfunc(RHS_SIG, cache=True, error_model="numpy")(kernels.rhs.py_func),
+        cfunc(JAC_SIG, cache=True, error_model="numpy")(kernels.jac.py_func),
+        cfunc(RHS_SIG, cache=True, error_model="numpy")(kernels.dfdv.py_func),
     )
 
 
 def aux_cfunc(kernels):
     """The ``aux`` kernel as a cached cfunc."""
-    return cfunc(RHS_SIG, cache=True)(kernels.aux.py_func)
+    return cfunc(RHS_SIG, cache=True, error_model="numpy")(kernels.aux.py_func)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def batch(kernel, states, V, p, out):
     """Apply a ``(u, V, p, out)`` kernel to every row of ``states`` (m, n) into ``out`` (m, k)."""
     for i in range(states.shape[0]):

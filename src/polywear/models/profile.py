@@ -65,7 +65,7 @@ def harmonics_of(profile: np.ndarray, max_order: int) -> tuple[np.ndarray, np.nd
 
 
 # -- kernels ------------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _base_rhs(flag, u, V, p, out):
     if flag == 0:
         _tread.rhs(u, V, p, out)
@@ -73,7 +73,7 @@ def _base_rhs(flag, u, V, p, out):
         _axle.rhs(u, V, p, out)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _base_jac(flag, u, V, p, out):
     if flag == 0:
         _tread.jac(u, V, p, out)
@@ -81,7 +81,7 @@ def _base_jac(flag, u, V, p, out):
         _axle.jac(u, V, p, out)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _base_dfdv(flag, u, V, p, out):
     if flag == 0:
         _tread.dfdv(u, V, p, out)
@@ -89,7 +89,7 @@ def _base_dfdv(flag, u, V, p, out):
         _axle.dfdv(u, V, p, out)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _base_aux(flag, u, V, p, out):
     if flag == 0:
         _tread.aux(u, V, p, out)
@@ -97,7 +97,7 @@ def _base_aux(flag, u, V, p, out):
         _axle.aux(u, V, p, out)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _profile_load(theta, V, p):
     """Load change dN [N], d(dN)/dphi_c [N/rad] and d(dN)/dV [N s/m] at angle theta."""
     k = int(p[_NH].real)
@@ -122,7 +122,7 @@ def _profile_load(theta, V, p):
     return dn, dn_dtheta, dn_dv
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _loaded(u, V, p):
     """The base vector with the profile's load, and whether the input was clamped."""
     n = u.size - 1
@@ -136,7 +136,7 @@ def _loaded(u, V, p):
     return q, clamped, dn_dtheta, dn_dv
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _df_dload(flag, u, V, q, i0, out):
     """Derivative of the base rhs with respect to the static load q[i0] (complex step)."""
     n = out.size
@@ -151,7 +151,7 @@ def _df_dload(flag, u, V, q, i0, out):
         out[i] = oc[i].imag / _CSTEP
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def rhs(u, V, p, out):
     """du/dt: the base model's at the profile's load, and phi_c' = V/R."""
     n = u.size - 1
@@ -160,7 +160,7 @@ def rhs(u, V, p, out):
     out[n] = V / p[_R]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def jac(u, V, p, out):
     """df/du, with the column of phi_c through the load."""
     n = u.size - 1
@@ -176,7 +176,7 @@ def jac(u, V, p, out):
     out[n, n] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def dfdv(u, V, p, out):
     """df/dV [per m/s]: the base model's, the load's (through phi_c' in dw_c/dt), 1/R.
 
@@ -195,7 +195,7 @@ def dfdv(u, V, p, out):
     out[n] = 1.0 / p[_R]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def aux(u, V, p, out):
     """The base model's diagnostics at the profile's load."""
     n = u.size - 1

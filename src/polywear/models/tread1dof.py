@@ -34,7 +34,7 @@ SLOTS = (
 M, K, C, N, TOE, S0, S1, S2, MUS, MUC, VS, DELTA = range(len(SLOTS))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def rhs(u, V, p, out):
     """du/dt [m/s, m/s^2, m/s]."""
     vr = V * np.sin(p[TOE]) - u[1]
@@ -46,7 +46,7 @@ def rhs(u, V, p, out):
     out[2] = zd
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _partials(u, V, p):
     """Sliding velocity, dz'/dv_r, dz'/dz, dF/dv_r, dF/dz at state u."""
     vr = V * np.sin(p[TOE]) - u[1]
@@ -58,7 +58,7 @@ def _partials(u, V, p):
     return vr, dzd_dvr, dzd_dz, df_dvr, df_dz
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def jac(u, V, p, out):
     """df/du."""
     _, dzd_dvr, dzd_dz, df_dvr, df_dz = _partials(u, V, p)
@@ -73,7 +73,7 @@ def jac(u, V, p, out):
     out[2, 2] = dzd_dz
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def dfdv(u, V, p, out):
     """df/dV [per m/s]; V enters only through v_r = V sin(toe) - x'."""
     _, dzd_dvr, _, df_dvr, _ = _partials(u, V, p)
@@ -86,7 +86,7 @@ def dfdv(u, V, p, out):
 AUX_NAMES = ("sliding_velocity", "friction_force", "normal_load")
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def aux(u, V, p, out):
     """Sliding velocity v_r [m/s], friction force F [N], normal load N [N]."""
     vr = V * np.sin(p[TOE]) - u[1]

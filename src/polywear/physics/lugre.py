@@ -30,13 +30,13 @@ __all__ = [
 ]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def real_abs(x):
     """|x| taken on the real part, analytic continuation for complex-step use."""
     return x if x.real >= 0.0 else -x
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def real_sign(x):
     """sgn(Re x) as a float (0 at 0)."""
     r = x.real
@@ -47,13 +47,13 @@ def real_sign(x):
     return 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def stribeck(v, mu_s, mu_c, v_s, delta):
     """Stribeck curve G(v) = mu_c + (mu_s - mu_c) exp(-|v/v_s|^delta) [-]."""
     return mu_c + (mu_s - mu_c) * np.exp(-(real_abs(v / v_s) ** delta))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def stribeck_dv(v, mu_s, mu_c, v_s, delta):
     """dG/dv [s/m]; zero at v = 0 for delta > 1."""
     a = real_abs(v / v_s)
@@ -62,26 +62,26 @@ def stribeck_dv(v, mu_s, mu_c, v_s, delta):
     return -(mu_s - mu_c) * np.exp(-(a**delta)) * delta * a ** (delta - 1.0) * real_sign(v) / v_s
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def bristle_decay_rate(v, sigma0, g):
     """sigma0 |v| / G [1/s]: the rate at which the bristle forgets its deflection."""
     return sigma0 * real_abs(v) / g
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def bristle_rate(v, z, sigma0, g):
     """dz/dt = v - sigma0 |v| z / G [m/s] for sliding velocity v and G = g."""
     return v - bristle_decay_rate(v, sigma0, g) * z
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def bristle_rate_partials(v, z, sigma0, g, dg):
     """(d(dz/dt)/dv [-], d(dz/dt)/dz [1/s]) of :func:`bristle_rate`; ``dg`` = dG/dv at v."""
     dzd_dv = 1.0 - sigma0 * z * (real_sign(v) * g - real_abs(v) * dg) / (g * g)
     return dzd_dv, -bristle_decay_rate(v, sigma0, g)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def friction_coefficient(v, z, zdot, sigma0, sigma1, sigma2):
     """F/N = sigma0 z + sigma1 dz/dt + sigma2 v [-]."""
     return sigma0 * z + sigma1 * zdot + sigma2 * v

@@ -312,9 +312,13 @@ class Collocation:
         Solves ``A [dX, t] = [-F, e]`` where A is the collocation Jacobian bordered by
         ``border`` (2, size), F the residual with ``border_values`` appended, and ``e``
         the unit vector of the last (arclength) row. Returns ``(dX, t, CL, CR)`` or
-        None if the matrix is singular; ``CL``, ``CR`` give the monodromy matrix.
+        None if the residual is not finite or the matrix is singular; ``CL``, ``CR``
+        give the monodromy matrix.
         """
         res, blocks, tcol, vcol = self.evaluate(X)
+        if not (np.all(np.isfinite(res)) and np.all(np.isfinite(blocks))
+                and np.all(np.isfinite(tcol)) and np.all(np.isfinite(vcol))):
+            return None  # a diverged Newton iterate (the kernels give inf/NaN, never raise)
         rhs = np.zeros((self.size, 2))
         rhs[:-2, 0] = -res
         rhs[-2:, 0] = -border_values
