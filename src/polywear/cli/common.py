@@ -35,6 +35,11 @@ SpeedRangeOpt = Annotated[
     tuple[float, float], typer.Option("--speed-range", help="Lowest and highest speed [km/h].")
 ]
 """``--speed-range LOW HIGH`` [km/h]; default ``DEFAULT_SPEED_RANGE_KMH``, check with :func:`check_speed_range`."""
+OperatingRangeOpt = Annotated[
+    Optional[tuple[float, float]],
+    typer.Option("--operating-range", help="Speeds to keep free of SEV [km/h] (default: operating speed -30/+20)."),
+]
+"""``--operating-range LOW HIGH`` [km/h]; None: ``analysis.design.default_operating_range``."""
 TirOpt = Annotated[
     Optional[Path],
     typer.Option("--tir", help="Tyre property file (.tir, Magic Formula): its values come before --config/--set."),

@@ -13,6 +13,7 @@ from .common import (
     PLOT_SUFFIXES,
     ConfigOpt,
     JsonOpt,
+    OperatingRangeOpt,
     PlotOpt,
     QuietOpt,
     SetOpt,
@@ -34,10 +35,7 @@ from .common import (
 def design(
     config: ConfigOpt = None,
     set_: SetOpt = None,
-    operating_range: Annotated[
-        Optional[tuple[float, float]],
-        typer.Option("--operating-range", help="Speeds to keep free of SEV [km/h] (default: operating speed -30/+20)."),
-    ] = None,
+    operating_range: OperatingRangeOpt = None,
     param: Annotated[
         Optional[list[str]],
         typer.Option("--param", "-p", help="Parameter to change alone (repeatable; default: toe, camber, "

@@ -11,6 +11,7 @@ from ..units import DEFAULT_SPEED_RANGE_KMH
 from .common import (
     ConfigOpt,
     JsonOpt,
+    OperatingRangeOpt,
     QuietOpt,
     SetOpt,
     SpeedRangeOpt,
@@ -28,10 +29,7 @@ def report(
     set_: SetOpt = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")] = Path("out"),
     speed_range: SpeedRangeOpt = DEFAULT_SPEED_RANGE_KMH,
-    operating_range: Annotated[
-        Optional[tuple[float, float]],
-        typer.Option("--operating-range", help="Speeds to keep free of SEV [km/h] (default: operating speed -30/+20)."),
-    ] = None,
+    operating_range: OperatingRangeOpt = None,
     wear_km: Annotated[
         Optional[float],
         typer.Option("--wear-km", help="Also evolve the worn profile over this distance [km] at the operating speed "
