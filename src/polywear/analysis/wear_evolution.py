@@ -65,6 +65,14 @@ RESOLVABLE = 0.25
 """A drifting line is separated in a window of M revolutions when eps M >= this [-]."""
 SIDEBANDS = 2
 """Harmonics j of the vibration whose drifting writes are separated (j = +-1..+-SIDEBANDS)."""
+SEPARATED_BEATS = 3.0
+"""A window separates the vibration's line from its nearest integer order when the pattern
+turns by at least this many periods over it (eps M >= this) [-]: the Hann main lobe is 2
+bins wide, so a shorter window mixes the line with the profile's locked response at that
+order; the order estimate and the coherent write then depend on where the window starts."""
+MAX_WINDOW = 64
+"""Most revolutions a window is lengthened to for SEPARATED_BEATS [-]; a vibration closer
+to an integer order (eps < SEPARATED_BEATS / MAX_WINDOW) is only partly separated."""
 _RTOL = 1e-8
 _ATOL_FRACTION = 1e-9
 
@@ -150,9 +158,13 @@ class WindowWear:
 
 
 def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float, revolutions: int = 8,
-                base=None) -> WindowWear:
+                base=None, max_revolutions: int | None = None) -> WindowWear:
     """Simulate ``settle_s`` [s] then ``revolutions`` at speed V [m/s] with profile ``W``
-    from ``state`` (coupled-model state) and split what each revolution writes."""
+    from ``state`` (coupled-model state) and split what each revolution writes.
+
+    With ``max_revolutions``, a window too short to separate the vibration from its nearest
+    integer order (``eps * revolutions < SEPARATED_BEATS``) is run again from the same state,
+    ``ceil(SEPARATED_BEATS / eps)`` revolutions long (at most ``max_revolutions``)."""
     base = base or get_model(params.model)
     coupled = coupled_model(base)
     R = params.operating.rolling_radius_m
@@ -175,8 +187,12 @@ def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float,
     xdot = u[:, base.index("xdot")]
     vibrating = float(np.std(xdot)) > VIBRATION_RMS
     nu = _dominant_order(t, xdot, 1.0 / T) if vibrating else math.nan
-    eps = [abs(j * nu - round(j * nu)) for j in range(1, SIDEBANDS + 1)] if vibrating else []
+    eps = _detuning(nu) if vibrating else []
     locked = vibrating and eps[0] < LOCK_TOLERANCE
+    if max_revolutions is not None and vibrating and not locked:
+        needed = min(max_revolutions, _separating_window(eps))
+        if needed > revolutions:
+            return window_wear(params, V, W, state, settle_s, needed, base, max_revolutions)
     slow = _slow_orders(nu, eps, revolutions, K)
     reference = None
     if slow:  # the same window without those harmonics: what the vibration writes there by itself
@@ -192,6 +208,18 @@ def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float,
     return WindowWear(coherent=coherent, drifting=drifting, ratios=ratios, mean_per_rev=mean,
                       revolutions=revolutions, order=nu, locked=bool(locked), end_state=run.u_end.copy(),
                       energy_per_rev=energy, profile=np.array(W))
+
+
+def _detuning(nu: float) -> list[float]:
+    """Distance eps_j of j nu to the nearest integer, j = 1..SIDEBANDS."""
+    return [abs(j * nu - round(j * nu)) for j in range(1, SIDEBANDS + 1)]
+
+
+def _separating_window(eps) -> int:
+    """Revolutions that separate every drifting line j nu from its nearest integer order
+    (``eps_j M >= SEPARATED_BEATS``; lines locked to within LOCK_TOLERANCE are not drifting)."""
+    drifting = [e for e in eps if e >= LOCK_TOLERANCE]
+    return math.ceil(SEPARATED_BEATS / min(drifting)) if drifting else 0
 
 
 def _slow_orders(nu, eps, revolutions, K) -> list[int]:
@@ -500,6 +528,8 @@ def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000
         u0[base.index("x")] += 1e-5  # a small disturbance: steady rolling as a car drives
         states.append(u0)
         settles.append([first, nxt])
+    shortest = list(windows)  # per speed; a vibrating window is lengthened up to `longest`
+    longest = max(MAX_WINDOW, revolutions)
     history, means, energies, distance = [W.copy()], [0.0], [0.0], [0.0]
     orders_hist, locked_hist = [], []
     mean = energy = done = 0.0
@@ -516,7 +546,9 @@ def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000
                 wins.append(linear[j].rescaled(W))
                 continue
             V = float(kmh_to_ms(v_kmh))
-            win = window_wear(params, V, W, states[j], settles[j][0], windows[j], base)
+            win = window_wear(params, V, W, states[j], settles[j][0], windows[j], base, longest)
+            if math.isfinite(win.order):  # the next window at this speed starts long enough
+                windows[j] = max(shortest[j], min(longest, _separating_window(_detuning(win.order))))
             settles[j][0] = settles[j][1]
             states[j] = win.end_state
             linear[j] = win if (small and not math.isfinite(win.order)) else None
