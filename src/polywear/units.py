@@ -33,7 +33,7 @@ def wheel_rotation_frequency_hz(speed_ms, rolling_radius_m):
 
 
 def polygon_order(frequency_hz, speed_ms, rolling_radius_m):
-    """Wheel order ``n = f / f_rot = f 2 pi R_e / V`` of a frequency f [Hz] at speed V [m/s] [-].
+    """Wheel order ``n = f / f_rot = f 2 pi R_e / V`` (dimensionless) of a frequency f [Hz] at speed V [m/s].
 
     Linear in f, so it also turns a derivative of f into one of n (at fixed V, R_e).
     """
