@@ -33,6 +33,7 @@ import numpy as np
 
 from .. import __version__
 from ..models import get_model
+from ..models.base import ms_to_kmh
 from ..params import ADHESION_SCALE, Params
 from ..units import DEFAULT_SPEED_RANGE_KMH
 from .bifurcation import BifurcationDiagram, bifurcation_diagram
@@ -318,7 +319,7 @@ def _amplitude_lines(ax, diagram, i, color, label):
     first = True
     for b in range(len(diagram.branches)):
         pts = [c for c in diagram.cycles if c.branch == b]
-        v = np.array([c.speed * 3.6 for c in pts])
+        v = ms_to_kmh(np.array([c.speed for c in pts]))
         a = np.array([c.amplitude[i] for c in pts]) * scale
         st = np.array([c.stable for c in pts])
         for mask, style, lw in ((st, "-", 1.8), (~st, "--", 1.2)):

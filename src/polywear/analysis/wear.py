@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..models.base import ms_to_kmh
 from ..units import polygon_order
 
 __all__ = ["WearIndicators", "wear_indicators"]
@@ -67,7 +68,7 @@ def wear_indicators(model, p, orbit, rolling_radius_m: float, samples: int = 204
     f = 1.0 / orbit.period
     n = polygon_order(f, V, rolling_radius_m)
     return WearIndicators(
-        speed_kmh=V * 3.6,
+        speed_kmh=ms_to_kmh(V),
         frequency_hz=f,
         polygon_order=n,
         polygon_order_offset=abs(n - round(n)),
