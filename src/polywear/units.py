@@ -12,6 +12,7 @@ __all__ = [
     "MAX_SPEED_KMH",
     "DEFAULT_SPEED_RANGE_KMH",
     "DEFAULT_OPERATING_RANGE_KMH",
+    "STABILITY_SPEED_RANGE_KMH",
     "wheel_rotation_frequency_hz",
     "polygon_order",
     "plot_scale",
@@ -25,6 +26,9 @@ DEFAULT_SPEED_RANGE_KMH: tuple[float, float] = (20.0, 300.0)
 
 DEFAULT_OPERATING_RANGE_KMH: tuple[float, float] = (80.0, 130.0)
 """Operating speeds of a study's largest-amplitude output by default [km/h]."""
+
+STABILITY_SPEED_RANGE_KMH: tuple[float, float] = (5.0, 300.0)
+"""Speeds of steady-rolling stability analyses (``stability``, ``calibrate``) by default [km/h]."""
 
 
 def wheel_rotation_frequency_hz(speed_ms, rolling_radius_m):

@@ -28,7 +28,7 @@ from .. import __version__
 from ..models import get_model
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import ADHESION_SCALE, ParameterError, Params, get_value, study_keys, with_updates
-from ..units import polygon_order
+from ..units import STABILITY_SPEED_RANGE_KMH, polygon_order
 
 __all__ = [
     "QUANTITIES",
@@ -311,7 +311,7 @@ def predict(
     params: Params,
     observations: list[Observation],
     keys: list[str] | tuple[str, ...] = (),
-    speed_range_kmh: tuple[float, float] = (5.0, 300.0),
+    speed_range_kmh: tuple[float, float] = STABILITY_SPEED_RANGE_KMH,
     n_speeds: int = 200,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Model values of the observed quantities and their derivatives.
@@ -428,7 +428,7 @@ def calibrate(
     params: Params,
     observations: list[Observation],
     keys: list[str] | tuple[str, ...],
-    speed_range_kmh: tuple[float, float] = (5.0, 300.0),
+    speed_range_kmh: tuple[float, float] = STABILITY_SPEED_RANGE_KMH,
     n_speeds: int = 200,
     profile: bool = True,
     undetermined_above: float = 1.0,

@@ -22,6 +22,7 @@ from .. import __version__
 from ..models import get_model
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, to_toml
+from ..units import STABILITY_SPEED_RANGE_KMH
 from .derivatives import bilinear, jac_directional, rhs_directional, trilinear
 
 __all__ = [
@@ -266,7 +267,7 @@ class StabilityResult:
 
 def stability_analysis(
     params: Params,
-    speed_range_kmh: tuple[float, float] = (5.0, 300.0),
+    speed_range_kmh: tuple[float, float] = STABILITY_SPEED_RANGE_KMH,
     n_speeds: int = 400,
     xtol_ms: float = 1e-10,
 ) -> StabilityResult:

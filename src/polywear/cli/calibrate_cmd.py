@@ -7,6 +7,7 @@ from typing import Annotated, Optional
 
 import typer
 
+from ..units import STABILITY_SPEED_RANGE_KMH
 from .common import (
     ConfigOpt,
     JsonOpt,
@@ -14,6 +15,7 @@ from .common import (
     PLOT_SUFFIXES,
     QuietOpt,
     SetOpt,
+    SpeedRangeOpt,
     check_speed_range,
     emit_json,
     info,
@@ -31,9 +33,7 @@ def calibrate(
     vary: Annotated[list[str], typer.Option("--vary", help="Parameter key to fit, table.key (repeatable).")],
     config: ConfigOpt = None,
     set_: SetOpt = None,
-    speed_range: Annotated[
-        tuple[float, float], typer.Option("--speed-range", help="Speeds searched for Hopf points and bands [km/h].")
-    ] = (5.0, 300.0),
+    speed_range: SpeedRangeOpt = STABILITY_SPEED_RANGE_KMH,
     profile: Annotated[
         bool, typer.Option("--profile/--no-profile", help="Profile-likelihood intervals (a refit per point).")
     ] = True,

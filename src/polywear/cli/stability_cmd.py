@@ -6,6 +6,7 @@ from typing import Annotated
 
 import typer
 
+from ..units import STABILITY_SPEED_RANGE_KMH
 from .common import (
     MAX_GRID_POINTS,
     PLOT_SUFFIXES,
@@ -32,7 +33,7 @@ from .common import (
 def stability(
     config: ConfigOpt = None,
     set_: SetOpt = None,
-    speed_range: SpeedRangeOpt = (5.0, 300.0),
+    speed_range: SpeedRangeOpt = STABILITY_SPEED_RANGE_KMH,
     n_speeds: Annotated[int, typer.Option("--n-speeds", help="Speed grid points for bracketing.")] = 400,
     json_: JsonOpt = False,
     plot: PlotOpt = None,
