@@ -181,7 +181,7 @@ def evolve_(
         Optional[float], typer.Option("--speed", help="One speed for the whole distance [km/h] (instead of a cycle).")
     ] = None,
     step_km: Annotated[float, typer.Option("--step-km", help="Distance step between simulated windows [km].")] = 1000.0,
-    revolutions: Annotated[int, typer.Option("--revolutions", help="Simulated revolutions per window where the tread vibrates.")] = 16,
+    revolutions: Annotated[int, typer.Option("--revolutions", help="Simulated revolutions per window where the tread vibrates (at least; lengthened up to 64 to separate the vibration from its nearest integer order).")] = 16,
     json_: JsonOpt = False,
     plot: PlotOpt = None,
     polar: Annotated[Optional[Path], typer.Option("--polar", help="Polar figure of the worn tire (png, pdf, svg).")] = None,
