@@ -45,7 +45,7 @@ from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, ParameterError, to_toml
 from ..solvers.continuation import BranchPoint, ContinuationSettings, fold_near
 from ..units import DEFAULT_SPEED_RANGE_KMH
-from .intervals import union
+from .intervals import runs_of, union
 from .sensitivity import PARAMETER_LABELS, fold_speed_derivative, nominal_value, parameter_direction, perturbed
 from .stability import critical_eigenvalue_derivative, first_lyapunov_coefficient
 
@@ -458,18 +458,7 @@ class StabilityMap:
             return []
         lo, hi = self.operating_range_kmh
         safe = [not ("error" in bands or any(a < hi and b > lo for a, b in bands["sev"])) for bands in self.grid_bands]
-        out, start = [], None
-        for v, ok in zip(self.grid_values, safe):
-            if ok and start is None:
-                start = v
-            if ok:
-                end = v
-            if not ok and start is not None:
-                out.append((float(start), float(end)))
-                start = None
-        if start is not None:
-            out.append((float(start), float(end)))
-        return out
+        return runs_of(self.grid_values, safe)
 
     def summary(self) -> dict:
         return {
