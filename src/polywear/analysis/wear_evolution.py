@@ -20,7 +20,8 @@ Fast dynamics and slow wear alternate (``docs/wear.md``). For a distance step ``
 3. **Update.** Unlocked, the coherent write of harmonic n is proportional to ``W_n``
    (the response to harmonic n lands on harmonic n only), so it is integrated exactly
    as ``W_n exp(N S_n / W_n)``; locked, the cycle writes its own pattern at a rate that
-   does not depend on ``W``, and ``W + N S`` is exact. Harmonics below ``1e-6`` of the
+   does not depend on ``W``, and ``W + N S`` is exact. On a drive cycle with locked and
+   unlocked speeds, ``dW/dN = a W + b`` is integrated exactly (:func:`_update`). Harmonics below ``1e-6`` of the
    profile's RMS, or an exponent above ``MAX_EXPONENT`` in a step, take the additive
    form. The step is shortened while the change exceeds ``MAX_CHANGE`` (see there).
 4. **Linear regime.** At a speed where rolling is steady and the profile is small
@@ -304,20 +305,24 @@ def _settle_times(base, params, V: float) -> tuple[float, float, bool]:
     return first, min(first, max(4.0 * T, 8.0 / rate)), bool(np.max(lam.real) > 0.0)
 
 
-def _update(W: np.ndarray, written_coherent: np.ndarray, locked: bool) -> tuple[np.ndarray, np.ndarray]:
-    """W after a step whose coherent writes total ``written_coherent`` (see module notes),
-    and the part of the change that was added rather than integrated exactly."""
-    if locked:
-        return W + written_coherent, written_coherent
+def _update(W: np.ndarray, free: np.ndarray, forcing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """W after a step (see module notes) and the part of the change that was added rather
+    than integrated exactly. ``free``: coherent writes of the speeds not locked, proportional
+    to W (rate a, ``x = free / W = a N``); ``forcing``: those of the locked speeds, a rate b
+    that does not depend on W. dW/dN = a W + b is integrated exactly,
+    ``W e^x + forcing (e^x - 1)/x``."""
     rms = math.sqrt(0.5 * float(np.sum(np.abs(W) ** 2)))
-    out = W + written_coherent
-    added = written_coherent.copy()
+    out = W + free + forcing
+    added = free + forcing
     big = np.abs(W) > 1e-6 * rms
-    rate = np.zeros_like(W)
-    rate[big] = written_coherent[big] / W[big]
-    exp_ok = big & (np.abs(rate) <= MAX_EXPONENT)
-    out[exp_ok] = W[exp_ok] * np.exp(rate[exp_ok])
-    added[exp_ok] = 0.0
+    x = np.zeros_like(W)
+    x[big] = free[big] / W[big]
+    ok = big & (np.abs(x) <= MAX_EXPONENT)
+    growth = np.exp(x[ok])
+    small = np.abs(x[ok]) < 1e-12
+    phi = np.where(small, 1.0, (growth - 1.0) / np.where(small, 1.0, x[ok]))  # (e^x - 1)/x
+    out[ok] = W[ok] * growth + forcing[ok] * phi
+    added[ok] = forcing[ok] * phi
     return out, added
 
 
@@ -553,13 +558,14 @@ def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000
             states[j] = win.end_state
             linear[j] = win if (small and not math.isfinite(win.order)) else None
             wins.append(win)
-        any_locked = any(w.locked and math.isfinite(w.order) for w in wins)
+        locked = [w.locked and math.isfinite(w.order) for w in wins]
         vibrating = any(math.isfinite(w.order) for w in wins)
         for _ in range(8):  # shorten the step where the profile would change by more than MAX_CHANGE
             n_revs = [share * h * 1000.0 / (2.0 * math.pi * R) for _, share in cycle]
-            coherent_total = sum(n * w.coherent for n, w in zip(n_revs, wins))
+            free = sum((n * w.coherent for n, w, lk in zip(n_revs, wins, locked) if not lk), np.zeros_like(W))
+            forcing = sum((n * w.coherent for n, w, lk in zip(n_revs, wins, locked) if lk), np.zeros_like(W))
             drifting_total = sum(w.written(n) - n * w.coherent for n, w in zip(n_revs, wins))
-            W_new, added = _update(W, coherent_total, any_locked)
+            W_new, added = _update(W, free, forcing)
             W_new = W_new + drifting_total
             # vibrating: the coherent write is not exactly proportional to W (locking pulls), so the
             # whole change is limited; steady rolling: only what was not integrated exactly
