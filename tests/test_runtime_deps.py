@@ -25,7 +25,7 @@ else:
     raise SystemExit("sympy was not blocked")
 import polywear as pw
 p = pw.load_params().with_updates({{"model": "axle4dof"}})
-stab = pw.stability(p, {STABILITY_RANGE_KMH!r}, n_speeds={N_SPEEDS})
+stab = pw.stability(p, {STABILITY_RANGE_KMH!r}, pw.StabilitySettings(n_speeds={N_SPEEDS}))
 sim = pw.simulate(p, {SIM_SPEED_KMH!r}, {SIM_DURATION_S!r})
 imported = []
 for info in pkgutil.walk_packages(pw.__path__, "polywear."):
@@ -47,7 +47,7 @@ def test_simulation_stability_and_every_module_run_with_sympy_blocked():
 
     # the same numbers as here, where sympy can be imported
     p = pw.load_params().with_updates({"model": "axle4dof"})
-    stab = pw.stability(p, STABILITY_RANGE_KMH, n_speeds=N_SPEEDS).summary()
+    stab = pw.stability(p, STABILITY_RANGE_KMH, pw.StabilitySettings(n_speeds=N_SPEEDS)).summary()
     assert result["stability"]["hopf_speeds_kmh"] == stab["hopf_speeds_kmh"]
     assert len(stab["hopf_speeds_kmh"]) == 2  # the default band lies inside the range
     sim = pw.simulate(p, SIM_SPEED_KMH, SIM_DURATION_S).summary()

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from polywear.analysis.stability import stability_analysis
+from polywear.analysis.stability import StabilitySettings, stability_analysis
 from polywear.models import get_model
 from polywear.params import Params, with_updates
 from polywear.solvers.continuation import continue_from_hopf
@@ -148,7 +148,7 @@ def test_a_band_narrower_than_the_grid_is_not_missed(n_speeds):
     grid refines itself where a sorted eigenvalue real part peaks near zero. Oracle: the
     Routh-Hurwitz condition on a 2000-point grid around the band."""
     params = with_updates(Params(), {"tread.lateral_damping_ns_per_m": 448.78})
-    result = stability_analysis(params, (20.0, 300.0), n_speeds=n_speeds)
+    result = stability_analysis(params, (20.0, 300.0), StabilitySettings(n_speeds=n_speeds))
     oracle = routh_hurwitz_hopf_speeds(MODEL.pack(params), 110 / 3.6, 130 / 3.6)
     assert len(oracle) == 2 and 0.0 < (oracle[1] - oracle[0]) * 3.6 < 0.5
     assert np.allclose([h.speed for h in result.hopf_points], oracle, rtol=1e-9)

@@ -28,6 +28,9 @@ Entry points (each is the function or class named in brackets):
 - ``wear_evolution`` [analysis.wear_evolution.evolve]: the worn profile over distance
 - ``fleet``, ``load_fleet_spec`` [analysis.fleet]: SEV risk over a fleet of cars
 - ``campbell``, ``read_run`` [analysis.campbell]: Campbell maps of measured run-ups
+- ``StabilitySettings``, ``ContinuationSettings``, ``SimulationSettings``, ``MapSettings``:
+  validated frozen numerical settings of ``stability``, ``bifurcation``, ``simulate``,
+  ``stability_map`` (a bad value raises ``ValueError`` naming the field)
 - ``friction`` (LuGre curves, loops and fits), ``models``, ``solvers``: modules.
 """
 
@@ -43,6 +46,10 @@ _ENTRY_POINTS: dict[str, tuple[str, str | None]] = {
     "load_params": ("polywear.params", "load_params"),
     "ParameterError": ("polywear.params", "ParameterError"),
     "stability": ("polywear.analysis.stability", "stability_analysis"),
+    "StabilitySettings": ("polywear.analysis.stability", "StabilitySettings"),
+    "ContinuationSettings": ("polywear.solvers.continuation", "ContinuationSettings"),
+    "SimulationSettings": ("polywear.analysis.simulation", "SimulationSettings"),
+    "MapSettings": ("polywear.analysis.stability_map", "MapSettings"),
     "bifurcation": ("polywear.analysis.bifurcation", "bifurcation_diagram"),
     "simulate": ("polywear.analysis.simulation", "simulate"),
     "sensitivity": ("polywear.analysis.sensitivity", "local_sensitivity"),

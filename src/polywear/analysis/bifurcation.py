@@ -29,7 +29,7 @@ from ..solvers.continuation import (Branch, BranchEnd, ContinuationSettings, con
                                    same_special_point)
 from ..units import DEFAULT_SPEED_RANGE_KMH, MAX_SPEED_KMH, plot_scale
 from .intervals import runs_of, subtract, union
-from .stability import HopfPoint, StabilityResult, stability_analysis
+from .stability import HopfPoint, StabilityResult, StabilitySettings, stability_analysis
 
 __all__ = [
     "BifurcationDiagram",
@@ -620,7 +620,7 @@ def bifurcation_diagram(
     if extend:
         return _extended_diagram(params, speed_range_kmh, settings, n_speeds, on_step)
     lo, hi = (float(v) for v in speed_range_kmh)
-    stab = stability_analysis(params, (lo, hi), n_speeds=n_speeds)
+    stab = stability_analysis(params, (lo, hi), StabilitySettings(n_speeds=n_speeds))
     model = get_model(params.model)
     p = model.pack(params)
     bounds = (kmh_to_ms(lo), kmh_to_ms(hi))

@@ -185,11 +185,11 @@ def _friction_point(params: Params, v: float) -> tuple[float, dict[str, float]]:
 
 def _hopf_rows(params: Params, obs: list[Observation], keys: list[str], speed_range_kmh, n_speeds):
     from .sensitivity import hopf_speed_derivative, parameter_direction
-    from .stability import critical_eigenvalue_derivative, stability_analysis
+    from .stability import StabilitySettings, critical_eigenvalue_derivative, stability_analysis
 
     model = get_model(params.model)
     p = model.pack(params)
-    hopfs = stability_analysis(params, speed_range_kmh, n_speeds=n_speeds).hopf_points
+    hopfs = stability_analysis(params, speed_range_kmh, StabilitySettings(n_speeds=n_speeds)).hopf_points
     directions = [parameter_direction(model, params, key) for key in keys]
     values, rows = [], []
     for o in obs:

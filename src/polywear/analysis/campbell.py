@@ -742,7 +742,7 @@ def campbell(
 
 def _correct_onset(sev: dict, run: Run, params: Params, disturbance_m: float) -> None:
     """Ramp rate at the onset, the model's nearest destabilizing Hopf point, the delay."""
-    from .stability import stability_analysis
+    from .stability import StabilitySettings, stability_analysis
 
     onset = sev["onset"]
     near = np.abs(run.t - onset["time_s"]) <= 2.0
@@ -751,7 +751,7 @@ def _correct_onset(sev: dict, run: Run, params: Params, disturbance_m: float) ->
     if abs(rate) < 0.05:
         onset["correction"] = "not corrected: the speed is not ramping at the onset"
         return
-    hopfs = stability_analysis(params, (5.0, max(300.0, 1.5 * run.speed_kmh.max())), n_speeds=300).hopf_points
+    hopfs = stability_analysis(params, (5.0, max(300.0, 1.5 * run.speed_kmh.max())), StabilitySettings(n_speeds=300)).hopf_points
     entering = [h for h in hopfs if (h.dre_dspeed > 0) == (rate > 0)]
     if not entering:
         onset["correction"] = "not corrected: the model has no Hopf point entering instability in this direction"

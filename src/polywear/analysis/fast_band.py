@@ -514,10 +514,10 @@ class FastBand:
 
     # -- the steps --------------------------------------------------------------------------------
     def _hopf(self, params, ref):
-        from .stability import stability_analysis
+        from .stability import StabilitySettings, stability_analysis
 
         try:
-            stab = stability_analysis(params, self.speed_range_kmh, n_speeds=self.n_grid)
+            stab = stability_analysis(params, self.speed_range_kmh, StabilitySettings(n_speeds=self.n_grid))
         except RuntimeError as exc:
             raise _Fallback(f"stability: {exc}") from exc
         if stab.real_crossings_kmh:

@@ -42,6 +42,7 @@ from ..units import plot_scale
 from ..models import get_model
 from ..models.base import kmh_to_ms
 from ..params import Params, get_value, to_toml, with_updates
+from ..settings import check_count, check_fraction, check_positive
 from ..solvers.integrate import METHODS, StepStats, integrate
 
 __all__ = [
@@ -80,15 +81,10 @@ class SimulationSettings:
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
-            raise ValueError(f"method = {self.method!r}: must be one of {', '.join(METHODS)}")
-        for name in ("rtol", "atol", "dt_out", "cycle_rtol", "equilibrium_rtol"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f"{name} = {value!r}: must be positive and finite")
-        if not 0.0 < self.window_fraction <= 1.0:
-            raise ValueError(f"window_fraction = {self.window_fraction!r}: must be in (0, 1]")
-        if self.min_cycles < 2:
-            raise ValueError(f"min_cycles = {self.min_cycles!r}: must be at least 2")
+            raise ValueError(f"SimulationSettings: method = {self.method!r}: must be one of {', '.join(METHODS)}")
+        check_positive(self, "rtol", "atol", "dt_out", "cycle_rtol", "equilibrium_rtol")
+        check_fraction(self, "window_fraction")
+        check_count(self, "min_cycles", minimum=2)
 
 
 @dataclass(frozen=True)

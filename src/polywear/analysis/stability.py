@@ -22,18 +22,35 @@ from .. import __version__
 from ..models import get_model
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, to_toml
+from ..settings import check_count, check_positive
 from ..units import STABILITY_SPEED_RANGE_KMH
 from .derivatives import bilinear, jac_directional, rhs_directional, trilinear
 
 __all__ = [
     "HopfPoint",
     "StabilityResult",
+    "StabilitySettings",
     "equilibrium_eigenvalues",
     "locate_hopf",
     "first_lyapunov_coefficient",
     "critical_eigenvalue_derivative",
     "stability_analysis",
 ]
+
+
+@dataclass(frozen=True)
+class StabilitySettings:
+    """Numerical settings of :func:`stability_analysis`."""
+
+    n_speeds: int = 400
+    """Grid points for bracketing (at least 3); a pair of crossings closer than the grid
+    spacing can be missed."""
+    xtol_ms: float = 1e-10
+    """Tolerance of the located crossing speeds [m/s]."""
+
+    def __post_init__(self) -> None:
+        check_count(self, "n_speeds", minimum=3)
+        check_positive(self, "xtol_ms")
 
 
 @dataclass(frozen=True)
@@ -268,8 +285,7 @@ class StabilityResult:
 def stability_analysis(
     params: Params,
     speed_range_kmh: tuple[float, float] = STABILITY_SPEED_RANGE_KMH,
-    n_speeds: int = 400,
-    xtol_ms: float = 1e-10,
+    settings: StabilitySettings = StabilitySettings(),
 ) -> StabilityResult:
     """Linear stability of steady rolling along speed (``polywear stability``, ``pw.stability``).
 
@@ -284,11 +300,8 @@ def stability_analysis(
         The parameter set (model, operating point, tread, friction, axle, tire).
     speed_range_kmh : (float, float)
         Lowest and highest speed [km/h], ``0 < low < high``.
-    n_speeds : int
-        Grid points for bracketing (at least 3); a pair of crossings closer than the
-        grid spacing can be missed.
-    xtol_ms : float
-        Tolerance of the located crossing speeds [m/s].
+    settings : StabilitySettings
+        Grid points for bracketing and tolerance of the located speeds.
 
     Returns
     -------
@@ -299,22 +312,20 @@ def stability_analysis(
     Raises
     ------
     ValueError
-        If the speed range or ``n_speeds`` is invalid.
+        If the speed range is invalid.
     """
     lo, hi = (float(v) for v in speed_range_kmh)
     if not (0.0 < lo < hi):
         raise ValueError(f"speed range {lo} {hi}: need 0 < low < high [km/h]")
-    if n_speeds < 3:
-        raise ValueError(f"n_speeds = {n_speeds}: need at least 3")
     model = get_model(params.model)
     p = model.pack(params)
-    speeds_kmh, states, eig = _refined_grid(model, p, np.linspace(lo, hi, n_speeds))
+    speeds_kmh, states, eig = _refined_grid(model, p, np.linspace(lo, hi, settings.n_speeds))
     speeds = kmh_to_ms(speeds_kmh)
     unstable = _n_unstable(eig)
     hopfs: list[HopfPoint] = []
     reals: list[float] = []
     for i in np.flatnonzero(np.diff(unstable) != 0):
-        h, r = _hopf_in_bracket(model, p, speeds[i], speeds[i + 1], eig[i], eig[i + 1], xtol_ms)
+        h, r = _hopf_in_bracket(model, p, speeds[i], speeds[i + 1], eig[i], eig[i + 1], settings.xtol_ms)
         hopfs += h
         reals += r
     hopfs.sort(key=lambda h: h.speed)
@@ -330,7 +341,7 @@ def stability_analysis(
         real_crossings_kmh=real_kmh,
         unstable_intervals_kmh=intervals,
         state_names=model.state_names,
-        settings={"n_speeds": n_speeds, "xtol_ms": xtol_ms},
+        settings={"n_speeds": settings.n_speeds, "xtol_ms": settings.xtol_ms},
         alignment_deg=None if alignment is None else np.degrees([alignment(u, p) for u in states]),
     )
 

@@ -43,6 +43,7 @@ from .. import __version__
 from ..models import get_model
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, ParameterError, to_toml
+from ..settings import check_count, check_fraction, check_order, check_positive
 from ..solvers.continuation import BranchPoint, ContinuationSettings, fold_near
 from ..units import DEFAULT_SPEED_RANGE_KMH
 from .intervals import runs_of, union
@@ -78,6 +79,19 @@ class MapSettings:
     fold_min_amplitude: float = 0.03
     """A fold curve stops when its amplitude falls below this fraction of the seed's."""
     continuation: ContinuationSettings = ContinuationSettings()
+
+    def __post_init__(self) -> None:
+        check_positive(self, "ds_initial", "ds_max", "ds_min", "newton_tol", "max_turn", "fold_step",
+                       "fold_min_step")
+        check_order(self, "ds_min", "ds_initial", "ds_max")
+        check_order(self, "fold_min_step", "fold_step")
+        check_count(self, "max_steps", "max_newton", "n_seeds")
+        check_count(self, "n_grid", minimum=2)
+        check_fraction(self, "fold_min_amplitude", closed_low=True)
+        if not self.max_turn <= np.pi:
+            raise ValueError(f"MapSettings: max_turn = {self.max_turn!r}: must lie in (0, pi] [rad]")
+        if not isinstance(self.continuation, ContinuationSettings):
+            raise ValueError(f"MapSettings: continuation = {self.continuation!r}: must be a ContinuationSettings")
 
 
 @dataclass

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from enum import Enum
 
 import numpy as np
+from ..settings import check_count, check_order, check_positive
 from .collocation import Collocation, PeriodicOrbit, monodromy
 
 __all__ = [
@@ -80,6 +81,15 @@ class ContinuationSettings:
     """The branch ends (``BranchEnd.PERIOD_LIMIT``) when the period exceeds this multiple
     of the period at its Hopf point: the cycles approach an orbit of infinite period
     (e.g. homoclinic to the steady state), where the monodromy product loses all accuracy."""
+
+    def __post_init__(self) -> None:
+        check_count(self, "n_intervals", "degree", "max_steps", "max_newton")
+        check_count(self, "adapt_every", minimum=0)  # 0: never adapt the mesh
+        check_positive(self, "ds_initial", "ds_min", "ds_max", "newton_tol", "fold_tol", "min_amplitude",
+                       "hopf_approach_step")
+        check_positive(self, "max_amplitude", "multiplier_tol", "max_period_factor", finite=False)
+        check_order(self, "ds_min", "ds_initial", "ds_max")
+        check_order(self, "min_amplitude", "max_amplitude")
 
 
 class BranchEnd(str, Enum):

@@ -53,6 +53,7 @@ from ..models import get_model
 from ..models.base import Model, kmh_to_ms, ms_to_kmh
 from ..models.tread1dof import MODEL
 from ..params import ParameterError, Params
+from ..settings import check_count, check_order, check_positive
 from ..units import DEFAULT_SPEED_RANGE_KMH
 
 __all__ = [
@@ -137,15 +138,14 @@ class AutoSettings:
 
     def __post_init__(self) -> None:
         # out-of-range constants make AUTO run away rather than fail: refuse them here
-        if not 2 <= self.ncol <= 7:
-            raise ValueError(f"ncol = {self.ncol}: AUTO-07p supports 2 to 7 collocation points")
-        if self.ntst < 2 or self.nmx < 1 or self.samples_per_interval < 2:
-            raise ValueError("ntst >= 2, nmx >= 1 and samples_per_interval >= 2 are required")
-        steps = (self.epsl, self.epsu, self.epss, self.ds, self.dsmin)
-        if not all(v > 0 for v in steps) or not self.dsmin <= self.ds <= min(
-            self.dsmax_equilibrium, self.dsmax_cycles
-        ):
-            raise ValueError("tolerances must be > 0 and 0 < dsmin <= ds <= dsmax")
+        check_count(self, "ncol", minimum=2)
+        if self.ncol > 7:
+            raise ValueError(f"AutoSettings: ncol = {self.ncol}: AUTO-07p supports 2 to 7 collocation points")
+        check_count(self, "ntst", "samples_per_interval", minimum=2)
+        check_count(self, "nmx")
+        check_positive(self, "epsl", "epsu", "epss", "ds", "dsmin", "dsmax_equilibrium", "dsmax_cycles")
+        check_order(self, "dsmin", "ds", "dsmax_equilibrium")
+        check_order(self, "dsmin", "ds", "dsmax_cycles")
 
     def refined(self) -> AutoSettings:
         """Twice the mesh intervals, tolerances / 10, steps / 2 (for refinement studies)."""

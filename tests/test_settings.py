@@ -1,0 +1,94 @@
+"""Every settings object validates its fields on construction, is frozen, hashable and
+picklable (settings travel to worker processes), and keeps its documented defaults."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import pickle
+
+import pytest
+
+from polywear.analysis.simulation import SimulationSettings
+from polywear.analysis.stability import StabilitySettings
+from polywear.analysis.stability_map import MapSettings
+from polywear.solvers.continuation import ContinuationSettings
+from polywear.validation.auto07p import AutoSettings
+
+# (class, field, bad value): each must raise a ValueError naming the field
+BAD = [
+    (ContinuationSettings, "n_intervals", 0),
+    (ContinuationSettings, "degree", 2.5),
+    (ContinuationSettings, "ds_initial", -0.01),
+    (ContinuationSettings, "ds_initial", 0.6),  # above ds_max
+    (ContinuationSettings, "ds_min", 0.03),  # above ds_initial
+    (ContinuationSettings, "ds_max", math.nan),
+    (ContinuationSettings, "max_steps", 0),
+    (ContinuationSettings, "newton_tol", 0.0),
+    (ContinuationSettings, "max_newton", 0),
+    (ContinuationSettings, "adapt_every", -1),
+    (ContinuationSettings, "fold_tol", math.inf),
+    (ContinuationSettings, "max_amplitude", 1e-4),  # below min_amplitude
+    (ContinuationSettings, "multiplier_tol", -1e-5),
+    (ContinuationSettings, "max_period_factor", 0.0),
+    (MapSettings, "ds_initial", 0.05),  # above ds_max
+    (MapSettings, "ds_min", 0.0),
+    (MapSettings, "max_steps", 0),
+    (MapSettings, "newton_tol", -1.0),
+    (MapSettings, "max_turn", 4.0),
+    (MapSettings, "n_seeds", 0),
+    (MapSettings, "n_grid", 1),
+    (MapSettings, "fold_step", 0.0),
+    (MapSettings, "fold_min_step", 0.1),  # above fold_step
+    (MapSettings, "fold_min_amplitude", 1.5),
+    (MapSettings, "continuation", {"n_intervals": 40}),
+    (StabilitySettings, "n_speeds", 2),
+    (StabilitySettings, "n_speeds", 10.0),
+    (StabilitySettings, "xtol_ms", 0.0),
+    (SimulationSettings, "method", "euler"),
+    (SimulationSettings, "rtol", 0.0),
+    (SimulationSettings, "atol", math.inf),
+    (SimulationSettings, "dt_out", -2e-5),
+    (SimulationSettings, "min_cycles", 1),
+    (SimulationSettings, "window_fraction", 0.0),
+    (AutoSettings, "ncol", 8),
+    (AutoSettings, "ntst", 1),
+    (AutoSettings, "nmx", 0),
+    (AutoSettings, "epsu", 0.0),
+    (AutoSettings, "ds", 10.0),  # above dsmax
+    (AutoSettings, "dsmax_cycles", 1e-3),  # below ds
+]
+
+CLASSES = [ContinuationSettings, MapSettings, StabilitySettings, SimulationSettings, AutoSettings]
+
+
+@pytest.mark.parametrize(("cls", "name", "value"), BAD, ids=[f"{c.__name__}.{n}={v!r}" for c, n, v in BAD])
+def test_bad_value_is_rejected_naming_the_field(cls, name, value):
+    with pytest.raises(ValueError, match=rf"{cls.__name__}: .*\b{name}\b"):
+        cls(**{name: value})
+
+
+@pytest.mark.parametrize("cls", CLASSES, ids=lambda c: c.__name__)
+def test_settings_are_frozen_hashable_and_picklable(cls):
+    settings = cls()
+    first = dataclasses.fields(cls)[0].name
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        setattr(settings, first, getattr(settings, first))
+    assert pickle.loads(pickle.dumps(settings)) == settings
+    assert hash(cls()) == hash(settings)
+    changed = dataclasses.replace(settings)  # replace() validates again
+    assert changed == settings
+
+
+def test_defaults_are_unchanged():
+    assert (StabilitySettings().n_speeds, StabilitySettings().xtol_ms) == (400, 1e-10)
+    c = ContinuationSettings()
+    assert (c.n_intervals, c.degree, c.ds_initial, c.ds_min, c.ds_max, c.max_steps) == (40, 4, 0.02, 1e-7, 0.5, 400)
+    m = MapSettings()
+    assert (m.ds_initial, m.ds_max, m.ds_min, m.n_seeds, m.n_grid, m.continuation) == (
+        0.01, 0.03, 1e-7, 3, 81, ContinuationSettings())
+
+
+def test_infinite_multiplier_tolerance_switches_the_check_off():
+    assert ContinuationSettings(multiplier_tol=math.inf).multiplier_tol == math.inf
+    assert ContinuationSettings(adapt_every=0).adapt_every == 0
