@@ -1,6 +1,8 @@
 """Fleet risk: spec validation (one-line errors), distributions and the copula against
 scipy and closed forms, exact binomial intervals that cover, risk against the toe law of
-tread1dof, bit-identical resume, and the same numbers on serial, processes and Dask."""
+tread1dof, paths and fallback reasons counted, failed cars listed with their reasons,
+bit-identical resume, the same numbers on serial, processes and Dask, and on a Dask
+cluster that loses a worker in the middle of the run."""
 
 from __future__ import annotations
 
@@ -161,7 +163,9 @@ def test_risk_matches_the_toe_law(tmp_path, reference):
     closed-form interval; the exact interval of the sampled risk must cover that probability."""
     spec = _spec(tmp_path, samples=40, seed=4, every=40)
     result = fleet_risk(Params(), spec, backend="serial", reference=reference)
-    assert result.summary()["failed_samples"] == 0
+    s = result.summary()
+    assert s["failed_samples"] == 0 and s["failed_cars"] == [] and s["fallback_reasons"] == {}
+    assert s["paths"] == {"hopf": 0, "fast": 40, "full": 0} and result.paths == ["fast"] * 40
     band = reference.band
     v1, v2 = band.first_bifurcation_kmh, band.second_bifurcation_kmh
     s0 = math.sin(math.radians(0.5))
@@ -213,7 +217,7 @@ def test_resume_is_bit_identical(tmp_path, reference):
     resumed = fleet_risk(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path,
                          resume=True)
     np.testing.assert_array_equal(whole.values, resumed.values)
-    assert whole.status == resumed.status
+    assert whole.status == resumed.status and whole.paths == resumed.paths
     other = _spec(tmp_path, samples=10, every=4, seed=99)
     with pytest.raises(ParameterError, match="checkpoint of another"):
         fleet_risk(Params(), other, backend="serial", reference=reference, checkpoint_dir=tmp_path, resume=True)
@@ -236,6 +240,7 @@ def test_same_numbers_on_serial_processes_and_dask(tmp_path, reference):
         cluster.close()
     np.testing.assert_array_equal(serial.values, dask.values)
     assert serial.status == processes.status == dask.status
+    assert serial.paths == processes.paths == dask.paths
 
 
 @pytest.mark.slow
@@ -266,6 +271,78 @@ def test_cli_json_summary(tmp_path):
     import json
 
     s = json.loads(out)
-    assert s["n_samples"] == 3 and s["failed_samples"] == 0
+    assert s["n_samples"] == 3 and s["failed_samples"] == 0 and s["failures"] == {} and s["failed_cars"] == []
     assert 0.0 <= s["risk_ci"][0] <= s["risk_probability"] <= s["risk_ci"][1] <= 1.0
+    assert sum(s["paths"].values()) == 3 and set(s["paths"]) == {"hopf", "fast", "full"}
+    assert s["fallback_reasons"] == {}
     assert (tmp_path / "fleet.nc").exists()
+
+
+def test_paths_and_fallback_reasons_are_counted():
+    """Summary: cars per path over the evaluated cars, fallbacks by reason tag, failed cars
+    counted by kind and listed (index and whole reason)."""
+    spec = FleetSpec(samples=7, parameter=MARGINALS[:1], usage=[{"speed_kmh": 100.0, "share": 1.0}])
+    status = ["ok"] * 5 + ["failed: ValueError: tread.mass_kg must be > 0", "failed: ValueError: other"]
+    paths = ["hopf", "fast", "full: fold_out_of_range: fold 1 at 612.3 km/h, outside the speed range",
+             "full: fold_out_of_range: fold 1 at 640.0 km/h, outside the speed range",
+             "full: hopf_signature: ('soft',) vs ('soft', 'hard')", "", ""]
+    result = FleetResult(Params(), spec, np.zeros((7, 1)), np.zeros((7, 6)), status, paths=paths)
+    s = result.summary()
+    assert s["paths"] == {"hopf": 1, "fast": 1, "full": 3}
+    assert s["fallback_reasons"] == {"fold_out_of_range": 2, "hopf_signature": 1}
+    assert s["failed_samples"] == 2 and s["failures"] == {"ValueError": 2}
+    assert s["failed_cars"] == [{"car": 5, "reason": status[5]}, {"car": 6, "reason": status[6]}]
+
+
+FAST_AND_FULL = """
+[fleet]
+samples = {samples}
+seed = {seed}
+checkpoint_every = {every}
+speed_range_kmh = [10.0, 260.0]
+[[fleet.parameter]]
+key = "operating.toe_deg"
+distribution = "normal"
+mean = 0.5
+std = 0.08
+[[fleet.parameter]]
+key = "axle.inertia_x_kgm2"
+distribution = "normal"
+mean = 2.0
+std = 1.5
+[[fleet.usage]]
+speed_kmh = 110
+share = 1.0
+"""
+
+
+@pytest.mark.slow
+def test_fallbacks_and_failures_per_car(tmp_path):
+    """tread1dof on 10-260 km/h: the nominal fold is at 254.7 km/h and scales as 1/sin(toe),
+    so the cars whose sin(toe) is below sin(0.5 deg) 254.7/260 have it above the range:
+    fallback "fold_out_of_range" for those, fast path for the others. The axle inertia does
+    not enter tread1dof; a car whose sampled inertia is not positive fails with its reason."""
+    spec = _spec(tmp_path, samples=6, seed=2, every=6, text=FAST_AND_FULL)
+    X = sample_fleet(spec)
+    toe, inertia = X[:, 0], X[:, 1]
+    ok = inertia > 0.0
+    assert not np.all(ok) and np.any(ok & (toe < 0.48)) and np.any(ok & (toe > 0.5))
+    path = tmp_path / "fleet.toml"
+    code, out, err = run_main(["fleet", "--spec", str(path), "--backend", "serial", "--json", "-q",
+                               "--out", str(tmp_path / "fleet.csv")])
+    assert code == 0, err
+    import json
+
+    import pandas as pd
+
+    s = json.loads(out)
+    nominal = bifurcation_diagram(Params(), (10.0, 260.0), **_FIXED_RANGE).folds[0].speed_kmh
+    outside = np.sin(np.radians(toe)) < math.sin(math.radians(0.5)) * nominal / 260.0
+    failed = np.flatnonzero(~ok)
+    assert s["failed_samples"] == len(failed) and [c["car"] for c in s["failed_cars"]] == failed.tolist()
+    assert all("inertia_x_kgm2" in c["reason"] for c in s["failed_cars"])
+    assert s["paths"] == {"hopf": 0, "fast": int(np.sum(ok & ~outside)), "full": int(np.sum(ok & outside))}
+    assert s["fallback_reasons"] == {"fold_out_of_range": int(np.sum(ok & outside))}
+    table = pd.read_csv(tmp_path / "fleet.csv", keep_default_na=False)
+    assert [p.split(": ")[0] for p in table["path"]] == ["" if not o else "full" if x else "fast"
+                                                          for o, x in zip(ok, outside)]

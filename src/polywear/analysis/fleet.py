@@ -44,6 +44,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from .. import __version__
 from ..params import ADHESION_SCALE, ParameterError, Params, get_value, to_toml
+from ..results import Result
 
 __all__ = ["FleetParameter", "FleetUsage", "FleetSpec", "load_fleet_spec", "sample_fleet", "FleetEvaluator",
            "FleetResult", "fleet_risk"]
@@ -52,6 +53,11 @@ OUTPUTS = ("first_bifurcation_kmh", "second_bifurcation_kmh", "at_risk", "hard_a
            "wear_efold_km")
 N_BINS = 20
 """Equal-probability bins of the main-effect estimator."""
+PATHS = ("hopf", "fast", "full")
+"""How a car's risk was decided: the Hopf points alone (``FastBand.usage_verdict``), the
+fast band path, or the full continuation (a fallback: ``"full: <FallbackReason tag>: <detail>"``)."""
+LISTED_FAILURES = 20
+"""Failed cars listed one by one (index and reason) in the summary; all are counted."""
 
 
 class _Spec(BaseModel):
@@ -228,7 +234,10 @@ def sample_fleet(spec: FleetSpec) -> np.ndarray:
 
 @dataclass(frozen=True)
 class FleetEvaluator:
-    """One car: (first, second bifurcation [km/h], at risk, hard at a usage speed, fast path) and a status."""
+    """One car: (outputs, status, path). Outputs as :data:`OUTPUTS` (speeds [km/h], e-folding
+    distance [km], 0/1 flags); status ``"ok"`` or ``"failed: <reason>"``; path ``"hopf"``,
+    ``"fast"``, ``"full: <tag>: <detail>"`` (:class:`~polywear.analysis.fast_band.FallbackReason`)
+    or ``""`` for a failed car."""
 
     params: Params
     keys: tuple[str, ...]
@@ -237,7 +246,7 @@ class FleetEvaluator:
     wear: bool = False
     band_every: int = 1
 
-    def __call__(self, item) -> tuple[tuple[float, ...], str]:
+    def __call__(self, item) -> tuple[tuple[float, ...], str, str]:
         """``item = (car index, parameter values)``."""
         from .global_sensitivity import sample_params
 
@@ -247,16 +256,19 @@ class FleetEvaluator:
             verdict = None if index % self.band_every == 0 else self.solver.usage_verdict(params, self.usage_speeds_kmh)
             band = None if verdict is not None else self.solver(params)
         except Exception as exc:  # invalid parameters or a numerical failure: recorded, never dropped
-            return (np.nan,) * len(OUTPUTS), f"failed: {type(exc).__name__}: {exc}"
+            return (np.nan,) * len(OUTPUTS), f"failed: {type(exc).__name__}: {exc}", ""
         efold = self._efold(params) if self.wear else np.nan
         if isinstance(efold, str):
-            return (np.nan,) * len(OUTPUTS), efold
+            return (np.nan,) * len(OUTPUTS), efold, ""
         if verdict is not None:  # Hopf points alone decided: no second speed for this car
             at_risk, hard, first = verdict
-            return (first, np.nan, float(at_risk), float(hard), 1.0, efold), "ok"
+            return (first, np.nan, float(at_risk), float(hard), 1.0, efold), "ok", "hopf"
         inside = lambda intervals: any(a <= v <= b for v in self.usage_speeds_kmh for a, b in intervals)
+        path = "fast"
+        if band.path != "fast":  # the fast path was tried first, so the reason is set
+            path = f"full: {band.reason.value}: {band.detail}"
         return (band.first_bifurcation_kmh, band.second_bifurcation_kmh, float(inside(band.sev_band_kmh)),
-                float(inside(band.hard_regions_kmh)), float(band.path == "fast"), efold), "ok"
+                float(inside(band.hard_regions_kmh)), float(band.path == "fast"), efold), "ok", path
 
 
     def _efold(self, params) -> float | str:
@@ -290,7 +302,7 @@ def main_effects(X: np.ndarray, y: np.ndarray, n_bins: int = N_BINS) -> np.ndarr
 
 
 @dataclass
-class FleetResult:
+class FleetResult(Result):
     """Samples, per-car outputs and statuses, and the fleet statistics."""
 
     params: Params
@@ -300,10 +312,15 @@ class FleetResult:
     status: list[str]
     confidence: float = 0.95
     settings: dict = field(default_factory=dict)
+    paths: list[str] = field(default_factory=list)
+    """Per car: ``"hopf"``, ``"fast"``, ``"full: <reason>"`` or ``""`` (failed); see :data:`PATHS`."""
 
     @property
     def keys(self) -> list[str]:
         return [q.key for q in self.spec.parameter]
+
+    def _dataset(self):
+        return self.to_dataset()
 
     @property
     def ok(self) -> np.ndarray:
@@ -354,13 +371,16 @@ class FleetResult:
         failures: dict[str, int] = {}
         for s in self.status:
             if s != "ok":
-                failures[s.split(":")[1].strip() if ":" in s else s] = failures.get(s, 0) + 1
+                kind = s.split(":")[1].strip() if ":" in s else s
+                failures[kind] = failures.get(kind, 0) + 1
+        failed_cars = [{"car": i, "reason": s} for i, s in enumerate(self.status) if s != "ok"]
         return {
             "model": self.params.model,
             "n_samples": len(self.status),
             "n_evaluated": n,
             "failed_samples": len(self.status) - n,
             "failures": failures,
+            "failed_cars": failed_cars[:LISTED_FAILURES],
             "risk_probability": k / n if n else None,
             "risk_ci": [lo, hi],
             "confidence": self.confidence,
@@ -369,12 +389,26 @@ class FleetResult:
             "first_bifurcation_kmh": quantiles(0),
             "second_bifurcation_kmh": quantiles(1),
             "fast_path_share": float(np.mean(v[:, 4])) if n else None,
+            **self._path_summary(),
             "drivers_main_effect": {key: (None if not np.isfinite(d) else float(d)) for key, d in
                                     zip(self.keys, drivers)},
             "usage": [u.model_dump() for u in self.spec.usage],
             **self._wear_summary(v, n),
             "settings": self.settings,
         }
+
+    def _path_summary(self) -> dict:
+        """Cars per path (:data:`PATHS`) and the fallbacks to the full path by reason tag."""
+        paths = {name: 0 for name in PATHS}
+        reasons: dict[str, int] = {}
+        for path in self.paths:
+            if path:
+                kind, _, reason = path.partition(": ")
+                paths[kind] += 1
+                if kind == "full":
+                    tag = reason.partition(": ")[0]
+                    reasons[tag] = reasons.get(tag, 0) + 1
+        return {"paths": paths, "fallback_reasons": dict(sorted(reasons.items(), key=lambda kv: -kv[1]))}
 
     def _inside_range(self, speeds) -> tuple[np.ndarray, int]:
         """Finite speeds strictly inside the speed range, and how many sit at a range end
@@ -400,7 +434,7 @@ class FleetResult:
 
         return xr.Dataset(
             {"sample": (("car", "param"), self.samples), "value": (("car", "output"), self.values),
-             "status": ("car", np.array(self.status, dtype=str))},
+             "status": ("car", np.array(self.status, dtype=str)), "path": ("car", np.array(self.paths, dtype=str))},
             coords={"param": self.keys, "output": list(OUTPUTS)},
             attrs={"model": self.params.model, "params_toml": to_toml(self.params),
                    "fleet_spec_json": self.spec.model_dump_json(), "polywear_version": __version__,
@@ -419,6 +453,7 @@ class FleetResult:
             for j, name in enumerate(OUTPUTS):
                 df[name] = self.values[:, j]
             df["status"] = self.status
+            df["path"] = self.paths
             df.to_csv(path, index=False)
         else:
             with open(path, "w") as fh:
@@ -475,7 +510,9 @@ def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", w
                batch_size=None, checkpoint_dir=None, resume: bool = False, on_progress=None,
                reference=None) -> FleetResult:
     """Evaluate the fleet; with ``checkpoint_dir`` save every ``spec.checkpoint_every`` cars
-    (``resume`` continues from the checkpoint, which must belong to the same params and spec)."""
+    (``resume`` continues from the checkpoint, which must belong to the same params and spec).
+    Every round of ``checkpoint_every`` cars is one :func:`~polywear.parallel.map_batched` call
+    (a new pool on the ``processes`` backend); without ``checkpoint_dir`` all cars are one round."""
     from ..parallel import map_batched
     from .bifurcation import bifurcation_diagram
     from .fast_band import _FIXED_RANGE, FastBand, band_reference
@@ -492,29 +529,36 @@ def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", w
                                band_every=spec.band_every)
     values = np.full((spec.samples, len(OUTPUTS)), np.nan)
     status: list[str] = []
+    paths: list[str] = []
     digest = _spec_hash(params, spec)
     ckpt = _checkpoint_path(checkpoint_dir) if checkpoint_dir else None
     if resume and ckpt is not None and ckpt.exists():
         data = np.load(ckpt, allow_pickle=False)
         if str(data["digest"]) != digest:
             raise ParameterError(f"{ckpt}: checkpoint of another parameter set or spec; remove it or drop --resume")
+        if "paths" not in data:
+            raise ParameterError(f"{ckpt}: checkpoint of an older polywear (no paths); remove it or drop --resume")
         done = int(data["done"])
         values[:done] = data["values"][:done]
         status = [str(s) for s in data["status"][:done]]
+        paths = [str(s) for s in data["paths"][:done]]
         if on_progress:
             on_progress(done)
-    for start in range(len(status), spec.samples, spec.checkpoint_every):
-        chunk = X[start:start + spec.checkpoint_every]
+    every = spec.checkpoint_every if ckpt is not None else spec.samples  # no checkpoint: one round
+    for start in range(len(status), spec.samples, every):
+        chunk = X[start:start + every]
         results = map_batched(evaluator, list(enumerate(chunk, start)), backend=backend, workers=workers, scheduler=scheduler,
                               batch_size=batch_size, on_progress=on_progress)
         values[start:start + len(chunk)] = [r[0] for r in results]
         status += [r[1] for r in results]
+        paths += [r[2] for r in results]
         if ckpt is not None:
             from ..io import atomic_path
 
             with atomic_path(ckpt) as tmp:
                 with open(tmp, "wb") as fh:
-                    np.savez(fh, digest=digest, done=len(status), values=values, status=np.array(status, dtype=str))
-    return FleetResult(params=params, spec=spec, samples=X, values=values, status=status,
+                    np.savez(fh, digest=digest, done=len(status), values=values, status=np.array(status, dtype=str),
+                             paths=np.array(paths, dtype=str))
+    return FleetResult(params=params, spec=spec, samples=X, values=values, status=status, paths=paths,
                        settings={"backend": backend, "seed": spec.seed, "samples": spec.samples,
                                  "reference_unusable": reference.unusable or None})

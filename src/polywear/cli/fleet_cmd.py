@@ -75,14 +75,25 @@ def fleet(
     if json_:
         emit_json(s)
     else:
+        paths = s["paths"]
         typer.echo(f"{s['model']}: {s['n_evaluated']} of {s['n_samples']} cars evaluated "
-                   f"({s['failed_samples']} failed), fast path {s['fast_path_share']:.1%}")
+                   f"({s['failed_samples']} failed); Hopf points alone {paths['hopf']}, fast band {paths['fast']}, "
+                   f"full continuation {paths['full']}")
+        for reason, count in s["fallback_reasons"].items():
+            typer.echo(f"  full continuation because of {reason}: {count} cars")
+        for car in s["failed_cars"]:
+            typer.echo(f"  car {car['car']} {car['reason']}")
+        if s["failed_samples"] > len(s["failed_cars"]):
+            typer.echo(f"  ... {s['failed_samples'] - len(s['failed_cars'])} more failed cars (all in --out .nc/.csv)")
+        if not s["n_evaluated"]:
+            typer.echo("no car evaluated: no risk probability")
+            return
         typer.echo(f"risk probability {s['risk_probability']:.4f}, {s['confidence']:.0%} CI "
                    f"[{s['risk_ci'][0]:.4f}, {s['risk_ci'][1]:.4f}] (Clopper-Pearson)")
         typer.echo(f"hard excitation at a usage speed: {s['hard_excitation_share']:.4f}")
         for name in ("first_bifurcation_kmh", "second_bifurcation_kmh"):
             q = s[name]
-            if q:
+            if "p50" in q:  # some cars have that speed inside the range
                 typer.echo(f"{name}: 5 % {q['p5']:.1f}, median {q['p50']:.1f}, 95 % {q['p95']:.1f}")
         typer.echo("drivers (main effect on the risk): " + ", ".join(
             f"{k} {v:.3f}" for k, v in s["drivers_main_effect"].items() if v is not None))
