@@ -346,3 +346,36 @@ def test_fallbacks_and_failures_per_car(tmp_path):
     table = pd.read_csv(tmp_path / "fleet.csv", keep_default_na=False)
     assert [p.split(": ")[0] for p in table["path"]] == ["" if not o else "full" if x else "fast"
                                                           for o, x in zip(ok, outside)]
+
+
+@pytest.mark.slow
+def test_dask_fleet_survives_a_killed_worker(tmp_path, reference):
+    """300 cars in 30 tasks on a scheduler and two workers (subprocesses on 127.0.0.1); one
+    worker is killed (SIGKILL) when the first task is back: its running and held tasks are
+    recomputed on the other, and every car's numbers, status and path are the serial run's."""
+    from .test_parallel import DASK, Cluster
+
+    if not DASK.exists():
+        pytest.fail(f"{DASK} missing: dask[distributed] is a dependency")
+    text = TOE_SPEC.replace("[[fleet.parameter]]", "band_every = 100\n[[fleet.parameter]]", 1)
+    spec = _spec(tmp_path, samples=300, seed=21, every=300, text=text)
+    serial = fleet_risk(Params(), spec, backend="serial", reference=reference)
+    cluster = Cluster(2, tmp_path)
+    try:
+        victim, done = cluster.workers[1], []
+
+        def kill_after_first_task(n):
+            done.append(n)
+            if len(done) == 1:
+                victim.kill()
+                victim.wait(10)
+
+        dask = fleet_risk(Params(), spec, backend="dask", scheduler=cluster.address, batch_size=10,
+                          reference=reference, on_progress=kill_after_first_task)
+        assert victim.poll() is not None and done[0] < 300 and sum(done) == 300 and len(done) == 30
+        assert cluster.n_workers() == 1
+    finally:
+        cluster.stop()
+    np.testing.assert_array_equal(serial.values, dask.values)
+    assert serial.status == dask.status and serial.paths == dask.paths
+    assert serial.summary()["paths"]["hopf"] > 0  # the cheap path of band_every is exercised too
