@@ -46,7 +46,7 @@ def main() -> None:
     bifurcation_diagram(params)  # compile / load caches
     t_ours, ours = best_of(args.repeat, lambda: bifurcation_diagram(params, (20.0, 300.0)))
     hopf = [h.speed_kmh for h in ours.hopf_points]
-    fold = [f.speed * 3.6 for f in ours.folds]
+    fold = [f.speed_kmh for f in ours.folds]
     n_points = sum(len(b.points) for b in ours.branches)
     print(f"polywear continuation, tread1dof 20-300 km/h: {t_ours:.3f} s ({n_points} cycles)")
     print(f"  Hopf {', '.join(f'{v:.6f}' for v in hopf)} km/h, fold {', '.join(f'{v:.6f}' for v in fold)} km/h")

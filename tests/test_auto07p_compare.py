@@ -42,8 +42,8 @@ def test_fold_of_cycles_agrees(both):
     ours, auto = both
     (fold,) = ours.folds
     (a,) = auto["folds"]
-    assert fold.speed * 3.6 == pytest.approx(a["speed_kmh"], rel=1e-6)
-    assert fold.period == pytest.approx(a["period_s"], rel=1e-6)
+    assert fold.speed_kmh == pytest.approx(a["speed_kmh"], rel=1e-6)
+    assert 1.0 / fold.frequency_hz == pytest.approx(a["period_s"], rel=1e-6)
     assert fold.amplitude[0] == pytest.approx(a["amplitude_x_m"], rel=1e-5)
 
 
@@ -93,8 +93,8 @@ def test_axle4dof_fold_of_cycles_agrees(axle_both):
     ours, auto = axle_both
     (fold,) = ours.folds
     (a,) = auto["folds"]
-    assert fold.speed * 3.6 == pytest.approx(a["speed_kmh"], rel=1e-6)
-    assert fold.period == pytest.approx(a["period_s"], rel=1e-6)
+    assert fold.speed_kmh == pytest.approx(a["speed_kmh"], rel=1e-6)
+    assert 1.0 / fold.frequency_hz == pytest.approx(a["period_s"], rel=1e-6)
     for name in AXLE_STATES:
         assert fold.amplitude[ours.state_names.index(name)] == pytest.approx(a["amplitude"][name], rel=1e-5)
     # the fold closes the SEV band: a hard region between the upper Hopf point and it

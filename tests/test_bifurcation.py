@@ -7,6 +7,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from polywear.analysis.bifurcation import bifurcation_diagram
+from polywear.analysis.points import PointKind
 from polywear.models import get_model
 from polywear.params import Params, load_params
 from polywear.solvers.continuation import ContinuationSettings, switching_times
@@ -92,7 +93,7 @@ def test_floquet_multipliers_agree_with_variational_equation(default_diagram):
 def test_mesh_refinement_moves_fold_and_amplitude_by_little():
     coarse = bifurcation_diagram(Params(), (20.0, 300.0), ContinuationSettings(n_intervals=40))
     fine = bifurcation_diagram(Params(), (20.0, 300.0), ContinuationSettings(n_intervals=80))
-    assert coarse.folds[0].speed == pytest.approx(fine.folds[0].speed, rel=1e-8)
+    assert coarse.folds[0].speed_kmh == pytest.approx(fine.folds[0].speed_kmh, rel=1e-8)
     assert coarse.folds[0].amplitude[0] == pytest.approx(fine.folds[0].amplitude[0], rel=1e-6)
     assert coarse.cycles_at(150.0)[0].amplitude[0] == pytest.approx(fine.cycles_at(150.0)[0].amplitude[0], rel=1e-8)
 
@@ -126,8 +127,8 @@ def test_stick_slip_cycles_kink_alignment_and_period_doubling(stick_slip_params)
     assert c110.stable and c110.amplitude[0] == pytest.approx(amp, rel=2e-5)
     # a period doubling where stick-slip sets in; integration started on the unstable
     # period-1 cycle leaves it with alternating peak heights
-    pds = [pt for label, pt in aligned.special if label == "PD"]
-    assert pds and 75.0 < pds[0].speed * 3.6 < 90.0
+    pds = [pt for pt in aligned.special if pt.kind is PointKind.PD]
+    assert pds and 75.0 < pds[0].speed_kmh < 90.0
     (c90,) = aligned.cycles_at(90.0)
     assert not c90.stable and c90.max_multiplier > 1.2
     orbit_point = next(pt for pt in branch.points if abs(pt.orbit.speed * 3.6 - 90.0) < 3.0)
@@ -149,7 +150,7 @@ def test_dataset_and_csv_round_trip(default_diagram, tmp_path):
     assert ds.sizes["cycle"] == len(default_diagram.cycles) == len(table)
     assert np.allclose(ds["amplitude"].sel(state="x").values, table["amplitude_x"].values)
     assert json.loads(ds.attrs["summary_json"])["folds"][0]["speed_kmh"] == pytest.approx(
-        default_diagram.folds[0].speed * 3.6)
+        default_diagram.folds[0].speed_kmh)
 
 
 @pytest.mark.slow
@@ -161,7 +162,7 @@ def test_sweep_agrees_with_continuation_on_stable_branches_and_in_the_hard_regio
 
     speeds = [100.0, 150.0, 215.0, 235.0, 250.0, 253.5, 256.0, 270.0]
     result = sweep(Params(), speeds)
-    fold = default_diagram.folds[0].speed * 3.6
+    fold = default_diagram.folds[0].speed_kmh
     for run_large, run_small in zip(result.runs["large"], result.runs["small"]):
         v = run_large.speed_kmh
         stable = [c for c in default_diagram.cycles_at(v) if c.stable]
@@ -178,9 +179,9 @@ def test_cycles_at_finds_both_cycles_between_the_last_point_and_the_fold(default
     """Beyond the fastest stored point and short of the fold, only the located fold point
     brackets the speed: both the stable and the unstable cycle are found there."""
     (fold,) = default_diagram.folds
-    fastest = max(pt.orbit.speed for pt in default_diagram.branches[0].points)
-    assert fastest < fold.speed
-    small, large = default_diagram.cycles_at(1.8 * (fastest + fold.speed))  # midway, in km/h
+    fastest = max(pt.orbit.speed for pt in default_diagram.branches[0].points) * 3.6
+    assert fastest < fold.speed_kmh
+    small, large = default_diagram.cycles_at(0.5 * (fastest + fold.speed_kmh))  # midway
     assert not small.stable and large.stable
     assert small.amplitude[0] < fold.amplitude[0] < large.amplitude[0]
-    assert default_diagram.cycles_at(3.6 * fold.speed + 0.01) == []
+    assert default_diagram.cycles_at(fold.speed_kmh + 0.01) == []

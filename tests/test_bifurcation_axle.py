@@ -49,7 +49,7 @@ def test_axle_cycle_agrees_with_long_time_integration(diagram):
 def test_axle_sweep_agrees_in_the_soft_and_hard_regions(diagram):
     from polywear.analysis.sweep import sweep
 
-    fold = diagram.folds[0].speed * 3.6
+    fold = diagram.folds[0].speed_kmh
     h2 = diagram.hopf_points[1].speed_kmh
     speeds = [100.0, 140.0, 0.5 * (h2 + fold), fold + 3.0]
     result = sweep(PARAMS, speeds)

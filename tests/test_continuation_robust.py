@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from polywear.analysis.bifurcation import bifurcation_diagram
+from polywear.analysis.points import PointKind
 from polywear.cli.bifurcation_cmd import _print_summary
 from polywear.models import get_model
 from polywear.params import load_params
@@ -54,11 +55,11 @@ def diagram(request):
 def test_special_points_are_located_once(diagram):
     """No two special points of one kind at the same place (speed to 1e-3 km/h, x amplitude to 1e-3)."""
     x = diagram.state_names.index("x")
-    for k, (label, a) in enumerate(diagram.special):
-        for other_label, b in diagram.special[k + 1:]:
-            same_place = abs(a.speed - b.speed) * 3.6 < 1e-3 and \
+    for k, a in enumerate(diagram.special):
+        for b in diagram.special[k + 1:]:
+            same_place = abs(a.speed_kmh - b.speed_kmh) < 1e-3 and \
                 abs(a.amplitude[x] - b.amplitude[x]) <= 1e-3 * max(a.amplitude[x], b.amplitude[x])
-            assert not (label == other_label and same_place), (label, a.speed * 3.6)
+            assert not (a.kind is b.kind and same_place), (a.kind, a.speed_kmh)
 
 
 def test_multipliers_are_accurate_on_every_reported_cycle(diagram):
@@ -125,9 +126,9 @@ def test_failed_branch_in_the_text_output(capsys):
 def test_a_fold_just_before_a_hopf_point_is_not_stepped_over(overrides, fold_kmh):
     d = bifurcation_diagram(load_params(overrides=overrides), extend=False)
     (fold,) = d.folds
-    assert fold.speed * 3.6 == pytest.approx(fold_kmh, abs=1e-2)
+    assert fold.speed_kmh == pytest.approx(fold_kmh, abs=1e-2)
     ((lo, hi),) = d.hard_regions_kmh
-    assert lo == pytest.approx(d.hopf_points[-1].speed_kmh) and hi == pytest.approx(fold.speed * 3.6)
+    assert lo == pytest.approx(d.hopf_points[-1].speed_kmh) and hi == pytest.approx(fold.speed_kmh)
     (branch,) = d.branches
     assert branch.end is BranchEnd.HOPF_REACHED
 
@@ -148,8 +149,8 @@ def test_stable_window_of_the_heavy_axle_is_what_long_integration_reaches():
     model = get_model("axle4dof")
     params = params_of("axle4dof", "heavy load")
     d = bifurcation_diagram(params, (20.0, 45.0), replace(SETTINGS, max_steps=30), n_speeds=200, extend=False)
-    fold = min(f.speed for f in d.folds) * 3.6
-    pd = min(pt.speed for label, pt in d.special if label == "PD") * 3.6
+    fold = min(f.speed_kmh for f in d.folds)
+    pd = min(pt.speed_kmh for pt in d.special if pt.kind is PointKind.PD)
     assert 40.0 < fold < pd < 40.2
     assert [fold, pd] == pytest.approx(list(d.sev_band_kmh[0]), rel=1e-12)
     (cycle,) = [c for c in d.cycles_at(0.5 * (fold + pd)) if c.stable]

@@ -16,8 +16,8 @@ from scipy.optimize import brentq
 
 from polywear.analysis.bifurcation import bifurcation_diagram
 from polywear.analysis.global_sensitivity import (
-    AT_EDGE,
-    NO_BAND,
+    SampleOutcome,
+    SampleStatus,
     StudyEvaluator,
     fast_linear_band,
     global_sensitivity,
@@ -123,14 +123,17 @@ def test_sample_params_applies_adhesion_scale_after_direct_values():
 
 def test_evaluator_statuses():
     ev = StudyEvaluator(Params(), ("operating.toe_deg", "friction.mu_static"), "hopf", RANGE)
-    values, status = ev((0.5, 0.9))
-    assert status == "ok" and values[2] == pytest.approx(values[1] - values[0])
-    values, status = ev((0.5, 0.55))  # weak Stribeck drop: no band
-    assert status == NO_BAND and math.isnan(values[0]) and values[2] == 0.0
-    values, status = ev((0.2, 0.9))  # Hopf speeds ~ 1/sin(toe): the upper one leaves the range
-    assert status == AT_EDGE and math.isfinite(values[0]) and math.isnan(values[1]) and math.isnan(values[2])
-    values, status = ev((0.5, 0.45))  # mu_s below mu_c
-    assert status.startswith("invalid parameters") and all(math.isnan(v) for v in values)
+    values, outcome = ev((0.5, 0.9))
+    assert outcome == SampleOutcome(SampleStatus.OK) and values[2] == pytest.approx(values[1] - values[0])
+    assert str(outcome) == "ok"
+    values, outcome = ev((0.5, 0.55))  # weak Stribeck drop: no band
+    assert outcome.status is SampleStatus.NO_BAND and math.isnan(values[0]) and values[2] == 0.0
+    values, outcome = ev((0.2, 0.9))  # Hopf speeds ~ 1/sin(toe): the upper one leaves the range
+    assert outcome.status is SampleStatus.AT_EDGE
+    assert math.isfinite(values[0]) and math.isnan(values[1]) and math.isnan(values[2])
+    values, outcome = ev((0.5, 0.45))  # mu_s below mu_c
+    assert outcome.status is SampleStatus.INVALID and "mu_coulomb" in outcome.detail
+    assert str(outcome) == f"invalid parameters: {outcome.detail}" and all(math.isnan(v) for v in values)
 
 
 def test_max_stable_amplitude_at_110_kmh_matches_model_md():
@@ -140,7 +143,7 @@ def test_max_stable_amplitude_at_110_kmh_matches_model_md():
     assert 0.25e-3 < a < 0.29e-3
     wide = max_stable_amplitude(diagram, (80.0, 300.0))
     assert wide >= a and wide == pytest.approx(max(c.amplitude[0] for c in diagram.cycles if c.stable
-                                                   and 80.0 <= c.speed * 3.6 <= 300.0))
+                                                   and 80.0 <= c.speed_kmh <= 300.0))
     assert max_stable_amplitude(diagram, (21.0, 50.0)) == 0.0  # below the first Hopf speed
 
 
@@ -217,15 +220,16 @@ def test_failed_samples_are_recorded_counted_and_their_blocks_dropped():
                              {"key": "friction.mu_static", "low": 0.49, "high": 1.2}],
     })
     result = global_sensitivity(params, backend="serial")
-    status = np.array(result.status)
+    status = np.array([s.status for s in result.status])
     failures = result.failures()
-    n_invalid = int(np.sum([s.startswith("invalid parameters") for s in status]))
-    assert failures[NO_BAND] == int(np.sum(status == NO_BAND)) > 0
+    n_invalid = int(np.sum(status == SampleStatus.INVALID))
+    assert failures["no band in the speed range"] == int(np.sum(status == SampleStatus.NO_BAND)) > 0
     assert failures["invalid parameters"] == n_invalid > 0
-    assert sum(failures.values()) + int(np.sum(status == "ok")) == len(status)
+    assert sum(failures.values()) + int(np.sum(status == SampleStatus.OK)) == len(status)
     Y = result.values
-    assert np.all(np.isnan(Y[status == NO_BAND, 0])) and np.all(Y[status == NO_BAND, 2] == 0.0)
-    assert np.all(np.isnan(Y[[s.startswith("invalid") for s in status]]))
+    no_band = status == SampleStatus.NO_BAND
+    assert np.all(np.isnan(Y[no_band, 0])) and np.all(Y[no_band, 2] == 0.0)
+    assert np.all(np.isnan(Y[status == SampleStatus.INVALID]))
     blocks = Y.reshape(64, 4, -1)
     for k, out in enumerate(result.outputs):
         bad = int(np.sum(~np.all(np.isfinite(blocks[:, :, k]), axis=1)))
@@ -233,7 +237,7 @@ def test_failed_samples_are_recorded_counted_and_their_blocks_dropped():
         assert ind["n_dropped"] == bad and ind["n_used"] == 64 - bad
         assert np.all(np.isfinite(ind["ST"]))
     summary = json.loads(json.dumps(result.summary(), allow_nan=False))  # NaN become null
-    assert summary["failures"] == failures and NO_BAND in summary["failure_examples"]
+    assert summary["failures"] == failures and "no band in the speed range" in summary["failure_examples"]
 
 
 # -- saving, the command ------------------------------------------------------------------------

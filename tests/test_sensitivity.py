@@ -164,7 +164,7 @@ def test_fold_sensitivity_against_a_rerun_continuation(nominal):
         exact = _by_quantity(local_sensitivity(Params(), [key], diagram=nominal))[("fold_1", key)]
         p0 = 1.0 if key == ADHESION_SCALE else Params().operating.vertical_load_n
         h = 1e-3 * p0
-        folds = [bifurcation_diagram(perturbed(Params(), key, p0 + s * h)).folds[0].speed * 3.6 for s in (1, -1)]
+        folds = [bifurcation_diagram(perturbed(Params(), key, p0 + s * h)).folds[0].speed_kmh for s in (1, -1)]
         assert (folds[0] - folds[1]) / (2 * h) == pytest.approx(exact, rel=1e-4)
 
 

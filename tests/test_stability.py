@@ -31,7 +31,7 @@ def test_default_hopf_speeds_match_routh_hurwitz_and_model_md():
     result = stability_analysis(Params(), (5.0, 300.0))
     p = MODEL.pack(Params())
     oracle = routh_hurwitz_hopf_speeds(p, 5 / 3.6, 300 / 3.6)
-    speeds = [h.speed for h in result.hopf_points]
+    speeds = [h.speed_ms for h in result.hopf_points]
     assert len(speeds) == 2
     assert np.allclose(speeds, oracle, rtol=1e-9)
     # docs/model.md section 7: ~58.1 km/h (soft, ~127 Hz) and ~207.8 km/h (hard, ~147 Hz)
@@ -41,7 +41,7 @@ def test_default_hopf_speeds_match_routh_hurwitz_and_model_md():
     assert (h1.criticality, h2.criticality) == ("soft", "hard")
     # at a Hopf point of a cubic the frequency is sqrt(a1/a3)
     for h in result.hopf_points:
-        a3, a2, a1, a0 = characteristic_polynomial(h.speed, p)
+        a3, a2, a1, a0 = characteristic_polynomial(h.speed_ms, p)
         assert math.isclose(h.omega, math.sqrt(a1 / a3), rel_tol=1e-8)
     assert result.unstable_intervals_kmh == [(h1.speed_kmh, h2.speed_kmh)]
 
@@ -55,8 +55,8 @@ def test_hopf_speeds_scale_exactly_as_one_over_sin_toe(toe):
     moved = stability_analysis(
         with_updates(Params(), {"operating.toe_deg": toe}), (5.0 * factor, 300.0 * factor)
     )
-    expected = [h.speed * factor for h in base.hopf_points]
-    assert np.allclose([h.speed for h in moved.hopf_points], expected, rtol=1e-9)
+    expected = [h.speed_ms * factor for h in base.hopf_points]
+    assert np.allclose([h.speed_ms for h in moved.hopf_points], expected, rtol=1e-9)
 
 
 @settings(max_examples=8, deadline=None)
@@ -74,7 +74,7 @@ def test_hopf_speeds_invariant_when_m_k_c_n_scale_together(scale):
     )
     a = stability_analysis(base, (5.0, 300.0))
     b = stability_analysis(scaled, (5.0, 300.0))
-    assert np.allclose([h.speed for h in a.hopf_points], [h.speed for h in b.hopf_points], rtol=1e-9)
+    assert np.allclose([h.speed_ms for h in a.hopf_points], [h.speed_ms for h in b.hopf_points], rtol=1e-9)
     assert np.allclose([h.omega for h in a.hopf_points], [h.omega for h in b.hopf_points], rtol=1e-9)
 
 
@@ -88,11 +88,11 @@ def test_first_lyapunov_coefficient_predicts_the_emerging_cycle(index):
     hopf = stability_analysis(params, (5.0, 300.0)).hopf_points[index]
     branch = continue_from_hopf(MODEL, p, hopf, (20 / 3.6, 300 / 3.6))
     first = branch.points[0]
-    mu = hopf.dre_dspeed * (first.orbit.speed - hopf.speed)
+    mu = hopf.dre_dspeed * (first.orbit.speed - hopf.speed_ms)
     predicted = 2 * abs(hopf.q[0]) * math.sqrt(-mu / (hopf.omega * hopf.l1))
     assert first.orbit.amplitude()[0] == pytest.approx(predicted, rel=1e-3)
     # soft: cycles on the unstable side of the equilibrium, stable; hard: the opposite
-    unstable_side = np.sign(hopf.dre_dspeed) * (first.orbit.speed - hopf.speed) > 0
+    unstable_side = np.sign(hopf.dre_dspeed) * (first.orbit.speed - hopf.speed_ms) > 0
     assert unstable_side == (hopf.l1 < 0)
     assert first.stable == (hopf.l1 < 0)
 
@@ -151,5 +151,5 @@ def test_a_band_narrower_than_the_grid_is_not_missed(n_speeds):
     result = stability_analysis(params, (20.0, 300.0), StabilitySettings(n_speeds=n_speeds))
     oracle = routh_hurwitz_hopf_speeds(MODEL.pack(params), 110 / 3.6, 130 / 3.6)
     assert len(oracle) == 2 and 0.0 < (oracle[1] - oracle[0]) * 3.6 < 0.5
-    assert np.allclose([h.speed for h in result.hopf_points], oracle, rtol=1e-9)
+    assert np.allclose([h.speed_ms for h in result.hopf_points], oracle, rtol=1e-9)
     assert len(result.unstable_intervals_kmh) == 1

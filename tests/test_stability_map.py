@@ -12,6 +12,7 @@ import pytest
 import xarray as xr
 
 from polywear.analysis.bifurcation import bifurcation_diagram
+from polywear.analysis.points import PointKind
 from polywear.analysis.sensitivity import perturbed
 from polywear.analysis.stability import stability_analysis
 from polywear.analysis.stability_map import stability_map
@@ -55,7 +56,7 @@ def test_toe_map_curves_follow_one_over_sin_toe(toe_map, nominal):
         assert np.allclose(c, constants[k], rtol=1e-9)
         assert np.all(np.diff(np.sign(curve.l1)) == 0)  # criticality does not depend on toe
     fold = toe_map.fold_curves[0]
-    c_fold = nominal.folds[0].speed * 3.6 * math.sin(math.radians(0.5))
+    c_fold = nominal.folds[0].speed_kmh * math.sin(math.radians(0.5))
     assert np.allclose(fold.speed_kmh * np.sin(np.radians(fold.value)), c_fold, rtol=1e-6)
     # exact dV/d(toe) at every fold point: -V cot(toe) per radian
     assert np.allclose(fold.derivative, -fold.speed_kmh / np.tan(np.radians(fold.value)) * math.pi / 180, rtol=1e-6)
@@ -92,7 +93,9 @@ def test_hopf_curve_points_are_hopf_points(mu_map):
 
 def test_band_closure_of_the_mu_static_map(mu_map):
     """Below the turning point of the Hopf curve the linear band is closed (Routh-Hurwitz)."""
-    ((value, speed),) = mu_map.turning_points
+    (closure,) = mu_map.turning_points
+    assert closure.kind is PointKind.HOPF_TURN
+    value, speed = closure.value, closure.speed_kmh
     model = get_model("tread1dof")
 
     def hopf_speeds(v):
@@ -107,7 +110,9 @@ def test_band_closure_of_the_mu_static_map(mu_map):
 
 def test_bautin_point_of_the_mu_static_map(mu_map, nominal):
     """l1 changes sign at the Bautin point, and the fold-of-cycles curve ends there."""
-    ((value, speed),) = mu_map.bautin_points
+    (bautin,) = mu_map.bautin_points
+    assert bautin.kind is PointKind.GH
+    value, speed = bautin.value, bautin.speed_kmh
     l1 = {}
     for side in (-1, 1):
         stab = stability_analysis(perturbed(Params(), MU, value * (1 + side * 1e-3)), (20.0, 300.0))

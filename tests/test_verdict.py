@@ -36,7 +36,7 @@ def _toe(toe_deg, **more):
 def nominal():
     """Hopf and fold speeds [km/h] of the defaults (toe 0.5 deg), the scaling reference."""
     d = bifurcation_diagram(Params(), (20.0, 300.0))
-    return [h.speed_kmh for h in d.hopf_points], [f.speed * 3.6 for f in d.folds]
+    return [h.speed_kmh for h in d.hopf_points], [f.speed_kmh for f in d.folds]
 
 
 def _scaled(speed_kmh, toe_deg):
@@ -198,7 +198,7 @@ def test_trigger_amplitude_runs_from_zero_to_the_fold(model, auto_fold_mm):
     assert trigger["min_x"] == 0.0
     assert trigger["max_x"] == fold.amplitude[diagram.state_names.index("x")]
     assert trigger["max_x"] * 1e3 == pytest.approx(auto_fold_mm, rel=2e-6)
-    assert trigger["speed_range_kmh"][1] == pytest.approx(fold.speed * 3.6)
+    assert trigger["speed_range_kmh"][1] == pytest.approx(fold.speed_kmh)
 
 
 @pytest.mark.slow

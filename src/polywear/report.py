@@ -113,7 +113,7 @@ def _sentence(v: dict) -> str:
         f"(polygon order {w['polygon_order']:.2f}, RMS tread acceleration {w['rms_acceleration']:.0f} m/s^2, "
         f"uneven-wear index {w['uneven_wear_index']:.3f})"
     )
-    if regime.startswith("hard"):
+    if v["steady_rolling_stable"]:  # a stable cycle with stable rolling: the hard SEV region
         s += (
             f"; steady rolling is stable, but a disturbance of the tread above "
             f"{v.get('trigger_amplitude_x_m', float('nan')) * 1e3:.3f} mm starts it (hard excitation)."

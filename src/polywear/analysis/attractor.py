@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..models.base import ms_to_kmh
+from ..results import Result
 from .simulation import SimulationResult, _finite, simulate
 
 __all__ = ["Attractor", "reached_attractors", "dominant_frequency"]
@@ -49,7 +50,7 @@ NO_SEV = "no SEV"
 
 
 @dataclass(frozen=True)
-class Attractor:
+class Attractor(Result):
     """The motion a simulation settled on at one speed."""
 
     regime: str
@@ -68,13 +69,30 @@ class Attractor:
     def oscillating(self) -> bool:
         return self.regime not in (DIVERGENCE, NO_SEV)
 
+    @property
+    def params(self):
+        """The parameters of the simulation."""
+        return self.run.params
+
+    @property
+    def settings(self):
+        """The simulation settings."""
+        return self.run.settings
+
+    def _dataset(self):
+        """The classified piece (see :meth:`SimulationResult.to_xarray`) with the regime in attrs."""
+        ds = self.run._dataset()
+        ds.attrs.update(regime=self.regime, start=self.start, simulated_s=self.simulated_s,
+                        dominant_frequency_hz=self.dominant_frequency_hz)
+        return ds
+
+    def figure(self):
+        """A new Figure with the phase portraits of the attractor."""
+        return self.plot()[0].figure
+
     def plot(self, ax=None):
         """Phase portraits of the classified piece's last half (the attractor). Returns artists."""
         return self.run.plot(ax, tail_s=self.run.settings.window_fraction * self.run.duration_s)
-
-    def save(self, path) -> None:
-        """The classified piece as netCDF (see :meth:`SimulationResult.save`)."""
-        self.run.save(path)
 
     def summary(self) -> dict:
         st = self.run.steady
@@ -115,8 +133,8 @@ def _starts(diagram, speed_kmh: float) -> list[tuple[np.ndarray | None, str]]:
     starts = []
     stable = [c for c in diagram.cycles if c.stable and c.orbit is not None]
     if stable:
-        c = min(stable, key=lambda c: abs(ms_to_kmh(c.speed) - speed_kmh))
-        starts.append((np.array(c.orbit.nodes[0], dtype=float), f"the stable cycle at {ms_to_kmh(c.speed):.1f} km/h"))
+        c = min(stable, key=lambda c: abs(c.speed_kmh - speed_kmh))
+        starts.append((np.array(c.orbit.nodes[0], dtype=float), f"the stable cycle at {c.speed_kmh:.1f} km/h"))
     starts.append((None, "steady rolling with x disturbed by 0.1 mm"))
     return starts
 

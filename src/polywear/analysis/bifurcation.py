@@ -23,12 +23,14 @@ import numpy as np
 
 from .. import __version__
 from ..models import get_model
+from ..results import Result
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, to_toml
 from ..solvers.continuation import (Branch, BranchEnd, ContinuationSettings, continue_from_hopf,
                                    same_special_point)
 from ..units import DEFAULT_SPEED_RANGE_KMH, MAX_SPEED_KMH, plot_scale
 from .intervals import runs_of, subtract, union
+from .points import PointKind, SpecialPoint
 from .stability import HopfPoint, StabilityResult, StabilitySettings, stability_analysis
 
 __all__ = [
@@ -52,10 +54,11 @@ _JOIN_KMH = 1e-9
 
 @dataclass(frozen=True)
 class CyclePoint:
-    """Summary of one periodic orbit: speed [m/s], period [s], amplitude per state, stability."""
+    """Summary of one periodic orbit: speed, period [s], amplitude per state, stability."""
 
     branch: int
-    speed: float
+    speed_ms: float
+    """Speed of the cycle [m/s] (``speed_kmh`` in km/h)."""
     period: float
     amplitude: np.ndarray
     mean: np.ndarray
@@ -69,9 +72,13 @@ class CyclePoint:
     resolved: bool = True
     """False: certainly unstable, but too strongly for the count of unstable multipliers to be known."""
 
+    @property
+    def speed_kmh(self) -> float:
+        return ms_to_kmh(self.speed_ms)
+
 
 @dataclass
-class BifurcationDiagram:
+class BifurcationDiagram(Result):
     """Equilibria, Hopf points, cycle branches, special points and speed bands."""
 
     params: Params
@@ -79,7 +86,8 @@ class BifurcationDiagram:
     cycles: list[CyclePoint]
     branches: list[Branch] = field(repr=False)
     branch_info: list[dict]
-    special: list[tuple[str, CyclePoint]]
+    special: list[SpecialPoint]
+    """Folds (LP), period doublings (PD) and torus bifurcations (NS) of the cycle branches, each once."""
     settings: ContinuationSettings
     speed_range_kmh: tuple[float, float]
     """The analysed range [km/h] (the requested one, extended where needed)."""
@@ -98,8 +106,16 @@ class BifurcationDiagram:
         return self.stability.hopf_points
 
     @property
-    def folds(self) -> list[CyclePoint]:
-        return [p for label, p in self.special if label == "LP"]
+    def folds(self) -> list[SpecialPoint]:
+        return [p for p in self.special if p.kind is PointKind.LP]
+
+    @property
+    def special_points(self) -> list[SpecialPoint]:
+        """Every special point by speed: Hopf points (HB), real eigenvalue crossings (DIV)
+        and the special points of the cycle branches (LP, PD, NS)."""
+        points = [h.special_point() for h in self.hopf_points]
+        points += [SpecialPoint(PointKind.DIV, v) for v in self.stability.real_crossings_kmh]
+        return sorted(points + self.special, key=lambda s: s.speed_kmh)
 
     @property
     def linear_band_kmh(self) -> list[tuple[float, float]]:
@@ -121,7 +137,7 @@ class BifurcationDiagram:
             # special point between two points is the edge there (a fold before a PD/NS)
             folds = {}
             for label, pt, idx in branch.special:
-                if label == "LP" or idx + 1 not in folds:
+                if PointKind(label) is PointKind.LP or idx + 1 not in folds:
                     folds[idx + 1] = ms_to_kmh(pt.orbit.speed)
             info = self.branch_info[b]
             run_start = info["from_hopf_kmh"] if pts[0].stable else None
@@ -138,7 +154,7 @@ class BifurcationDiagram:
             if run_start is not None:
                 end = info["to_hopf_kmh"]
                 if end is None:
-                    end = ms_to_kmh(pts[-1].speed)
+                    end = pts[-1].speed_kmh
                 intervals.append((run_start, end))
         lo, hi = self.speed_range_kmh
         clipped = [(max(min(a, b), lo), min(max(a, b), hi)) for a, b in intervals]
@@ -205,11 +221,8 @@ class BifurcationDiagram:
         i = self.state_names.index(state)
         out = []
         for lo, hi in self.hard_regions_kmh:
-            amps = [
-                c.amplitude[i]
-                for c in [*self.cycles, *self.folds]
-                if (not c.stable or c.label == "LP") and lo - 1e-9 <= ms_to_kmh(c.speed) <= hi + 1e-9
-            ]
+            amps = [c.amplitude[i] for c in [*(c for c in self.cycles if not c.stable), *self.folds]
+                    if lo - 1e-9 <= c.speed_kmh <= hi + 1e-9]
             if amps:
                 out.append(
                     {"speed_range_kmh": [lo, hi], f"min_{state}": float(min(amps)), f"max_{state}": float(max(amps))}
@@ -257,14 +270,14 @@ class BifurcationDiagram:
             "hopf_points": [h.summary() for h in self.hopf_points],
             "folds": [
                 {
-                    "speed_kmh": ms_to_kmh(f.speed),
+                    "speed_kmh": f.speed_kmh,
                     "amplitude_x_m": float(f.amplitude[x]),
-                    "frequency_hz": 1.0 / f.period,
+                    "frequency_hz": f.frequency_hz,
                 }
                 for f in self.folds
             ],
-            "period_doublings": [ms_to_kmh(p.speed) for label, p in self.special if label == "PD"],
-            "torus_bifurcations": [ms_to_kmh(p.speed) for label, p in self.special if label == "NS"],
+            "period_doublings": [p.speed_kmh for p in self.special if p.kind is PointKind.PD],
+            "torus_bifurcations": [p.speed_kmh for p in self.special if p.kind is PointKind.NS],
             "real_eigenvalue_crossings_kmh": list(self.stability.real_crossings_kmh),
             "linear_band_kmh": self.open_bounds(self.linear_band_kmh),
             "divergence_kmh": self.open_bounds(self.divergence_kmh),
@@ -304,7 +317,7 @@ class BifurcationDiagram:
             out.append(text)
         return out
 
-    def to_dataset(self):
+    def _dataset(self):
         """Tidy xarray Dataset: one row per cycle point, and the equilibrium line."""
         import xarray as xr
 
@@ -312,7 +325,7 @@ class BifurcationDiagram:
         cyc = self.cycles
         data = {
             "branch": ("cycle", np.array([c.branch for c in cyc], dtype=int)),
-            "speed_kmh": ("cycle", np.array([ms_to_kmh(c.speed) for c in cyc]), {"units": "km/h"}),
+            "speed_kmh": ("cycle", np.array([c.speed_kmh for c in cyc]), {"units": "km/h"}),
             "period": ("cycle", np.array([c.period for c in cyc]), {"units": "s"}),
             "frequency": ("cycle", np.array([1.0 / c.period for c in cyc]), {"units": "Hz"}),
             "amplitude": (("cycle", "state"), np.array([c.amplitude for c in cyc]).reshape(len(cyc), len(names)),
@@ -341,23 +354,15 @@ class BifurcationDiagram:
         )
         return ds
 
-    def save(self, path) -> None:
-        """netCDF (.nc) via h5netcdf, or CSV of the cycle table (.csv)."""
-        path = str(path)
-        if path.endswith(".csv"):
-            self.cycle_table().to_csv(path, index=False)
-        else:
-            self.to_dataset().to_netcdf(path, engine="h5netcdf")
-
-    def cycle_table(self):
-        """pandas DataFrame, one row per cycle point (amplitude_<state> columns)."""
+    def to_dataframe(self):
+        """pandas DataFrame, one row per cycle point (amplitude_<state> columns): the CSV table."""
         import pandas as pd
 
         rows = []
         for c in self.cycles:
             row = {
                 "branch": c.branch,
-                "speed_kmh": ms_to_kmh(c.speed),
+                "speed_kmh": c.speed_kmh,
                 "period_s": c.period,
                 "frequency_hz": 1.0 / c.period,
                 "stable": c.stable,
@@ -368,6 +373,8 @@ class BifurcationDiagram:
             row.update({f"amplitude_{s}": a for s, a in zip(self.state_names, c.amplitude)})
             rows.append(row)
         return pd.DataFrame(rows)
+
+    cycle_table = to_dataframe  # the older name
 
     def coordinates(self) -> list[str]:
         """Displacement coordinates (states q with a velocity state q + "dot"), tread x first."""
@@ -426,7 +433,7 @@ class BifurcationDiagram:
             pts = [c for c in self.cycles if c.branch == b]
             if not pts:
                 continue
-            v = np.array([ms_to_kmh(c.speed) for c in pts])
+            v = np.array([c.speed_kmh for c in pts])
             a = np.array([c.amplitude[i] for c in pts]) * scale
             st = np.array([c.stable for c in pts])
             for flag, style, lab in ((True, "-", "stable cycle"), (False, "--", "unstable cycle")):
@@ -442,13 +449,13 @@ class BifurcationDiagram:
                                        textcoords="offset points", xytext=(4, 6), fontsize=8))
         for k, f in enumerate(self.folds, 1):
             y = f.amplitude[i] * scale
-            artists += ax.plot([ms_to_kmh(f.speed)], [y], "s", color="tab:green", ms=7)
-            artists.append(ax.annotate(f"LP{k} {ms_to_kmh(f.speed):.1f}", (ms_to_kmh(f.speed), y),
+            artists += ax.plot([f.speed_kmh], [y], "s", color="tab:green", ms=7)
+            artists.append(ax.annotate(f"LP{k} {f.speed_kmh:.1f}", (f.speed_kmh, y),
                                        textcoords="offset points", xytext=(5, 5), fontsize=8))
-        for label, p in self.special:
-            if label in ("PD", "NS"):
-                artists += ax.plot([ms_to_kmh(p.speed)], [p.amplitude[i] * scale], "^", color="tab:purple")
-                artists.append(ax.annotate(label, (ms_to_kmh(p.speed), p.amplitude[i] * scale), fontsize=8))
+        for p in self.special:
+            if p.kind in (PointKind.PD, PointKind.NS):
+                artists += ax.plot([p.speed_kmh], [p.amplitude[i] * scale], "^", color="tab:purple")
+                artists.append(ax.annotate(p.label, (p.speed_kmh, p.amplitude[i] * scale), fontsize=8))
         sev = self.sev_band_kmh
         if sev:
             open_at = self.open_edges
@@ -541,7 +548,7 @@ def _points_with_folds(branch: Branch) -> list:
     straddle a fold and the turning point itself lies beyond every stored point)."""
     points = list(branch.points)
     for label, point, index in sorted(branch.special, key=lambda s: s[2], reverse=True):
-        if label == "LP":  # between points[index - 1] and points[index]
+        if PointKind(label) is PointKind.LP:  # between points[index - 1] and points[index]
             points.insert(index, point)
     return points
 
@@ -550,10 +557,10 @@ def _crossing_speed(a: CyclePoint, c: CyclePoint) -> float:
     """Speed [km/h] between two cycle points where the largest multiplier modulus crosses 1."""
     la, lc = np.log(max(a.max_multiplier, 1e-300)), np.log(max(c.max_multiplier, 1e-300))
     s = 0.5 if la == lc else float(np.clip(-la / (lc - la), 0.0, 1.0))
-    return ms_to_kmh((1 - s) * a.speed + s * c.speed)
+    return ms_to_kmh((1 - s) * a.speed_ms + s * c.speed_ms)
 
 
-def _cycle_point(branch_index, point, label="") -> CyclePoint:
+def _cycle_point(branch_index, point) -> CyclePoint:
     orbit = point.orbit
     lo, hi = orbit.extrema()
     mu = point.multipliers
@@ -561,7 +568,7 @@ def _cycle_point(branch_index, point, label="") -> CyclePoint:
     others = np.delete(mu, trivial)
     return CyclePoint(
         branch=branch_index,
-        speed=orbit.speed,
+        speed_ms=orbit.speed,
         period=orbit.period,
         amplitude=0.5 * (hi - lo),
         mean=0.5 * (hi + lo),
@@ -569,10 +576,16 @@ def _cycle_point(branch_index, point, label="") -> CyclePoint:
         n_unstable=point.n_unstable,
         max_multiplier=float(np.abs(others).max()) if others.size else 0.0,
         trivial_multiplier_error=point.trivial_multiplier_error,
-        label=label or point.label,
+        label=point.label,
         orbit=orbit,
         resolved=point.resolved,
     )
+
+
+def _special_point(branch_index: int, kind: PointKind, point) -> SpecialPoint:
+    """A special point located on a cycle branch: its speed, frequency and amplitudes."""
+    cycle = _cycle_point(branch_index, point)
+    return SpecialPoint(kind, cycle.speed_kmh, 1.0 / cycle.period, cycle.amplitude, branch_index, orbit=point.orbit)
 
 
 def bifurcation_diagram(
@@ -627,7 +640,7 @@ def bifurcation_diagram(
     branches: list[Branch] = []
     info: list[dict] = []
     cycles: list[CyclePoint] = []
-    special: list[tuple[str, CyclePoint]] = []
+    special: list[SpecialPoint] = []
     reached: set[int] = set()
     for k, hopf in enumerate(stab.hopf_points):
         if k in reached:
@@ -664,8 +677,9 @@ def bifurcation_diagram(
                 points.append(_hopf_end(b, stab.hopf_points[end_hopf], points[-1]))
         cycles += points
         for label, pt, _ in branch.special:  # once: branches can meet the same special point
-            if not any(lab == label and same_special_point(pt.orbit, other.orbit) for lab, other in special):
-                special.append((label, _cycle_point(b, pt, label)))
+            kind = PointKind(label)
+            if not any(s.kind is kind and same_special_point(pt.orbit, s.orbit) for s in special):
+                special.append(_special_point(b, kind, pt))
     return BifurcationDiagram(
         params=params,
         stability=stab,
@@ -733,7 +747,7 @@ def _hopf_end(branch_index: int, hopf: HopfPoint, neighbour: CyclePoint) -> Cycl
     """The zero-amplitude end of a branch at a Hopf point (stability of its neighbour)."""
     return CyclePoint(
         branch=branch_index,
-        speed=hopf.speed,
+        speed_ms=hopf.speed_ms,
         period=2.0 * np.pi / hopf.omega,
         amplitude=np.zeros_like(neighbour.amplitude),
         mean=np.asarray(hopf.u, dtype=float),
@@ -741,7 +755,7 @@ def _hopf_end(branch_index: int, hopf: HopfPoint, neighbour: CyclePoint) -> Cycl
         n_unstable=neighbour.n_unstable,
         max_multiplier=1.0,
         trivial_multiplier_error=0.0,
-        label="HB",
+        label=PointKind.HOPF.value,
     )
 
 
@@ -753,7 +767,7 @@ def _nearest_hopf(hopfs: list[HopfPoint], last_point, exclude: int) -> int | Non
     for k, h in enumerate(hopfs):
         if k == exclude and len(hopfs) > 1:
             continue
-        d = abs(h.speed - V) / h.speed + abs(h.frequency_hz - f) / h.frequency_hz
+        d = abs(h.speed_ms - V) / h.speed_ms + abs(h.frequency_hz - f) / h.frequency_hz
         if d < best_d:
             best, best_d = k, d
     return best if best_d < 0.2 else None

@@ -24,8 +24,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .. import __version__
 from ..models import get_model
+from ..results import Result
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import ADHESION_SCALE, ParameterError, Params, get_value, study_keys, with_updates
 from ..units import STABILITY_SPEED_RANGE_KMH, polygon_order
@@ -206,11 +206,11 @@ def _hopf_rows(params: Params, obs: list[Observation], keys: list[str], speed_ra
                 row[j] = ms_to_kmh(hopf_speed_derivative(model, p, h, d))
         else:
             values.append(h.frequency_hz)
-            dlam_dv = critical_eigenvalue_derivative(model, h.u, h.speed, p, h.q, h.w, dV=1.0)
+            dlam_dv = critical_eigenvalue_derivative(model, h.u, h.speed_ms, p, h.q, h.w, dV=1.0)
             for j, d in enumerate(directions):
                 if not np.any(d):
                     continue
-                dlam = critical_eigenvalue_derivative(model, h.u, h.speed, p, h.q, h.w, dp=d)
+                dlam = critical_eigenvalue_derivative(model, h.u, h.speed_ms, p, h.q, h.w, dp=d)
                 dv = -dlam.real / dlam_dv.real  # the Hopf point moves along the speed
                 row[j] = (dlam.imag + dlam_dv.imag * dv) / (2.0 * math.pi)
         rows.append(row)
@@ -374,7 +374,7 @@ def _bounds(key: str) -> tuple[float, float]:
 
 # -- the result -------------------------------------------------------------------------
 @dataclass
-class CalibrationResult:
+class CalibrationResult(Result):
     """Fitted parameters, residuals and the identifiability report.
 
     ``parameters``: one dict per varied key (value None where not identifiable);
@@ -393,12 +393,15 @@ class CalibrationResult:
         return {"parameters": self.parameters, "residuals": self.residuals,
                 "identifiability": self.identifiability}
 
-    def save(self, path) -> None:
-        """JSON of the summary with settings and version."""
-        import json
+    def to_dataframe(self):
+        """pandas DataFrame: one row per observation with its prediction and normalized residual."""
+        import pandas as pd
 
-        payload = {**self.summary(), "settings": self.settings, "polywear_version": __version__}
-        Path(path).write_text(json.dumps(payload, indent=2, allow_nan=False))
+        return pd.DataFrame(self.residuals)
+
+    def _dataset(self):
+        """The residual table along ``row``."""
+        return self._table_dataset()
 
     def plot(self, ax=None):
         """Normalized residuals (predicted - observed) / sigma per observation."""

@@ -40,6 +40,7 @@ import numpy as np
 
 from .. import __version__
 from ..params import ParameterError, Params
+from ..results import Result
 from ..units import polygon_order, wheel_rotation_frequency_hz
 
 __all__ = [
@@ -517,7 +518,7 @@ def ramp_delay(
 
 # -- the analysis ----------------------------------------------------------------------------
 @dataclass
-class CampbellResult:
+class CampbellResult(Result):
     """Campbell map of a run, detected features, SEV and the model's prediction over it."""
 
     run: Run
@@ -561,7 +562,8 @@ class CampbellResult:
                         "label": f"{source}: SEV frequency at onset, ramp-corrected"})
         return out
 
-    def to_dataset(self):
+    def _dataset(self):
+        """xarray Dataset: power [dB] over (channel, frequency_hz, time_s), speed per time."""
         import xarray as xr
 
         ds = xr.Dataset(
@@ -574,12 +576,16 @@ class CampbellResult:
         ds["power_db"].attrs["units"] = "dB (re 1 channel unit^2)"
         return ds
 
-    def save(self, path) -> None:
-        """netCDF (.nc) of the map; the summary as JSON next to it (.json)."""
+    def save(self, path) -> Path:
+        """As :meth:`Result.save`; a netCDF (.nc) map gets the summary as JSON next to it (.json)."""
         import json
 
-        self.to_dataset().to_netcdf(path, engine="h5netcdf")
-        Path(path).with_suffix(".json").write_text(json.dumps(self.summary(), indent=2, allow_nan=False))
+        from ..io import write_text
+
+        path = super().save(path)
+        if path.suffix.lower() == ".nc":
+            write_text(path.with_suffix(".json"), json.dumps(self.summary(), indent=2, allow_nan=False))
+        return path
 
     def plot(self, ax=None, channel: int = 0, orders: tuple[int, ...] = tuple(range(1, 31))):
         """Frequency against speed in dB, order rays, Hopf points, SEV band, detected SEV."""

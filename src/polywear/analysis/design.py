@@ -31,8 +31,8 @@ from typing import Callable
 
 import numpy as np
 
-from .. import __version__
 from ..models import get_model
+from ..results import Result
 from ..models.base import ms_to_kmh
 from ..params import ADHESION_SCALE, Params
 from ..units import DEFAULT_SPEED_RANGE_KMH
@@ -199,7 +199,7 @@ class DesignOption:
 
 
 @dataclass
-class DesignResult:
+class DesignResult(Result):
     """Options to move the SEV band out of the operating range, ranked (see the module doc).
 
     ``reason`` says why there are no options (the range is already free of SEV).
@@ -232,7 +232,7 @@ class DesignResult:
             "lines": self.lines(),
         }
 
-    def table(self):
+    def to_dataframe(self):
         """pandas DataFrame, one row per option and key (signed relative change, units, outcome)."""
         import pandas as pd
 
@@ -248,16 +248,11 @@ class DesignResult:
                              "note": o.note})
         return pd.DataFrame(rows)
 
-    def save(self, path) -> None:
-        """CSV of the options (.csv) or the JSON summary (.json)."""
-        import json
+    table = to_dataframe  # the older name
 
-        path = str(path)
-        if path.endswith(".csv"):
-            self.table().to_csv(path, index=False)
-        else:
-            with open(path, "w") as fh:
-                json.dump({**self.summary(), "polywear_version": __version__}, fh, indent=2, ensure_ascii=False)
+    def _dataset(self):
+        """The options table along ``row``."""
+        return self._table_dataset()
 
     def lines(self) -> list[str]:
         """The result as text: the band now, then the options by group, ranked."""
@@ -319,7 +314,7 @@ def _amplitude_lines(ax, diagram, i, color, label):
     first = True
     for b in range(len(diagram.branches)):
         pts = [c for c in diagram.cycles if c.branch == b]
-        v = ms_to_kmh(np.array([c.speed for c in pts]))
+        v = ms_to_kmh(np.array([c.speed_ms for c in pts]))
         a = np.array([c.amplitude[i] for c in pts]) * scale
         st = np.array([c.stable for c in pts])
         for mask, style, lw in ((st, "-", 1.8), (~st, "--", 1.2)):

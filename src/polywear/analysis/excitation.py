@@ -16,6 +16,7 @@ import numpy as np
 
 from ..models import get_model
 from ..models.base import kmh_to_ms
+from ..results import Result
 from .bifurcation import BifurcationDiagram, CyclePoint
 from .simulation import SimulationResult, simulate
 
@@ -23,13 +24,43 @@ __all__ = ["ExcitationPortrait", "excitation_portraits", "default_speeds", "port
 
 
 @dataclass
-class ExcitationPortrait:
+class ExcitationPortrait(Result):
     """Cycles and trajectories at one speed."""
 
     speed_kmh: float
     regime: str
     cycles: list[CyclePoint]
     runs: list[SimulationResult]
+
+    @property
+    def params(self):
+        """The parameters of the simulations (None without runs)."""
+        return self.runs[0].params if self.runs else None
+
+    def _dataset(self):
+        """The cycles (amplitude of x [m], stability) and the runs (start, outcome, amplitudes [m])."""
+        import xarray as xr
+
+        s = self.summary()
+        return xr.Dataset(
+            {
+                "cycle_amplitude_x": ("cycle", np.array([c["amplitude_x_m"] for c in s["cycles"]], dtype=float),
+                                      {"units": "m"}),
+                "cycle_stable": ("cycle", np.array([c["stable"] for c in s["cycles"]], dtype=np.int8)),
+                "initial_x": ("run", np.array([r["initial_x_m"] for r in s["runs"]], dtype=float), {"units": "m"}),
+                "final_amplitude_x": ("run", np.array([r["final_amplitude_x_m"] for r in s["runs"]], dtype=float),
+                                      {"units": "m"}),
+                "outcome": ("run", np.array([r["outcome"] for r in s["runs"]], dtype=str)),
+            },
+            coords={"run": np.array([r["start"] for r in s["runs"]], dtype=str)},
+            attrs={"speed_kmh": self.speed_kmh, "regime": self.regime},
+        )
+
+    def to_dataframe(self):
+        """pandas DataFrame: one row per run (start, initial offset, outcome, final amplitude)."""
+        import pandas as pd
+
+        return pd.DataFrame(self.summary()["runs"])
 
     def summary(self) -> dict:
         x = self.runs[0].model.index("x") if self.runs else 0

@@ -52,8 +52,10 @@ import numpy as np
 from ..models import get_model
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params
+from ..results import Result
 from ..units import DEFAULT_SPEED_RANGE_KMH
 from ..solvers.continuation import BranchPoint, ContinuationSettings, solve_at_speed
+from .points import PointKind
 
 __all__ = ["Band", "BandReference", "FastBand", "band_from_diagram", "band_reference", "fold_curvature"]
 
@@ -75,7 +77,7 @@ LABEL_TOL_KMH = 1e-9
 
 
 @dataclass(frozen=True)
-class Band:
+class Band(Result):
     """Bifurcation speeds [km/h], bands [km/h] and amplitudes [m] of one parameter set.
 
     ``amplitude_x_m[i]`` is the largest tread amplitude (half peak-to-peak of ``x``) of a
@@ -94,6 +96,46 @@ class Band:
     amplitude_x_m: tuple[float, ...] = ()
     path: str = "full"
     reason: str = ""
+
+    def _dataset(self):
+        """Hopf points, folds and amplitudes [m] along their own dimensions; bands [km/h] as (n, 2)."""
+        import xarray as xr
+
+        def bands(b):
+            return np.array(b, dtype=float).reshape(-1, 2)
+
+        return xr.Dataset(
+            {
+                "hopf_kmh": ("hopf", np.array(self.hopf_kmh, dtype=float), {"units": "km/h"}),
+                "hopf_criticality": ("hopf", np.array(self.hopf_criticality, dtype=str)),
+                "folds_kmh": ("fold", np.array(self.folds_kmh, dtype=float), {"units": "km/h"}),
+                "fold_amplitude_x": ("fold", np.array(self.fold_amplitude_x_m, dtype=float), {"units": "m"}),
+                "amplitude_x": ("amplitude_speed_kmh", np.array(self.amplitude_x_m, dtype=float), {"units": "m"}),
+                "linear_band_kmh": (("linear_band", "end"), bands(self.linear_band_kmh), {"units": "km/h"}),
+                "sev_band_kmh": (("sev_band", "end"), bands(self.sev_band_kmh), {"units": "km/h"}),
+                "hard_regions_kmh": (("hard_region", "end"), bands(self.hard_regions_kmh), {"units": "km/h"}),
+            },
+            coords={"amplitude_speed_kmh": np.array(self.amplitude_speeds_kmh, dtype=float), "end": ["low", "high"]},
+            attrs={"path": str(self.summary()["path"]), "reason": str(self.summary()["reason"] or ""),
+                   "detail": self.detail},
+        )
+
+    def plot(self, ax=None):
+        """SEV band shaded, Hopf points and folds on the speed axis, amplitudes [mm]. Returns artists."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 3))
+        artists = [ax.axvspan(lo, hi, color="tab:orange", alpha=0.15) for lo, hi in self.sev_band_kmh]
+        artists += ax.plot(self.hopf_kmh, [0.0] * len(self.hopf_kmh), "o", color="tab:red", label="Hopf")
+        artists += ax.plot(self.folds_kmh, np.array(self.fold_amplitude_x_m) * 1e3, "s", color="k", label="fold")
+        artists += ax.plot(self.amplitude_speeds_kmh, np.array(self.amplitude_x_m) * 1e3, "^", color="tab:blue",
+                           label="stable cycle")
+        ax.set_xlabel("speed [km/h]")
+        ax.set_ylabel("amplitude x [mm]")
+        ax.set_title(f"SEV band ({self.summary()['path']} path)", fontsize=10)
+        ax.legend(fontsize=8)
+        return artists
 
     @property
     def first_bifurcation_kmh(self) -> float:
@@ -133,7 +175,7 @@ def band_from_diagram(diagram, amplitude_speeds_kmh=(), reason: str = "") -> Ban
     return Band(
         hopf_kmh=tuple(h.speed_kmh for h in diagram.hopf_points),
         hopf_criticality=tuple(h.criticality for h in diagram.hopf_points),
-        folds_kmh=tuple(ms_to_kmh(f.speed) for f in diagram.folds),
+        folds_kmh=tuple(f.speed_kmh for f in diagram.folds),
         fold_amplitude_x_m=tuple(float(f.amplitude[ix]) for f in diagram.folds),
         linear_band_kmh=tuple(tuple(b) for b in diagram.linear_band_kmh),
         sev_band_kmh=tuple(tuple(b) for b in diagram.sev_band_kmh),
@@ -222,7 +264,7 @@ def band_reference(diagram, amplitude_speeds_kmh=()) -> BandReference:
         stable = [c for c in diagram.cycles_at(v) if c.stable]
         cycles.append(max(stable, key=lambda c: c.amplitude[ix]).orbit if stable else None)
     unusable = ""
-    if any(label in ("PD", "NS") for label, _ in diagram.special):
+    if any(s.kind in (PointKind.PD, PointKind.NS) for s in diagram.special):
         unusable = "period doubling or torus bifurcation in the reference"
     if diagram.stability.real_crossings_kmh:
         unusable = "real eigenvalue crossing in the reference"

@@ -39,7 +39,8 @@ from __future__ import annotations
 
 import json
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from enum import StrEnum
 
 import numpy as np
 
@@ -56,6 +57,7 @@ from ..params import (
     to_toml,
     with_updates,
 )
+from ..results import Result
 from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH
 
 __all__ = [
@@ -67,15 +69,42 @@ __all__ = [
     "sample_params",
     "StudyEvaluator",
     "GlobalSensitivityResult",
+    "SampleStatus",
+    "SampleOutcome",
     "global_sensitivity",
 ]
 
 HOPF_OUTPUTS = ("hopf_1_kmh", "hopf_2_kmh", "linear_band_width_kmh")
 BIFURCATION_OUTPUTS = ("first_bifurcation_kmh", "second_bifurcation_kmh", "sev_band_width_kmh", "max_amplitude_mm")
 
-NO_BAND = "no band in the speed range"
-AT_EDGE = "band reaches the edge of the speed range"
-OK = "ok"
+
+
+class SampleStatus(StrEnum):
+    """How the evaluation of one sample ended (the value is the text recorded for it)."""
+
+    OK = "ok"
+    NO_BAND = "no band in the speed range"
+    """Speeds NaN, width 0."""
+    AT_EDGE = "band reaches the edge of the speed range"
+    """That bound and the width NaN."""
+    INVALID = "invalid parameters"
+    """The sampled values are not a valid parameter set (all outputs NaN)."""
+    FAILED = "failed"
+    """A numerical failure: equilibrium, continuation, ... (all outputs NaN)."""
+
+
+@dataclass(frozen=True)
+class SampleOutcome:
+    """The status of one sample, the reason in words where there is one, and whether the
+    fast band path (not the continuation) gave its outputs."""
+
+    status: SampleStatus
+    detail: str | None = None
+    fast: bool = False
+
+    def __str__(self) -> str:
+        """``"status: detail"`` (the status alone without a detail), as recorded per sample."""
+        return self.status.value if self.detail is None else f"{self.status.value}: {self.detail}"
 
 CONVERGED_HALF_WIDTH = 0.1
 """Largest confidence half-width of a converged index (Sobol; Morris: relative to max mu*)."""
@@ -205,20 +234,20 @@ def _seeds(seed: int):
 
 
 # -- one evaluation ----------------------------------------------------------------------------
-def _band_outputs(intervals, speed_range_kmh) -> tuple[tuple[float, float, float], str]:
-    """(lowest bound, highest bound, total width) of a union of speed intervals, and a status."""
+def _band_outputs(intervals, speed_range_kmh) -> tuple[tuple[float, float, float], SampleOutcome]:
+    """(lowest bound, highest bound, total width) of a union of speed intervals, and the outcome."""
     if not intervals:
-        return (np.nan, np.nan, 0.0), NO_BAND
+        return (np.nan, np.nan, 0.0), SampleOutcome(SampleStatus.NO_BAND)
     lo, hi = speed_range_kmh
     first, last = intervals[0][0], intervals[-1][1]
     width = float(sum(b - a for a, b in intervals))
-    status = OK
+    status = SampleStatus.OK
     tol = 1e-9 * hi  # range ends pass through m/s and back
     if first <= lo + tol:
-        first, width, status = np.nan, np.nan, AT_EDGE
+        first, width, status = np.nan, np.nan, SampleStatus.AT_EDGE
     if last >= hi - tol:
-        last, width, status = np.nan, np.nan, AT_EDGE
-    return (first, last, width), status
+        last, width, status = np.nan, np.nan, SampleStatus.AT_EDGE
+    return (first, last, width), SampleOutcome(status)
 
 
 def max_stable_amplitude(diagram, speed_range_kmh, state: str = "x") -> float:
@@ -233,12 +262,12 @@ def max_stable_amplitude(diagram, speed_range_kmh, state: str = "x") -> float:
     for b in range(len(diagram.branches)):
         pts = [c for c in diagram.cycles if c.branch == b]
         for a, c in zip(pts, pts[1:] + [None]):
-            va = ms_to_kmh(a.speed)
+            va = a.speed_kmh
             if a.stable and lo <= va <= hi:
                 best = max(best, float(a.amplitude[i]))
             if c is None or not (a.stable and c.stable):
                 continue
-            vc = ms_to_kmh(c.speed)
+            vc = c.speed_kmh
             for edge in (lo, hi):
                 if min(va, vc) < edge < max(va, vc):
                     s = (edge - va) / (vc - va)
@@ -250,10 +279,10 @@ def _fast_outputs(band, speed_range_kmh, operating_range_kmh):
     """The bifurcation outputs of a fast-path band: the largest stable amplitude in the
     operating range is taken at its ends and at the folds inside it (where the stable branch
     ends; along a stable run the amplitude grows monotonically towards its fold)."""
-    outputs, status = _band_outputs(band.sev_band_kmh, speed_range_kmh)
+    outputs, outcome = _band_outputs(band.sev_band_kmh, speed_range_kmh)
     lo, hi = operating_range_kmh
     folds = [a for v, a in zip(band.folds_kmh, band.fold_amplitude_x_m) if lo <= v <= hi]
-    return (*outputs, max([*band.amplitude_x_m, *folds], default=0.0) * 1e3), status, "fast"
+    return (*outputs, max([*band.amplitude_x_m, *folds], default=0.0) * 1e3), replace(outcome, fast=True)
 
 
 @dataclass(frozen=True)
@@ -273,20 +302,19 @@ class StudyEvaluator:
     def names(self) -> tuple[str, ...]:
         return HOPF_OUTPUTS if self.outputs == "hopf" else BIFURCATION_OUTPUTS
 
-    def __call__(self, values) -> tuple[tuple[float, ...], str]:
-        """(output values, status) for the parameter values of one sample (and "fast" after
-        the status when the fast band path gave them)."""
+    def __call__(self, values) -> tuple[tuple[float, ...], SampleOutcome]:
+        """(output values, outcome) for the parameter values of one sample."""
         nan = (np.nan,) * len(self.names)
         try:
             params = sample_params(self.params, self.keys, values)
         except ParameterError as exc:
-            return nan, f"invalid parameters: {exc}"
+            return nan, SampleOutcome(SampleStatus.INVALID, str(exc))
         try:
             if self.outputs == "hopf":
                 return _band_outputs(fast_linear_band(params, self.speed_range_kmh), self.speed_range_kmh)
             return self._bifurcation(params)
         except Exception as exc:  # any numerical failure is recorded with its reason
-            return nan, f"failed: {type(exc).__name__}: {exc}"
+            return nan, SampleOutcome(SampleStatus.FAILED, f"{type(exc).__name__}: {exc}")
 
     def _bifurcation(self, params):
         from .bifurcation import bifurcation_diagram
@@ -299,10 +327,11 @@ class StudyEvaluator:
         diagram = bifurcation_diagram(params, self.speed_range_kmh)
         for info in diagram.branch_info:
             if info["failed"]:
-                return (np.nan,) * 4, f"failed: continuation from {info['from_hopf_kmh']:.2f} km/h: {info['end_reason']}"
-        band, status = _band_outputs(diagram.sev_band_kmh, diagram.speed_range_kmh)  # the range as widened
+                return (np.nan,) * 4, SampleOutcome(
+                    SampleStatus.FAILED, f"continuation from {info['from_hopf_kmh']:.2f} km/h: {info['end_reason']}")
+        band, outcome = _band_outputs(diagram.sev_band_kmh, diagram.speed_range_kmh)  # the range as widened
         amplitude = max_stable_amplitude(diagram, self.operating_range_kmh) * 1e3
-        return (*band, amplitude), status
+        return (*band, amplitude), outcome
 
 
 # -- analysis -------------------------------------------------------------------------------
@@ -358,7 +387,7 @@ def _primary(method) -> tuple[str, str]:
 
 
 @dataclass
-class GlobalSensitivityResult:
+class GlobalSensitivityResult(Result):
     """Samples, outputs, statuses and sensitivity indices of a global study."""
 
     params: Params
@@ -366,7 +395,7 @@ class GlobalSensitivityResult:
     outputs: tuple[str, ...]
     samples: np.ndarray  # (n_runs, D) parameter values [key units]
     values: np.ndarray  # (n_runs, n_outputs)
-    status: list[str]
+    status: list[SampleOutcome]
     indices: dict  # output -> indices at N (arrays over parameters)
     convergence: dict  # output -> {"n_base": [...], index: [[...] per n], "max_change", "converged"}
     settings: dict = field(default_factory=dict)
@@ -380,12 +409,11 @@ class GlobalSensitivityResult:
         return [q.key for q in self.parameters]
 
     def failures(self) -> dict:
-        """Number of samples per status other than ok (reasons grouped by their first words)."""
+        """Number of samples per status other than ok (by the status's text)."""
         counts: dict[str, int] = {}
         for s in self.status:
-            if s != OK:
-                reason = s.split(":")[0]
-                counts[reason] = counts.get(reason, 0) + 1
+            if s.status is not SampleStatus.OK:
+                counts[s.status.value] = counts.get(s.status.value, 0) + 1
         return counts
 
     def summary(self) -> dict:
@@ -399,7 +427,8 @@ class GlobalSensitivityResult:
 
         examples = {}
         for s in self.status:
-            examples.setdefault(s.split(":")[0], s)
+            if s.status is not SampleStatus.OK:
+                examples.setdefault(s.status.value, str(s))
         return {
             "model": self.params.model,
             "method": self.method,
@@ -408,7 +437,7 @@ class GlobalSensitivityResult:
             "n_base": self.params.study.n_base,
             "n_runs": len(self.status),
             "failures": self.failures(),
-            "failure_examples": {k: v for k, v in examples.items() if k != OK},
+            "failure_examples": examples,
             "indices": {
                 out: {k: clean(v) for k, v in ind.items()} for out, ind in self.indices.items()
             },
@@ -416,7 +445,7 @@ class GlobalSensitivityResult:
             "settings": self.settings,
         }
 
-    def table(self):
+    def to_dataframe(self):
         """pandas DataFrame: one row per output and parameter with the indices at N."""
         import pandas as pd
 
@@ -428,14 +457,16 @@ class GlobalSensitivityResult:
                 rows.append(row)
         return pd.DataFrame(rows)
 
-    def to_dataset(self):
+    table = to_dataframe  # the older name
+
+    def _dataset(self):
         """xarray Dataset: samples, outputs and statuses per run; indices per output and parameter."""
         import xarray as xr
 
         data = {
             "sample": (("run", "param"), self.samples),
             "value": (("run", "output"), self.values),
-            "status": ("run", np.array(self.status, dtype=str)),
+            "status": ("run", np.array([str(s) for s in self.status], dtype=str)),
         }
         for key in ("S1", "S1_conf", "ST", "ST_conf", "mu", "mu_star", "sigma", "mu_star_conf"):
             if any(key in ind for ind in self.indices.values()):
@@ -452,17 +483,6 @@ class GlobalSensitivityResult:
                 "summary_json": json.dumps(self.summary()),
             },
         )
-
-    def save(self, path) -> None:
-        """netCDF (.nc, everything), CSV (.csv, the index table) or JSON (other suffix, the summary)."""
-        path = str(path)
-        if path.endswith(".nc"):
-            self.to_dataset().to_netcdf(path, engine="h5netcdf")
-        elif path.endswith(".csv"):
-            self.table().to_csv(path, index=False)
-        else:
-            with open(path, "w") as fh:
-                json.dump({**self.summary(), "polywear_version": __version__}, fh, indent=2)
 
     def plot(self, ax=None, output: str | None = None):
         """Bar chart of one output's indices with confidence intervals, parameters ranked."""
@@ -579,7 +599,7 @@ def global_sensitivity(
                           batch_size=batch_size, on_progress=on_progress)
     Y = np.array([r[0] for r in results], dtype=float)
     status = [r[1] for r in results]
-    n_fast = sum(len(r) > 2 and r[2] == "fast" for r in results)  # fast band path; the others: continuation
+    n_fast = sum(r[1].fast for r in results)  # fast band path; the others: continuation
     settings = {
         "second_order": study.second_order,
         "bootstrap": study.bootstrap,

@@ -28,13 +28,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import __version__
 from ..models import get_model
+from ..results import Result
 from ..models.base import ms_to_kmh
 from ..params import ADHESION_SCALE, PAPER_KEYS, Params, get_value, with_updates
 from ..units import DEFAULT_SPEED_RANGE_KMH
 from .bifurcation import BifurcationDiagram, bifurcation_diagram
 from .derivatives import rhs_directional
+from .points import PointKind
 from .stability import critical_eigenvalue_derivative
 
 __all__ = [
@@ -106,8 +107,8 @@ def hopf_speed_derivative(model, p, hopf, direction: np.ndarray) -> float:
     """dV_H/dθ [m/s per unit θ] where dp/dθ = ``direction``."""
     if not np.any(direction):
         return 0.0
-    num = critical_eigenvalue_derivative(model, hopf.u, hopf.speed, p, hopf.q, hopf.w, dp=direction).real
-    den = critical_eigenvalue_derivative(model, hopf.u, hopf.speed, p, hopf.q, hopf.w, dV=1.0).real
+    num = critical_eigenvalue_derivative(model, hopf.u, hopf.speed_ms, p, hopf.q, hopf.w, dp=direction).real
+    den = critical_eigenvalue_derivative(model, hopf.u, hopf.speed_ms, p, hopf.q, hopf.w, dV=1.0).real
     return -num / den
 
 
@@ -140,7 +141,7 @@ def fold_speed_derivative(model, p, fold, direction: np.ndarray, degree: int = 4
 
 # -- the analysis -----------------------------------------------------------------------
 @dataclass
-class SensitivityResult:
+class SensitivityResult(Result):
     """Sensitivities of the bifurcation speeds to parameters (one row per quantity and parameter)."""
 
     params: Params
@@ -153,23 +154,17 @@ class SensitivityResult:
     def summary(self) -> dict:
         return {"model": self.params.model, "method": self.method, "rows": self.rows, "notes": self.notes}
 
-    def table(self):
+    def to_dataframe(self):
         """pandas DataFrame of the rows."""
         import pandas as pd
 
         return pd.DataFrame(self.rows)
 
-    def save(self, path) -> None:
-        """CSV (.csv) or JSON (other suffix) of the rows, with settings and version."""
-        import json
+    table = to_dataframe  # the older name
 
-        path = str(path)
-        if path.endswith(".csv"):
-            self.table().to_csv(path, index=False)
-            return
-        payload = {**self.summary(), "settings": self.settings, "polywear_version": __version__}
-        with open(path, "w") as fh:
-            json.dump(payload, fh, indent=2)
+    def _dataset(self):
+        """The rows along ``row``."""
+        return self._table_dataset()
 
     def plot(self, ax=None, quantity: str = "first_bifurcation", normalized: bool = True,
              title: str | None = None, legend: bool = True):
@@ -252,7 +247,7 @@ def _quantities(diagram: BifurcationDiagram) -> dict[str, tuple[str, object]]:
     out: dict[str, tuple[str, object]] = {}
     for k, h in enumerate(diagram.hopf_points, 1):
         out[f"hopf_{k}"] = ("hopf", h)
-    fold_points = [pt for b in diagram.branches for label, pt, _ in b.special if label == "LP"]
+    fold_points = [pt for b in diagram.branches for label, pt, _ in b.special if PointKind(label) is PointKind.LP]
     for k, f in enumerate(fold_points, 1):
         out[f"fold_{k}"] = ("fold", f)
     sev = diagram.sev_band_kmh

@@ -40,6 +40,7 @@ import numpy as np
 from .. import __version__, units
 from ..units import plot_scale
 from ..models import get_model
+from ..results import Result
 from ..models.base import kmh_to_ms
 from ..params import Params, get_value, to_toml, with_updates
 from ..settings import check_count, check_fraction, check_positive
@@ -270,7 +271,7 @@ def classify_window(model, V, p, t, u, dense, u_eq, deviation_scale, settings: S
 
 # -- results -----------------------------------------------------------------------------
 @dataclass(frozen=True)
-class SimulationResult:
+class SimulationResult(Result):
     """One simulation run: inputs, settings, time series, steady state."""
 
     params: Params
@@ -322,7 +323,7 @@ class SimulationResult:
             **({"contact_lost": self.contact_lost} if "contact_lost" in self.model.aux_names else {}),
         }
 
-    def to_dataset(self):
+    def _dataset(self):
         """xarray Dataset: states and diagnostics against time, steady-state values per state."""
         import xarray as xr
 
@@ -365,10 +366,6 @@ class SimulationResult:
         )
         return ds
 
-    def save(self, path) -> None:
-        """Write :meth:`to_dataset` as netCDF (h5netcdf)."""
-        self.to_dataset().to_netcdf(path, engine="h5netcdf")
-
     def plot(self, ax=None, pairs=None, tail_s=None, **line_kw):
         """Phase portraits, one axes per (displacement, velocity) pair. Returns the artists.
 
@@ -378,9 +375,13 @@ class SimulationResult:
         """
         return _phase_portraits([self], ax, pairs, tail_s, **line_kw)
 
+    def figure(self):
+        """A new Figure with the phase portraits, one axes per (displacement, velocity) pair."""
+        return self.plot()[0].figure
+
 
 @dataclass(frozen=True)
-class SimulationSet:
+class SimulationSet(Result):
     """Several runs that differ in one thing (disturbance or a parameter value)."""
 
     runs: tuple[SimulationResult, ...]
@@ -388,10 +389,19 @@ class SimulationSet:
     """What differs: ``"disturbance_m"`` or a configuration key."""
     values: tuple = field(default=())
 
+    @property
+    def params(self) -> Params:
+        """The first run's parameters (a set that varies a key has it in ``values``)."""
+        return self.runs[0].params
+
+    @property
+    def settings(self) -> SimulationSettings:
+        return self.runs[0].settings
+
     def summary(self) -> dict:
         return {"varied": self.label, "values": list(self.values), "runs": [r.summary() for r in self.runs]}
 
-    def to_dataset(self):
+    def _dataset(self):
         """The runs' datasets stacked along ``run`` (the varied value as coordinate)."""
         import xarray as xr
 
@@ -416,14 +426,14 @@ class SimulationSet:
         }
         return stacked
 
-    def save(self, path) -> None:
-        """Write :meth:`to_dataset` as netCDF (h5netcdf)."""
-        self.to_dataset().to_netcdf(path, engine="h5netcdf")
-
     def plot(self, ax=None, pairs=None, tail_s=None, **line_kw):
         """Overlaid phase portraits of all runs, one axes per pair (see
         :meth:`SimulationResult.plot`). Returns the artists."""
         return _phase_portraits(list(self.runs), ax, pairs, tail_s, **line_kw)
+
+    def figure(self):
+        """A new Figure with the overlaid phase portraits, one axes per pair."""
+        return self.plot()[0].figure
 
 
 def _finite(value):

@@ -20,11 +20,13 @@ from scipy.optimize import brentq
 
 from .. import __version__
 from ..models import get_model
+from ..results import Result
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, to_toml
 from ..settings import check_count, check_positive
 from ..units import STABILITY_SPEED_RANGE_KMH
 from .derivatives import bilinear, jac_directional, rhs_directional, trilinear
+from .points import PointKind, SpecialPoint
 
 __all__ = [
     "HopfPoint",
@@ -64,7 +66,8 @@ class HopfPoint:
     soft; > 0: subcritical, hard).
     """
 
-    speed: float  # [m/s]
+    speed_ms: float
+    """Speed of the Hopf point [m/s] (``speed_kmh`` in km/h)."""
     omega: float  # [rad/s]
     u: np.ndarray
     q: np.ndarray
@@ -75,7 +78,7 @@ class HopfPoint:
 
     @property
     def speed_kmh(self) -> float:
-        return ms_to_kmh(self.speed)
+        return ms_to_kmh(self.speed_ms)
 
     @property
     def frequency_hz(self) -> float:
@@ -85,6 +88,10 @@ class HopfPoint:
     def criticality(self) -> str:
         """``"soft"`` (supercritical) or ``"hard"`` (subcritical)."""
         return "soft" if self.l1 < 0.0 else "hard"
+
+    def special_point(self) -> SpecialPoint:
+        """This Hopf point as a :class:`~polywear.analysis.points.SpecialPoint` (kind HB)."""
+        return SpecialPoint(PointKind.HOPF, self.speed_kmh, self.frequency_hz, criticality=self.criticality)
 
     def summary(self) -> dict:
         return {
@@ -182,7 +189,7 @@ def first_lyapunov_coefficient(model, u, V, p, q, w, omega, J) -> float:
 
 
 @dataclass
-class StabilityResult:
+class StabilityResult(Result):
     """Eigenvalues of the equilibrium along speed, Hopf points and unstable intervals."""
 
     params: Params
@@ -221,7 +228,7 @@ class StabilityResult:
             }
         return out
 
-    def to_dataset(self):
+    def _dataset(self):
         """xarray Dataset: eigenvalues (real, imag) and equilibria against speed."""
         import xarray as xr
 
@@ -242,10 +249,6 @@ class StabilityResult:
             },
         )
         return ds
-
-    def save(self, path) -> None:
-        """Write the dataset as netCDF (h5netcdf)."""
-        self.to_dataset().to_netcdf(path, engine="h5netcdf")
 
     def plot(self, ax=None):
         """Real parts of the eigenvalues against speed; Hopf points marked. Returns artists."""
@@ -328,7 +331,7 @@ def stability_analysis(
         h, r = _hopf_in_bracket(model, p, speeds[i], speeds[i + 1], eig[i], eig[i + 1], settings.xtol_ms)
         hopfs += h
         reals += r
-    hopfs.sort(key=lambda h: h.speed)
+    hopfs.sort(key=lambda h: h.speed_ms)
     real_kmh = sorted(ms_to_kmh(v) for v in reals)
     intervals = _unstable_intervals(model, p, speeds_kmh, [h.speed_kmh for h in hopfs] + real_kmh)
     alignment = getattr(model.kernels, "running_alignment", None)

@@ -41,12 +41,14 @@ import numpy as np
 
 from .. import __version__
 from ..models import get_model
+from ..results import Result
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, ParameterError, to_toml
 from ..settings import check_count, check_fraction, check_order, check_positive
 from ..solvers.continuation import BranchPoint, ContinuationSettings, fold_near
 from ..units import DEFAULT_SPEED_RANGE_KMH
 from .intervals import runs_of, union
+from .points import PointKind, SpecialPoint
 from .sensitivity import PARAMETER_LABELS, fold_speed_derivative, nominal_value, parameter_direction, perturbed
 from .stability import critical_eigenvalue_derivative, first_lyapunov_coefficient
 
@@ -103,8 +105,10 @@ class HopfCurve:
     frequency_hz: np.ndarray
     l1: np.ndarray
     tangent: np.ndarray  # (n, 2) unit tangent in scaled (speed, value) coordinates
-    turning_points: list[tuple[float, float]]  # (value, speed_kmh): the band closes
-    bautin_points: list[tuple[float, float]]  # (value, speed_kmh): l1 changes sign
+    turning_points: list[SpecialPoint]
+    """Where the curve turns back in the parameter and the linear band closes (kind HT)."""
+    bautin_points: list[SpecialPoint]
+    """Where ``l1`` changes sign (kind GH)."""
     end_reasons: tuple[str, str]
 
 
@@ -334,8 +338,8 @@ def _hopf_curve(tracer: _HopfTracer, start: _HopfState, on_step) -> HopfCurve:
         frequency_hz=np.array([p.lam.imag / (2 * np.pi) for p in points]),
         l1=np.array(l1s),
         tangent=np.array(tangents),
-        turning_points=back[2] + fwd[2],
-        bautin_points=back[3] + fwd[3],
+        turning_points=[SpecialPoint(PointKind.HOPF_TURN, s, value=v) for v, s in back[2] + fwd[2]],
+        bautin_points=[SpecialPoint(PointKind.GH, s, value=v) for v, s in back[3] + fwd[3]],
         end_reasons=(back[4], fwd[4]),
     )
 
@@ -434,7 +438,7 @@ def _fold_curve(model, p_of, direction, seed: BranchPoint, scales, theta0, value
 
 # -- the map ---------------------------------------------------------------------------------------
 @dataclass
-class StabilityMap:
+class StabilityMap(Result):
     """Hopf and fold curves over (speed, parameter), with the band table for shading."""
 
     params: Params
@@ -455,11 +459,11 @@ class StabilityMap:
         return nominal_value(self.params, self.key)
 
     @property
-    def turning_points(self) -> list[tuple[float, float]]:
+    def turning_points(self) -> list[SpecialPoint]:
         return [tp for c in self.hopf_curves for tp in c.turning_points]
 
     @property
-    def bautin_points(self) -> list[tuple[float, float]]:
+    def bautin_points(self) -> list[SpecialPoint]:
         return [b for c in self.hopf_curves for b in c.bautin_points]
 
     def bands_at(self, value: float) -> dict:
@@ -500,15 +504,15 @@ class StabilityMap:
                 }
                 for c in self.fold_curves
             ],
-            "band_closures": [{"value": v, "speed_kmh": s} for v, s in self.turning_points],
-            "bautin_points": [{"value": v, "speed_kmh": s} for v, s in self.bautin_points],
+            "band_closures": [{"value": p.value, "speed_kmh": p.speed_kmh} for p in self.turning_points],
+            "bautin_points": [{"value": p.value, "speed_kmh": p.speed_kmh} for p in self.bautin_points],
             "at_nominal": self.bands_at(self.nominal)
             if self.value_range[0] <= self.nominal <= self.value_range[1] else None,
             "safe_values": [list(iv) for iv in self.safe_values()],
             "notes": self.notes,
         }
 
-    def to_dataset(self):
+    def _dataset(self):
         """xarray Dataset: curve points (curve index per point), band table as a grid of states."""
         import xarray as xr
 
@@ -540,15 +544,6 @@ class StabilityMap:
             },
         )
         return ds
-
-    def save(self, path) -> None:
-        """netCDF (.nc) or the JSON summary (other suffix)."""
-        path = str(path)
-        if path.endswith(".nc"):
-            self.to_dataset().to_netcdf(path, engine="h5netcdf")
-        else:
-            with open(path, "w") as fh:
-                json.dump({**self.summary(), "polywear_version": __version__}, fh, indent=2)
 
     def state_grid(self, speeds_kmh) -> np.ndarray:
         """(n_values, n_speeds) of 0 stable, 1 linear band, 2 hard band, 3 unknown (failed row)."""
@@ -588,10 +583,10 @@ class StabilityMap:
         for k, c in enumerate(self.fold_curves):
             artists += ax.plot(c.speed_kmh, c.value, "-", color="tab:green", lw=1.6,
                                label="fold of cycles" if k == 0 else None)
-        for k, (v, s) in enumerate(self.turning_points):
-            artists += ax.plot([s], [v], "o", color="k", ms=5, label="band closes" if k == 0 else None)
-        for k, (v, s) in enumerate(self.bautin_points):
-            artists += ax.plot([s], [v], "*", color="tab:purple", ms=11, label="Bautin (GH) point" if k == 0 else None)
+        for k, tp in enumerate(self.turning_points):
+            artists += ax.plot([tp.speed_kmh], [tp.value], "o", color="k", ms=5, label="band closes" if k == 0 else None)
+        for k, gh in enumerate(self.bautin_points):
+            artists += ax.plot([gh.speed_kmh], [gh.value], "*", color="tab:purple", ms=11, label="Bautin (GH) point" if k == 0 else None)
         if self.operating_range_kmh:
             artists.append(ax.axvspan(*self.operating_range_kmh, fill=False, hatch="//", ec="tab:blue", lw=0.8,
                                       label="operating range"))
@@ -706,7 +701,7 @@ def stability_map(
 
     def fold_seeds_at(theta):
         diagram = bifurcation_diagram(perturbed(params, key, theta), (s_lo, s_hi), settings.continuation, extend=False)
-        seeds = [(pt, b.scales) for b in diagram.branches for label, pt, _ in b.special if label == "LP"]
+        seeds = [(pt, b.scales) for b in diagram.branches for label, pt, _ in b.special if PointKind(label) is PointKind.LP]
         return diagram.hopf_points, seeds
 
     def follow_folds(theta, seeds):
@@ -729,17 +724,17 @@ def stability_map(
         for h in hopfs:
             if _near_curve(hopf_curves, theta, h.speed_kmh, hi - lo, s_hi - s_lo):
                 continue
-            start = tracer.state(h.speed, theta, complex(0.0, h.omega))
+            start = tracer.state(h.speed_ms, theta, complex(0.0, h.omega))
             if start is not None:
                 hopf_curves.append(_hopf_curve(tracer, start, on_step))
     for theta, at_theta in found:
         follow_folds(theta, at_theta)
     if folds:  # a fold curve starts at every Bautin point: seed it on the hard side if still missing
         for curve in hopf_curves:
-            for theta_b, speed_b in curve.bautin_points:
-                if _near_curve(fold_curves, theta_b, speed_b, hi - lo, s_hi - s_lo, tol=0.02):
+            for gh in curve.bautin_points:
+                if _near_curve(fold_curves, gh.value, gh.speed_kmh, hi - lo, s_hi - s_lo, tol=0.02):
                     continue
-                theta = _hard_side(curve, theta_b, speed_b, hi - lo, s_hi - s_lo)
+                theta = _hard_side(curve, gh.value, gh.speed_kmh, hi - lo, s_hi - s_lo)
                 try:
                     if theta is not None:
                         follow_folds(theta, fold_seeds_at(theta)[1])

@@ -29,6 +29,7 @@ import numpy as np
 
 from .. import __version__
 from ..models import get_model
+from ..results import Result
 from ..models.base import kmh_to_ms
 from ..params import Params, to_toml
 from ..solvers.integrate import integrate
@@ -112,7 +113,7 @@ def _settle_job(job) -> SteadyRun:
 
 
 @dataclass(frozen=True)
-class SweepResult:
+class SweepResult(Result):
     """Steady states against speed for each kind of start."""
 
     params: Params
@@ -155,7 +156,7 @@ class SweepResult:
             },
         }
 
-    def to_dataset(self):
+    def _dataset(self):
         """xarray Dataset over (start, speed_kmh, state)."""
         import xarray as xr
 
@@ -184,10 +185,6 @@ class SweepResult:
                 "polywear_version": self.version,
             },
         )
-
-    def save(self, path) -> None:
-        """Write :meth:`to_dataset` as netCDF (h5netcdf)."""
-        self.to_dataset().to_netcdf(path, engine="h5netcdf")
 
     def plot(self, ax=None, state: str = "x"):
         """Amplitude of ``state`` against speed, one marker per start type (hollow: not

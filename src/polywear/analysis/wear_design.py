@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..models import get_model
+from ..results import Result
 from ..params import ADHESION_SCALE, Params
 from .design import DEFAULT_KEYS, ENGINEERING, parameter_category, parameter_label
 from .sensitivity import nominal_value, parameter_direction, perturbed
@@ -91,7 +92,7 @@ class WearDesignOption:
 
 
 @dataclass
-class WearDesignResult:
+class WearDesignResult(Result):
     params: Params
     cycle: tuple
     target_km: float | None
@@ -118,6 +119,32 @@ class WearDesignResult:
             "not_found": self.not_found,
             "distances_scale_as": "1/k_e",
         }
+
+    def to_dataframe(self):
+        """pandas DataFrame: one row per option (its summary)."""
+        import pandas as pd
+
+        return pd.DataFrame([o.summary() for o in self.options], columns=list(WearDesignOption.__dataclass_fields__))
+
+    def _dataset(self):
+        """The options table along ``row``."""
+        return self._table_dataset()
+
+    def plot(self, ax=None):
+        """Share-weighted growth [e-folds per 1000 km] of each option against the nominal one. Returns artists."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 3.5))
+        labels = [f"{o.label} {o.relative_change * 100:+.0f} %" for o in self.options]
+        bars = ax.barh(range(len(labels)), [o.growth_per_1000km for o in self.options], color="tab:blue")
+        artists = [bars, ax.axvline(self.nominal_growth_per_1000km, color="tab:red", ls="--", label="nominal"),
+                   ax.axvline(0.0, color="k", lw=0.8)]
+        ax.set_yticks(range(len(labels)), labels, fontsize=8)
+        ax.invert_yaxis()
+        ax.set_xlabel("largest growth over the cycle [e-folds per 1000 km]")
+        ax.legend(fontsize=8)
+        return artists
 
 
 def _finite(x: float):

@@ -39,6 +39,7 @@ from ..models import get_model
 from ..models.base import kmh_to_ms
 from ..models.profile import coupled_model, patch_sinc, profile_vector
 from ..params import Params, to_toml
+from ..results import Result
 from ..solvers.integrate import integrate
 from .wear_law import energetic_rate, friction_power, profile_samples
 
@@ -333,7 +334,7 @@ def peak_to_valley(W: np.ndarray, points: int) -> float:
 
 
 @dataclass
-class EvolutionResult:
+class EvolutionResult(Result):
     """Worn profile against distance."""
 
     params: Params
@@ -437,8 +438,8 @@ class EvolutionResult:
                    "note": "distances scale as 1/k_e", **{k: str(v) for k, v in self.settings.items()}},
         )
 
-    def save(self, path) -> None:
-        self.to_dataset().to_netcdf(path, engine="h5netcdf")
+    def _dataset(self):
+        return self.to_dataset()
 
     def plot(self, ax=None):
         """Peak-to-valley depth (log) and dominant order against distance. Returns artists."""

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..models import get_model
+from ..results import Result
 from ..models.base import kmh_to_ms
 from ..models.profile import patch_sinc
 from ..params import Params, to_toml
@@ -81,7 +82,7 @@ def load_to_power(model, p, V: float):
 
 
 @dataclass
-class WearMap:
+class WearMap(Result):
     """Per-revolution wear multipliers over (speed, order) and what they mean."""
 
     params: Params
@@ -176,7 +177,13 @@ class WearMap:
             "rows": self.rows(all_orders),
         }
 
-    def to_dataset(self):
+    def to_dataframe(self):
+        """pandas DataFrame: :meth:`rows` of every order (what ``wear map --csv`` writes)."""
+        import pandas as pd
+
+        return pd.DataFrame(self.rows(all_orders=True))
+
+    def _dataset(self):
         """xarray Dataset over (speed_kmh, order)."""
         import xarray as xr
 
@@ -199,10 +206,6 @@ class WearMap:
             attrs={"model": self.params.model, "params_toml": to_toml(self.params),
                    "polywear_version": __version__, **{k: str(v) for k, v in self.settings.items()}},
         )
-
-    def save(self, path) -> None:
-        """netCDF (h5netcdf) of :meth:`to_dataset`."""
-        self.to_dataset().to_netcdf(path, engine="h5netcdf")
 
     def plot(self, ax=None, sev_band_kmh: tuple[float, float] | None = None, rays=(5, 10, 15, 20, 30, 40, 60)):
         """Campbell-style map: speed on x, frequency n f_rot on y, growth per 1000 km

@@ -268,17 +268,17 @@ def continue_from_hopf(
     q = hopf.q / hopf.q[model.index("x")]  # x component 1
     scales = np.maximum(np.abs(q), 1e-6 * np.abs(q).max()) * amplitude_ref + 0.1 * np.abs(hopf.u)
     period_scale = 2.0 * np.pi / hopf.omega
-    speed_scale = 0.1 * hopf.speed
+    speed_scale = 0.1 * hopf.speed_ms
     N = settings.n_intervals
     mesh = np.linspace(0.0, 1.0, N + 1)
     stepper = _Stepper(model, p, mesh, settings, scales, speed_scale, period_scale)
     c = stepper.coll
     tau = (mesh[:-1, None] + np.diff(mesh)[:, None] * c.sch.nodes[None, :-1]).ravel()
     psi = np.real(q[None, :] * np.exp(2j * np.pi * tau)[:, None]) * amplitude_ref
-    trivial = PeriodicOrbit(mesh, np.tile(hopf.u, (N * c.m, 1)), period_scale, hopf.speed, c.m)
+    trivial = PeriodicOrbit(mesh, np.tile(hopf.u, (N * c.m, 1)), period_scale, hopf.speed_ms, c.m)
     X0 = c.pack(trivial)
     t0 = stepper.unit(np.concatenate([psi.ravel(), [0.0, 0.0]]))
-    phase_ref = PeriodicOrbit(mesh, psi, period_scale, hopf.speed, c.m)
+    phase_ref = PeriodicOrbit(mesh, psi, period_scale, hopf.speed_ms, c.m)
 
     branch = Branch(scales=scales)
     ds = settings.ds_initial
@@ -288,10 +288,10 @@ def continue_from_hopf(
 
     def finish(end: BranchEnd, detail: str = "") -> None:
         branch.end, branch.end_detail = end, detail
-        branch.end_speed = branch.points[-1].orbit.speed if branch.points else hopf.speed
+        branch.end_speed = branch.points[-1].orbit.speed if branch.points else hopf.speed_ms
 
     def last_kmh() -> float:
-        return 3.6 * (branch.points[-1].orbit.speed if branch.points else hopf.speed)
+        return 3.6 * (branch.points[-1].orbit.speed if branch.points else hopf.speed_ms)
 
     for _ in range(settings.max_steps):
         resolved = True

@@ -49,6 +49,7 @@ from typing import Any, Callable, Iterator
 
 import numpy as np
 
+from ..analysis.points import PointKind, SpecialPoint
 from ..models import get_model
 from ..models.base import Model, kmh_to_ms, ms_to_kmh
 from ..models.tread1dof import MODEL
@@ -74,6 +75,9 @@ __all__ = [
     "model_diagram",
     "tread1dof_diagram",
     "headline_numbers",
+    "AUTO_KINDS",
+    "point_kind",
+    "special_points",
     "refinement_study",
 ]
 
@@ -94,6 +98,23 @@ _RATE_FACTOR = tuple(TIME_UNIT_S / unit for unit in STATE_UNIT)
 
 SPEED_INDEX = 1
 """AUTO's PAR index (1-based) of the vehicle speed V [m/s]."""
+
+
+AUTO_KINDS = {
+    "HOPF_BIFURCATION": PointKind.HOPF,
+    "FOLD": PointKind.LP,
+    "BRANCH_POINT": PointKind.BP,
+    "PERIOD_DOUBLING": PointKind.PD,
+    "TORUS": PointKind.NS,
+    "GENERALIZED_HOPF": PointKind.GH,
+}
+"""AUTO-07p's point types (bifpy's ``PointType`` names) as special-point kinds."""
+
+
+def point_kind(point) -> PointKind | None:
+    """The :class:`~polywear.analysis.points.PointKind` of an AUTO-07p solution point
+    (None: a regular, end or user point)."""
+    return AUTO_KINDS.get(point.point_type.name)
 
 
 class Auto07pError(RuntimeError):
@@ -558,7 +579,7 @@ def model_diagram(
         )  # fmt: skip
         auto_seconds.append(seconds)
         eq_points = [pt for branch in equilibrium.branches for pt in branch.points]
-        hopf_points = [pt for pt in eq_points if pt.point_type == auto.PointType.HOPF_BIFURCATION]
+        hopf_points = [pt for pt in eq_points if point_kind(pt) is PointKind.HOPF]
         hopf = [
             {
                 "speed_kmh": float(ms_to_kmh(pt.all_parameters[SPEED_INDEX - 1])),
@@ -597,7 +618,7 @@ def model_diagram(
             for pt, row in zip(points, rows):
                 # AUTO also flags LP where the branch turns back through a Hopf point
                 # (amplitude -> 0): a fold of the parametrization, not of cycles
-                if pt.point_type == auto.PointType.FOLD and row["amplitude"]["x"] > 0.01 * largest:
+                if point_kind(pt) is PointKind.LP and row["amplitude"]["x"] > 0.01 * largest:
                     folds.append(
                         {"speed_kmh": row["speed_kmh"], "amplitude_x_m": row["amplitude"]["x"],
                          "period_s": row["period_s"], "amplitude": row["amplitude"]}
@@ -666,6 +687,17 @@ def headline_numbers(diagram: dict[str, Any]) -> dict[str, float]:
         out[f"operating{i + 1}_amplitude_x_m"] = c["amplitude"]["x"]
         out[f"operating{i + 1}_period_s"] = c["period_s"]
     return out
+
+
+def special_points(diagram: dict[str, Any]) -> list[SpecialPoint]:
+    """The Hopf points (HB) and folds of cycles (LP) of a :func:`model_diagram` result as
+    :class:`~polywear.analysis.points.SpecialPoint`, by speed: comparable one to one with
+    ``BifurcationDiagram.special_points`` of the same parameters."""
+    names = get_model(diagram["model"]).state_names
+    points = [SpecialPoint(PointKind.HOPF, h["speed_kmh"], h["frequency_hz"]) for h in diagram["hopf"]]
+    points += [SpecialPoint(PointKind.LP, f["speed_kmh"], 1.0 / f["period_s"],
+                            np.array([f["amplitude"][n] for n in names])) for f in diagram["folds"]]
+    return sorted(points, key=lambda s: s.speed_kmh)
 
 
 def refinement_study(

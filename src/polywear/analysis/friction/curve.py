@@ -8,14 +8,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
 from ... import __version__
 from ...params import Friction
 from ...physics.lugre import steady_friction, steady_friction_slope
+from ...results import Result
 
 __all__ = ["STEADY_PARAMETERS", "SteadyCurve", "falling_branch", "steady_curve"]
 
@@ -44,19 +44,6 @@ def _friction_toml(friction: Friction, notes: dict[str, str] | None = None) -> s
         entry = f"{name} = {float(getattr(friction, name))!r}"
         lines.append(f"{entry:<42} # {notes[name]}" if name in notes else entry)
     return "\n".join(lines) + "\n"
-
-
-class _Saveable:
-    """``save(path)``: the result's ``to_dataset()`` written to netCDF (h5netcdf)."""
-
-    to_dataset: Callable[[], Any]
-    """Every subclass defines it: the result as an xarray Dataset."""
-
-    def save(self, path: str | Path) -> Path:
-        """Write ``to_dataset()`` to a netCDF file; returns the path."""
-        path = Path(path)
-        self.to_dataset().to_netcdf(path, engine="h5netcdf")
-        return path
 
 
 def _axes(ax):
@@ -97,7 +84,7 @@ def falling_branch(friction: Friction) -> tuple[float, float] | None:
 
 
 @dataclass(frozen=True, eq=False)
-class SteadyCurve(_Saveable):
+class SteadyCurve(Result):
     """Static (Stribeck) friction curve mu_ss(v) = sgn(v) G(v) + sigma2 v."""
 
     friction: Friction
@@ -121,7 +108,7 @@ class SteadyCurve(_Saveable):
             "velocity_range_m_per_s": [float(self.velocity.min()), float(self.velocity.max())],
         }
 
-    def to_dataset(self):
+    def _dataset(self):
         """xarray Dataset: mu against velocity, with the friction parameters as TOML."""
         import xarray as xr
 

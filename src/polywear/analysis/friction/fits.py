@@ -11,7 +11,8 @@ import numpy as np
 from ... import __version__
 from ...params import Friction, with_updates
 from ...physics.lugre import steady_friction
-from .curve import STEADY_PARAMETERS, _axes, _friction_toml, _Saveable, _steady_args, steady_curve
+from ...results import Result
+from .curve import STEADY_PARAMETERS, _axes, _friction_toml, _steady_args, steady_curve
 from .data import FrictionDataError
 from .loops import _periodic_orbit
 
@@ -50,7 +51,7 @@ def steady_friction_jacobian(velocity, friction: Friction) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class _ParameterFit(_Saveable):
+class _ParameterFit(Result):
     """What a least-squares fit of friction parameters reports (one row per data point)."""
 
     KEYS: ClassVar[tuple[str, ...]] = ()
@@ -160,7 +161,7 @@ class FrictionFit(_ParameterFit):
         """What ``polywear friction fit --json`` prints: the fit's parameters, errors, quality."""
         return {**super().summary(), "negative_velocity_data": "magnitudes" if self.magnitudes else "signed"}
 
-    def to_dataset(self):
+    def _dataset(self):
         """xarray Dataset: measured points, residuals and the covariance of the fitted keys."""
         import xarray as xr
 
@@ -390,7 +391,7 @@ class LoopFit(_ParameterFit):
         """measured minus fitted friction coefficient [-]."""
         return self.mu - self.model_mu
 
-    def to_dataset(self):
+    def _dataset(self):
         """xarray Dataset: measured and fitted loops per point, and the covariance."""
         import xarray as xr
 

@@ -22,7 +22,8 @@ from ...physics.lugre import (
     steady_friction,
     stribeck,
 )
-from .curve import SteadyCurve, _axes, _friction_toml, _Saveable, _steady_args, steady_curve
+from ...results import Result
+from .curve import SteadyCurve, _axes, _friction_toml, _steady_args, steady_curve
 
 __all__ = ["BristleResponse", "HysteresisLoops", "bristle_response", "hysteresis_loops"]
 
@@ -121,7 +122,7 @@ def bristle_response(
 
 
 @dataclass(frozen=True, eq=False)
-class HysteresisLoops(_Saveable):
+class HysteresisLoops(Result):
     """Periodic friction loops for v_r(t) = v_mean + v_amplitude sin(2 pi f t).
 
     Arrays are ``(frequency, phase)``; the phase grid covers one period, end excluded.
@@ -181,7 +182,7 @@ class HysteresisLoops(_Saveable):
             "settings": self.settings,
         }
 
-    def to_dataset(self):
+    def _dataset(self):
         """xarray Dataset over (frequency, phase): velocity, deflection, friction, static curve."""
         import xarray as xr
 

@@ -1,0 +1,304 @@
+"""Every public result object has the interface of :class:`polywear.results.Result`:
+summary() is JSON, to_xarray()/to_dataframe() work, save() round-trips .json/.nc/.csv and
+refuses other suffixes, plot(ax) draws onto the given axes, figure() returns a Figure.
+
+The results come from small, cheap cases (short simulations, coarse grids, one key)."""
+
+from __future__ import annotations
+
+import json
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+import pytest  # noqa: E402
+import xarray as xr  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+from polywear import __version__  # noqa: E402
+from polywear.params import Params, load_params, with_updates  # noqa: E402
+from polywear.results import Result  # noqa: E402
+
+RANGE = (20.0, 300.0)
+
+
+@pytest.fixture(scope="module")
+def diagram():
+    from polywear.analysis.bifurcation import bifurcation_diagram
+
+    return bifurcation_diagram(Params(), RANGE)
+
+
+def _stability(d):
+    return d.stability
+
+
+def _bifurcation(d):
+    return d
+
+
+def _simulation(d):
+    from polywear.analysis.simulation import simulate
+
+    return simulate(Params(), 120.0, 0.2)
+
+
+def _simulation_set(d):
+    from polywear.analysis.simulation import simulate_disturbances
+
+    return simulate_disturbances(Params(), [1e-5, 1e-3], speed_kmh=120.0, duration_s=0.2)
+
+
+def _sweep(d):
+    from polywear.analysis.sweep import sweep
+
+    return sweep(Params(), [60.0, 120.0], max_duration_s=0.5)
+
+
+def _sensitivity(d):
+    from polywear.analysis.sensitivity import local_sensitivity
+
+    return local_sensitivity(Params(), keys=("operating.toe_deg",), diagram=d)
+
+
+def _study(d):
+    from polywear.analysis.global_sensitivity import global_sensitivity
+
+    p = with_updates(Params(), {"study.n_base": 8, "study.bootstrap": 10, "study.outputs": "hopf"})
+    return global_sensitivity(p, backend="serial")
+
+
+def _design(d):
+    from polywear.analysis.design import clear_operating_range
+
+    return clear_operating_range(Params(), (80.0, 130.0), speed_range_kmh=RANGE, keys=("operating.toe_deg",),
+                                 diagram=d)
+
+
+def _excitation(d):
+    from polywear.analysis.excitation import default_speeds, excitation_portraits
+
+    return excitation_portraits(d, default_speeds(d, 120.0)[:1], duration_s=0.2)[0]
+
+
+def _attractor(d):
+    from polywear.analysis.attractor import reached_attractors
+
+    return reached_attractors(d, 120.0, duration_s=0.3)[0]
+
+
+def _stability_map(d):
+    from polywear.analysis.stability_map import stability_map
+
+    return stability_map(Params(), "operating.toe_deg", (0.1, 0.4), operating_range_kmh=(80.0, 130.0), folds=False)
+
+
+def _wear_map(d):
+    from polywear.analysis.wear_map import wear_map
+
+    return wear_map(Params(), np.linspace(40.0, 200.0, 9))
+
+
+def _wear_design(d):
+    from polywear.analysis.wear_design import wear_design
+
+    return wear_design(Params(), keys=("operating.toe_deg",), grid=6)
+
+
+def _wear_evolution(d):
+    from polywear.analysis.wear_evolution import evolve
+
+    return evolve(Params(), 2000.0, cycle=((60.0, 1.0),), step_km=1000.0)
+
+
+def _band(d):
+    from polywear.analysis.fast_band import band_from_diagram
+
+    return band_from_diagram(d, (120.0,))
+
+
+def _fleet(d, tmp_path_factory):
+    from polywear.analysis.bifurcation import bifurcation_diagram
+    from polywear.analysis.fast_band import _FIXED_RANGE, band_reference
+    from polywear.analysis.fleet import fleet_risk, load_fleet_spec
+
+    path = tmp_path_factory.mktemp("fleet") / "fleet.toml"
+    path.write_text('[fleet]\nsamples = 3\nseed = 3\nspeed_range_kmh = [10.0, 600.0]\n'
+                    '[[fleet.parameter]]\nkey = "operating.toe_deg"\ndistribution = "normal"\nmean = 0.5\nstd = 0.08\n'
+                    '[[fleet.usage]]\nspeed_kmh = 110\nshare = 1.0\n')
+    reference = band_reference(bifurcation_diagram(Params(), (10.0, 600.0), **_FIXED_RANGE))
+    return fleet_risk(Params(), load_fleet_spec(path, Params()), backend="serial", reference=reference)
+
+
+def _campbell(d, tmp_path_factory):
+    from polywear.analysis.campbell import campbell, order_frequency_hz, read_run
+
+    fs, radius = 1000.0, Params().operating.rolling_radius_m
+    t = np.arange(0.0, 4.0, 1.0 / fs)
+    speed = 40.0 + 10.0 * t  # km/h
+    rng = np.random.default_rng(1)
+    signal = np.sin(2 * np.pi * np.cumsum(order_frequency_hz(8.0, speed, radius)) / fs) + 0.1 * rng.standard_normal(t.size)
+    path = tmp_path_factory.mktemp("run") / "run.csv"
+    np.savetxt(path, np.column_stack([t * 1000.0, speed / 3.6, signal]), delimiter=",",
+               header="time [ms],speed [m/s],acc_y [m/s^2]", comments="")
+    return campbell(read_run(path), Params(), predict=False, correct_ramp=False)
+
+
+def _calibration(d):
+    from polywear.analysis.calibration import Observation, calibrate, predict
+
+    obs = [Observation("first_hopf_kmh", 0.0, 1.0), Observation("hopf_frequency_hz", 0.0, 0.5)]
+    values, _ = predict(Params(), obs, ["friction.mu_static"])
+    obs = [Observation(o.quantity, float(v) * 1.01, o.sigma) for o, v in zip(obs, values)]
+    return calibrate(Params(), obs, ["friction.mu_static"], profile=False)
+
+
+def _steady_curve(d):
+    from polywear.analysis.friction import steady_curve
+
+    return steady_curve(Params().friction, np.linspace(-1.0, 1.0, 41))
+
+
+def _loops(d):
+    from polywear.analysis.friction import hysteresis_loops
+
+    return hysteresis_loops(Params().friction, 0.3, 0.2, [1.0, 10.0], points_per_period=64)
+
+
+def _friction_fit(d):
+    from polywear.analysis.friction import fit_steady_curve, read_steady_csv, sample_path
+
+    return fit_steady_curve(*read_steady_csv(sample_path("steady")))
+
+
+def _loop_fit(d):
+    from polywear.analysis.friction import fit_loops, read_loops_csv, sample_path
+
+    return fit_loops(*read_loops_csv(sample_path("loops")))
+
+
+CASES = {
+    "stability": _stability, "bifurcation": _bifurcation, "simulation": _simulation,
+    "simulation_set": _simulation_set, "sweep": _sweep, "sensitivity": _sensitivity, "study": _study,
+    "design": _design, "excitation": _excitation, "attractor": _attractor, "stability_map": _stability_map,
+    "wear_map": _wear_map, "wear_design": _wear_design, "wear_evolution": _wear_evolution, "band": _band,
+    "fleet": _fleet, "campbell": _campbell, "calibration": _calibration, "steady_curve": _steady_curve,
+    "loops": _loops, "friction_fit": _friction_fit, "loop_fit": _loop_fit,
+}
+NEEDS_TMP = {"fleet", "campbell"}
+WITHOUT_PARAMS = {"band", "campbell", "steady_curve", "loops", "friction_fit", "loop_fit"}
+"""Results that do not come from a parameter set (a measured run, friction data, a band row)."""
+
+
+@pytest.fixture(scope="module")
+def results(diagram, tmp_path_factory):
+    cache: dict[str, Result] = {}
+
+    def get(name):
+        if name not in cache:
+            make = CASES[name]
+            cache[name] = make(diagram, tmp_path_factory) if name in NEEDS_TMP else make(diagram)
+        return cache[name]
+
+    return get
+
+
+def test_every_public_result_class_is_covered():
+    """Every class with a summary() in the analysis package derives from Result and is a case here."""
+    import importlib
+    import pkgutil
+
+    import polywear.analysis as analysis
+
+    found = set()
+    for info in pkgutil.walk_packages(analysis.__path__, "polywear.analysis."):
+        module = importlib.import_module(info.name)
+        for obj in vars(module).values():
+            if isinstance(obj, type) and obj.__module__ == info.name and issubclass(obj, Result):
+                found.add(obj.__name__)
+    assert found >= {"StabilityResult", "BifurcationDiagram", "SimulationResult", "SimulationSet", "SweepResult",
+                     "SensitivityResult", "GlobalSensitivityResult", "DesignResult", "ExcitationPortrait",
+                     "Attractor", "StabilityMap", "WearMap", "WearDesignResult", "EvolutionResult", "Band",
+                     "FleetResult", "CampbellResult", "CalibrationResult", "SteadyCurve", "HysteresisLoops",
+                     "FrictionFit", "LoopFit"}
+    assert len(found) == len(CASES)
+
+
+def _save(result, path):
+    """``result.save(path)``, which returns the path (the fleet's own save returns None)."""
+    out = result.save(path)
+    assert out == path or (out is None and type(result).__name__ == "FleetResult")
+    return path
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_result_interface(name, results, tmp_path):
+    result = results(name)
+    assert isinstance(result, Result)
+    summary = result.summary()
+    assert json.loads(json.dumps(summary, allow_nan=False)) == summary  # JSON-serialisable as it is
+    has_params = name not in WITHOUT_PARAMS
+    assert (result.params is not None) == has_params
+    assert result.polywear_version == __version__
+
+    ds = result.to_xarray()
+    assert isinstance(ds, xr.Dataset) and ds.attrs["polywear_version"] == __version__
+    df = result.to_dataframe()
+    assert isinstance(df, pd.DataFrame) and len(df.columns) > 0
+
+    # .json: the summary, with the version (and parameters, settings where there are any)
+    path = _save(result, tmp_path / "r.json")
+    saved = json.loads(path.read_text())
+    assert {k: saved[k] for k in summary} == json.loads(json.dumps(summary))
+    assert saved["polywear_version"] == __version__
+    if has_params and name != "fleet":  # the fleet keeps its own save (summary and version)
+        assert Params.model_validate(saved["params"]) == result.params
+
+    # .nc: to_xarray with the parameters and version in its attributes
+    path = _save(result, tmp_path / "r.nc")
+    with xr.open_dataset(path, engine="h5netcdf") as back:
+        assert back.attrs["polywear_version"] == __version__
+        assert set(back.data_vars) == set(ds.data_vars)
+        if has_params:
+            (tmp_path / "p.toml").write_text(back.attrs["params_toml"])
+            assert load_params(tmp_path / "p.toml") == result.params
+
+    # .csv: the dataframe
+    path = _save(result, tmp_path / "r.csv")
+    back = pd.read_csv(path)
+    if name == "fleet":  # its own save writes the per-car table (samples, outputs, status)
+        assert len(back) == len(result.status)
+    else:
+        assert list(back.columns) == [str(c) for c in df.columns] and len(back) == len(df)
+
+    if name != "fleet":
+        with pytest.raises(ValueError, match="cannot write"):
+            result.save(tmp_path / "r.txt")
+        assert not (tmp_path / "r.txt").exists()
+
+    fig, ax = plt.subplots()
+    result.plot(ax=ax)
+    assert ax.has_data() or ax.patches or ax.texts  # drawn onto the given axes
+    plt.close(fig)
+    fig = result.figure()
+    assert isinstance(fig, Figure) and fig.axes
+    plt.close("all")
+
+
+def test_save_is_atomic_and_leaves_no_partial_file(results, tmp_path):
+    """A failing write leaves an existing file untouched and no temporary file behind."""
+    result = results("stability")
+    target = tmp_path / "s.json"
+    target.write_text("old")
+
+    class Broken(type(result)):
+        def summary(self):
+            raise RuntimeError("boom")
+
+    broken = Broken(**{f: getattr(result, f) for f in result.__dataclass_fields__})
+    with pytest.raises(RuntimeError):
+        broken.save(target)
+    assert target.read_text() == "old" and [p.name for p in tmp_path.iterdir()] == ["s.json"]
