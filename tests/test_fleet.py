@@ -205,14 +205,14 @@ def test_resume_is_bit_identical(tmp_path, reference):
     whole = fleet_risk(Params(), spec, backend="serial", reference=reference)
     seen = []
 
-    def interrupt(n):  # after the second chunk is computed, before its checkpoint is written
-        seen.append(n)
-        if sum(seen) >= 8:
+    def interrupt(done, total, message=""):  # after the second chunk is computed, before its checkpoint is written
+        seen.append(done)
+        if done >= 8:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
         fleet_risk(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path,
-                   on_progress=interrupt, batch_size=4)
+                   progress=interrupt, batch_size=4)
     assert int(np.load(tmp_path / "fleet_checkpoint.npz")["done"]) == 4
     resumed = fleet_risk(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path,
                          resume=True)
@@ -364,18 +364,35 @@ def test_dask_fleet_survives_a_killed_worker(tmp_path, reference):
     try:
         victim, done = cluster.workers[1], []
 
-        def kill_after_first_task(n):
+        def kill_after_first_task(n, total, message=""):
             done.append(n)
             if len(done) == 1:
                 victim.kill()
                 victim.wait(10)
 
         dask = fleet_risk(Params(), spec, backend="dask", scheduler=cluster.address, batch_size=10,
-                          reference=reference, on_progress=kill_after_first_task)
-        assert victim.poll() is not None and done[0] < 300 and sum(done) == 300 and len(done) == 30
+                          reference=reference, progress=kill_after_first_task)
+        assert victim.poll() is not None and done[0] < 300 and done[-1] == 300 and len(done) == 30
         assert cluster.n_workers() == 1
     finally:
         cluster.stop()
     np.testing.assert_array_equal(serial.values, dask.values)
     assert serial.status == dask.status and serial.paths == dask.paths
     assert serial.summary()["paths"]["hopf"] > 0  # the cheap path of band_every is exercised too
+
+
+@pytest.mark.parametrize("model", ["tread1dof", "axle4dof"])
+def test_stacked_eigenvalues_are_those_of_one_call_each(model):
+    """The fleet's Hopf grid stacks the Jacobians into one LAPACK call; the eigenvalues are
+    bit for bit those of one call per speed (so the fleet's numbers did not change)."""
+    from polywear.analysis.stability import equilibrium_eigenvalues
+    from polywear.models import get_model
+    from polywear.params import with_updates
+
+    m = get_model(model)
+    p = m.pack(with_updates(Params(), {"model": model}))
+    speeds = np.linspace(2.0, 160.0, 37)
+    states, eig = equilibrium_eigenvalues(m, p, speeds)
+    for V, u, lam in zip(speeds, states, eig):
+        np.testing.assert_array_equal(u, m.equilibrium(V, p))
+        np.testing.assert_array_equal(lam, np.linalg.eigvals(m.jacobian(u, V, p)).astype(complex))

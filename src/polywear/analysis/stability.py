@@ -105,14 +105,15 @@ class HopfPoint:
 
 
 def equilibrium_eigenvalues(model, p, speeds) -> tuple[np.ndarray, np.ndarray]:
-    """Equilibria ``(n_speeds, n)`` and Jacobian eigenvalues ``(n_speeds, n)`` at speeds [m/s]."""
+    """Equilibria ``(n_speeds, n)`` and Jacobian eigenvalues ``(n_speeds, n)`` at speeds [m/s]
+    (the Jacobians stacked into one LAPACK call: the same eigenvalues as one call each)."""
     speeds = np.atleast_1d(np.asarray(speeds, dtype=float))
     states = np.empty((len(speeds), model.n))
-    eig = np.empty((len(speeds), model.n), dtype=complex)
+    jacobians = np.empty((len(speeds), model.n, model.n))
     for i, V in enumerate(speeds):
         states[i] = model.equilibrium(V, p)
-        eig[i] = np.linalg.eigvals(model.jacobian(states[i], V, p))
-    return states, eig
+        jacobians[i] = model.jacobian(states[i], V, p)
+    return states, np.linalg.eigvals(jacobians).astype(complex, copy=False)
 
 
 def _n_unstable(eigenvalues: np.ndarray) -> np.ndarray:
@@ -366,18 +367,12 @@ def _hidden_bands(speeds_kmh: np.ndarray, eig: np.ndarray) -> list[int]:
     Those points are returned; the grid is refined around them.
     """
     real = np.sort(eig.real, axis=1)
-    found = []
-    for i in range(1, len(speeds_kmh) - 1):
-        x = speeds_kmh[i - 1 : i + 2]
-        for y in real[i - 1 : i + 2].T:
-            if not (y[0] * y[1] > 0 and y[1] * y[2] > 0) or (y[1] - y[0]) * (y[2] - y[1]) >= 0:
-                continue  # a sign change (located anyway) or no extremum
-            steepest = 2.0 * max(abs(y[1] - y[0]) / (x[1] - x[0]), abs(y[2] - y[1]) / (x[2] - x[1]))
-            reach = 0.5 * (y[0] + y[2] - np.sign(y[1]) * steepest * (x[2] - x[0]))  # towards zero
-            if np.sign(reach) != np.sign(y[1]):
-                found.append(i)
-                break
-    return found
+    y0, y1, y2 = real[:-2], real[1:-1], real[2:]  # (grid point i - 1, i, i + 1) x eigenvalue
+    x = np.asarray(speeds_kmh)[:, None]
+    extremum = (y0 * y1 > 0) & (y1 * y2 > 0) & ((y1 - y0) * (y2 - y1) < 0)  # no sign change (located anyway)
+    steepest = 2.0 * np.maximum(np.abs(y1 - y0) / (x[1:-1] - x[:-2]), np.abs(y2 - y1) / (x[2:] - x[1:-1]))
+    reach = 0.5 * (y0 + y2 - np.sign(y1) * steepest * (x[2:] - x[:-2]))  # towards zero
+    return [int(i) + 1 for i in np.flatnonzero(np.any(extremum & (np.sign(reach) != np.sign(y1)), axis=1))]
 
 
 def _refined_grid(model, p, speeds_kmh: np.ndarray):
