@@ -23,8 +23,8 @@ import time
 
 import numpy as np
 
-from polywear.analysis.bifurcation import bifurcation_diagram, sweep_bands
-from polywear.analysis.sweep import sweep
+from polywear.analysis.bifurcation import bifurcation_diagram
+from polywear.analysis.sweep import sweep, sweep_bands
 from polywear.params import Params, load_params
 
 

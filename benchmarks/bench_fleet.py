@@ -4,6 +4,7 @@ Sobol and fleet extrapolations, Dask 1 -> 2 workers, cost growth (nothing is ass
     .venv/bin/python benchmarks/bench_fleet.py agreement --model axle4dof --samples 200
     .venv/bin/python benchmarks/bench_fleet.py sobol
     .venv/bin/python benchmarks/bench_fleet.py fleet --samples 400
+    .venv/bin/python benchmarks/bench_fleet.py fleet --samples 100000 --backend processes
     .venv/bin/python benchmarks/bench_fleet.py dask --samples 200
     .venv/bin/python benchmarks/bench_fleet.py growth
 
@@ -134,20 +135,35 @@ def _fleet_reference(spec):
     return band_reference(bifurcation_diagram(nominal, spec.speed_range_kmh, **_FIXED_RANGE))
 
 
-def fleet(n: int) -> None:
-    """Whole bands for every car, and for every 100th (band_every = 100: the others get the
-    Hopf points and only the folds their risk needs), serial and on 2 local processes."""
+WHOLE_BAND_CARS = 400
+"""At most this many cars in the whole-band run (``band_every = 1``, ~0.1 s per car)."""
+
+
+def fleet(n: int, backends) -> None:
+    """Whole bands for every car (on n // 10 cars, at most WHOLE_BAND_CARS), and for every
+    100th (band_every = 100: the others get the Hopf points and only the folds their risk
+    needs) on n cars, on each backend (serial, 2 local processes). Wall time, CPU per car
+    (this process and the pool's workers: ``getrusage`` of the children waited for) and
+    cars per path."""
+    import resource
+
+    def cpu():
+        kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return time.process_time() + kids.ru_utime + kids.ru_stime
+
     reference = _fleet_reference(_fleet_spec(n))
-    for every, size in ((1, n // 10), (100, n)):
+    for every, size in ((1, min(n // 10, WHOLE_BAND_CARS)), (100, n)):
         spec = _fleet_spec(size).model_copy(update={"band_every": every})
-        for backend, workers in (("serial", 1), ("processes", 2)):
-            t = time.perf_counter()
+        for backend in backends:
+            workers = 1 if backend == "serial" else 2
+            c, t = cpu(), time.perf_counter()
             result = fleet_risk(Params(), spec, backend=backend, workers=workers, reference=reference)
-            dt = time.perf_counter() - t
+            dt, dc = time.perf_counter() - t, cpu() - c
             s = result.summary()
-            print(f"tread1dof fleet of {size}, band_every {every}, {backend} ({workers}): {dt:.1f} s = "
-                  f"{1e3 * dt / size:.1f} ms per car; fast path {s['fast_path_share']:.1%}, "
-                  f"risk {s['risk_probability']:.3f} {s['risk_ci']}; 1e5 cars: ~{dt * 1e5 / size / 60:.0f} min")
+            print(f"tread1dof fleet of {size}, band_every {every}, {backend} ({workers}): wall {dt:.1f} s = "
+                  f"{1e3 * dt / size:.2f} ms per car, CPU {1e3 * dc / size:.2f} ms per car; paths {s['paths']}, "
+                  f"fallbacks {s['fallback_reasons']}, failed {s['failed_samples']}; "
+                  f"risk {s['risk_probability']:.3f} {s['risk_ci']}; 1e5 cars: wall ~{dt * 1e5 / size / 60:.1f} min")
 
 
 def dask(n: int) -> None:
@@ -192,13 +208,15 @@ def main() -> None:
     parser.add_argument("--model", default="tread1dof")
     parser.add_argument("--samples", type=int, default=200)
     parser.add_argument("--seed", type=int, default=20261201)
+    parser.add_argument("--backend", choices=("serial", "processes"), action="append",
+                        help="fleet: backend(s) to time (default: both)")
     args = parser.parse_args()
     if args.what == "agreement":
         agreement(args.model, args.samples, args.seed)
     elif args.what == "sobol":
         sobol(min(args.samples, 16))
     elif args.what == "fleet":
-        fleet(args.samples)
+        fleet(args.samples, args.backend or ("serial", "processes"))
     elif args.what == "dask":
         dask(args.samples)
     else:

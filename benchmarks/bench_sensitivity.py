@@ -77,7 +77,8 @@ def _study_params(model: str, n_base: int) -> Params:
 
 
 def bench_sobol(model: str, n_base: int) -> None:
-    from polywear.analysis.global_sensitivity import fast_linear_band, global_sensitivity
+    from polywear.analysis.global_sensitivity import global_sensitivity
+    from polywear.analysis.stability import fast_linear_band
     from polywear.analysis.stability import stability_analysis
 
     params = _study_params(model, n_base)
@@ -105,7 +106,7 @@ def bench_sobol(model: str, n_base: int) -> None:
 
 
 def _warm() -> None:
-    from polywear.analysis.global_sensitivity import fast_linear_band
+    from polywear.analysis.stability import fast_linear_band
 
     fast_linear_band(Params())
     fast_linear_band(with_updates(Params(), {"model": "axle4dof"}))

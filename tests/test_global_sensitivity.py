@@ -19,13 +19,12 @@ from polywear.analysis.global_sensitivity import (
     SampleOutcome,
     SampleStatus,
     StudyEvaluator,
-    fast_linear_band,
     global_sensitivity,
     max_stable_amplitude,
     sample_params,
 )
 from polywear.analysis.sensitivity import local_sensitivity
-from polywear.analysis.stability import stability_analysis
+from polywear.analysis.stability import fast_linear_band, stability_analysis
 from polywear.models import get_model
 from polywear.params import ParameterError, Params, load_params, with_updates
 

@@ -190,16 +190,16 @@ def test_cli_bad_input(args, fragment):
 
 def test_failed_rows_are_noted_grey_and_never_safe(monkeypatch):
     """Where the linear band cannot be computed (e.g. no equilibrium), the row is unknown, not stable."""
-    import polywear.analysis.global_sensitivity as gs
+    import polywear.analysis.stability as stab
 
-    real = gs.fast_linear_band
+    real = stab.fast_linear_band
 
     def failing(params, speed_range_kmh=(20.0, 300.0), **kw):
         if params.operating.toe_deg < 0.15:
             raise RuntimeError("no equilibrium (test)")
         return real(params, speed_range_kmh, **kw)
 
-    monkeypatch.setattr(gs, "fast_linear_band", failing)
+    monkeypatch.setattr(stab, "fast_linear_band", failing)
     m = stability_map(Params(), TOE, (0.1, 0.4), operating_range_kmh=(80.0, 130.0), folds=False)
     bad = m.grid_values < 0.15
     assert bad.any() and all("error" in b for b, flag in zip(m.grid_bands, bad) if flag)

@@ -256,7 +256,7 @@ def test_sweep_band_reaching_the_grid_end_is_open():
     bifurcation speed (null, open_at "upper"), one inside the grid keeps both."""
     from types import SimpleNamespace
 
-    from polywear.analysis.bifurcation import sweep_bands
+    from polywear.analysis.sweep import sweep_bands
 
     speeds = [20.0, 40.0, 60.0, 80.0]
 

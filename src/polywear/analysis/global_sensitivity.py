@@ -11,7 +11,8 @@ Outputs per sample (``study.outputs``):
 
 ``"hopf"`` (fast path, ~1 ms per sample)
     ``hopf_1_kmh``, ``hopf_2_kmh``: the lowest and highest bound of the linear band
-    (where steady rolling is unstable: Hopf speeds), from :func:`fast_linear_band`;
+    (where steady rolling is unstable: Hopf speeds), from
+    :func:`~polywear.analysis.stability.fast_linear_band`;
     ``linear_band_width_kmh``: its total width.
 ``"bifurcation"`` (continuation, ~0.3 s per sample for tread1dof, a few s for axle4dof)
     ``first_bifurcation_kmh``, ``second_bifurcation_kmh``: bounds of the SEV band;
@@ -45,8 +46,7 @@ from enum import StrEnum
 import numpy as np
 
 from .. import __version__
-from ..models import get_model
-from ..models.base import kmh_to_ms, ms_to_kmh
+from ..models.base import ms_to_kmh
 from ..params import (
     ADHESION_SCALE,
     PAPER_KEYS,
@@ -60,10 +60,10 @@ from ..params import (
 from ..results import Result
 from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH
 
+from .stability import fast_linear_band
 __all__ = [
     "HOPF_OUTPUTS",
     "BIFURCATION_OUTPUTS",
-    "fast_linear_band",
     "default_study_parameters",
     "study_parameters",
     "sample_params",
@@ -115,64 +115,6 @@ DEFAULT_SPREAD = 0.10
 DEFAULT_KEYS = PAPER_KEYS
 """The paper's seven parameters; adhesion read as the peak friction mu_s (the usual
 meaning of "adhesion coefficient"); give ``adhesion_scale`` explicitly for the other reading."""
-
-
-# -- the fast path: linear band from a coarse grid and Brent ---------------------------------
-def _growth_rates(model, p, speeds) -> np.ndarray:
-    """Largest real part of the equilibrium's eigenvalues at each speed [1/s] (one LAPACK call)."""
-    J = np.empty((len(speeds), model.n, model.n))
-    for k, V in enumerate(speeds):
-        model.kernels.jac(model.equilibrium(V, p), float(V), p, J[k])
-    return np.linalg.eigvals(J).real.max(axis=1)
-
-
-def fast_linear_band(
-    params: Params, speed_range_kmh=DEFAULT_SPEED_RANGE_KMH, n_grid: int = 48, xtol_ms: float = 1e-9
-) -> list[tuple[float, float]]:
-    """Speed intervals [km/h] where steady rolling is unstable (the linear band), fast.
-
-    The largest real part ``r(V)`` of the equilibrium eigenvalues is sampled on
-    ``n_grid`` speeds; every sign change is refined by Brent's method to ``xtol_ms``
-    [m/s]. Where ``r`` has a negative local maximum (or positive local minimum) on the
-    grid, a bounded scalar search decides whether it crosses zero between the grid
-    points, so a band narrower than the grid step is not missed. The ends of an
-    interval are Hopf speeds (or, where a real eigenvalue crosses zero, that speed),
-    or the range ends where the band reaches them.
-    """
-    from scipy.optimize import brentq, minimize_scalar
-
-    model = get_model(params.model)
-    p = model.pack(params)
-    lo, hi = (kmh_to_ms(v) for v in speed_range_kmh)
-    speeds = np.linspace(lo, hi, n_grid)
-    r = _growth_rates(model, p, speeds)
-
-    def rate(V):
-        return _growth_rates(model, p, (V,))[0]
-
-    def root(a, b):
-        return brentq(rate, a, b, xtol=xtol_ms, rtol=4 * np.finfo(float).eps)
-
-    crossings = [root(speeds[i], speeds[i + 1]) for i in np.flatnonzero((r[:-1] > 0) != (r[1:] > 0))]
-    for i in range(1, n_grid - 1):
-        window = r[i - 1 : i + 2]
-        peak = r[i] >= window.max() and r[i] <= 0.0
-        trough = r[i] <= window.min() and r[i] > 0.0
-        if not (peak or trough):
-            continue
-        sign = -1.0 if peak else 1.0
-        best = minimize_scalar(lambda V: sign * rate(V), bounds=(speeds[i - 1], speeds[i + 1]), method="bounded",
-                               options={"xatol": xtol_ms * 1e3})
-        if (rate(best.x) > 0.0) == peak:
-            crossings += [root(speeds[i - 1], best.x), root(best.x, speeds[i + 1])]
-    edges = [lo, *sorted(crossings), hi]
-    unstable = r[0] > 0.0
-    intervals = []
-    for a, b in zip(edges[:-1], edges[1:]):
-        if unstable and b > a:
-            intervals.append((ms_to_kmh(a), ms_to_kmh(b)))
-        unstable = not unstable
-    return intervals
 
 
 # -- study set-up ---------------------------------------------------------------------------

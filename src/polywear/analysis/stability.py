@@ -24,7 +24,7 @@ from ..results import Result
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, to_toml
 from ..settings import check_count, check_positive
-from ..units import STABILITY_SPEED_RANGE_KMH
+from ..units import DEFAULT_SPEED_RANGE_KMH, STABILITY_SPEED_RANGE_KMH
 from .derivatives import bilinear, jac_directional, rhs_directional, trilinear
 from .points import PointKind, SpecialPoint
 
@@ -37,6 +37,7 @@ __all__ = [
     "first_lyapunov_coefficient",
     "critical_eigenvalue_derivative",
     "stability_analysis",
+    "fast_linear_band",
 ]
 
 
@@ -468,4 +469,62 @@ def _unstable_intervals(model, p, speeds_kmh, edges_kmh) -> list[tuple[float, fl
                 intervals[-1] = (intervals[-1][0], b)
             else:
                 intervals.append((a, b))
+    return intervals
+
+
+# -- the linear band alone, fast: a coarse grid and Brent ------------------------------------
+def _growth_rates(model, p, speeds) -> np.ndarray:
+    """Largest real part of the equilibrium's eigenvalues at each speed [1/s] (one LAPACK call)."""
+    J = np.empty((len(speeds), model.n, model.n))
+    for k, V in enumerate(speeds):
+        model.kernels.jac(model.equilibrium(V, p), float(V), p, J[k])
+    return np.linalg.eigvals(J).real.max(axis=1)
+
+
+def fast_linear_band(
+    params: Params, speed_range_kmh=DEFAULT_SPEED_RANGE_KMH, n_grid: int = 48, xtol_ms: float = 1e-9
+) -> list[tuple[float, float]]:
+    """Speed intervals [km/h] where steady rolling is unstable (the linear band), fast.
+
+    The largest real part ``r(V)`` of the equilibrium eigenvalues is sampled on
+    ``n_grid`` speeds; every sign change is refined by Brent's method to ``xtol_ms``
+    [m/s]. Where ``r`` has a negative local maximum (or positive local minimum) on the
+    grid, a bounded scalar search decides whether it crosses zero between the grid
+    points, so a band narrower than the grid step is not missed. The ends of an
+    interval are Hopf speeds (or, where a real eigenvalue crosses zero, that speed),
+    or the range ends where the band reaches them.
+    """
+    from scipy.optimize import brentq, minimize_scalar
+
+    model = get_model(params.model)
+    p = model.pack(params)
+    lo, hi = (kmh_to_ms(v) for v in speed_range_kmh)
+    speeds = np.linspace(lo, hi, n_grid)
+    r = _growth_rates(model, p, speeds)
+
+    def rate(V):
+        return _growth_rates(model, p, (V,))[0]
+
+    def root(a, b):
+        return brentq(rate, a, b, xtol=xtol_ms, rtol=4 * np.finfo(float).eps)
+
+    crossings = [root(speeds[i], speeds[i + 1]) for i in np.flatnonzero((r[:-1] > 0) != (r[1:] > 0))]
+    for i in range(1, n_grid - 1):
+        window = r[i - 1 : i + 2]
+        peak = r[i] >= window.max() and r[i] <= 0.0
+        trough = r[i] <= window.min() and r[i] > 0.0
+        if not (peak or trough):
+            continue
+        sign = -1.0 if peak else 1.0
+        best = minimize_scalar(lambda V: sign * rate(V), bounds=(speeds[i - 1], speeds[i + 1]), method="bounded",
+                               options={"xatol": xtol_ms * 1e3})
+        if (rate(best.x) > 0.0) == peak:
+            crossings += [root(speeds[i - 1], best.x), root(best.x, speeds[i + 1])]
+    edges = [lo, *sorted(crossings), hi]
+    unstable = r[0] > 0.0
+    intervals = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        if unstable and b > a:
+            intervals.append((ms_to_kmh(a), ms_to_kmh(b)))
+        unstable = not unstable
     return intervals

@@ -26,7 +26,7 @@ of :func:`~polywear.analysis.bifurcation.bifurcation_diagram` at a few parameter
 a seed already on a computed curve is skipped, so isolated curves are found too.
 
 Bands per parameter value (for shading and the safe-parameter summary): the linear
-band from :func:`~polywear.analysis.global_sensitivity.fast_linear_band`; the hard band
+band from :func:`~polywear.analysis.stability.fast_linear_band`; the hard band
 between every fold speed and the nearest bound of the linear band (the subcritical
 Hopf point the unstable cycle is born at - the topology of all the cases we met; the
 one-parameter diagrams in the tests check it); the SEV band is their union.
@@ -613,7 +613,7 @@ def _hard_side(curve: HopfCurve, theta_b, speed_b, scale_value, scale_speed, dis
 
 
 def _bands(params, key, value, speed_range_kmh, fold_curves) -> dict:
-    from .global_sensitivity import fast_linear_band
+    from .stability import fast_linear_band
 
     try:
         linear = fast_linear_band(perturbed(params, key, value), speed_range_kmh)

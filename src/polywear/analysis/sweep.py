@@ -35,8 +35,10 @@ from ..params import Params, to_toml
 from ..solvers.integrate import integrate
 from ..units import plot_scale
 from .simulation import SimulationSettings, classify_window, initial_state
+from .bifurcation import _open_at, _open_warning
+from .intervals import runs_of
 
-__all__ = ["START_TYPES", "SteadyRun", "SweepResult", "settle", "sweep"]
+__all__ = ["START_TYPES", "SteadyRun", "SweepResult", "settle", "sweep", "sweep_bands"]
 
 START_TYPES = ("small", "large", "up", "down")
 _MARKERS = {"small": ("o", "C0"), "large": ("s", "C3"), "up": ("^", "C2"), "down": ("v", "C1")}
@@ -259,3 +261,44 @@ def sweep(
         runs[start] = sorted(chain, key=lambda r: r.speed_kmh)
     return SweepResult(params=params, speeds_kmh=speeds, runs=runs, small=float(small), large=float(large),
                        settings=settings, chunk_s=float(chunk_s), max_duration_s=float(max_duration_s))
+
+
+# -- bands as the sweep sees them --------------------------------------------------------------
+def sweep_bands(result) -> dict:
+    """First/second bifurcation speeds and bands as a brute-force sweep sees them.
+
+    ``result`` is a :class:`polywear.analysis.sweep.SweepResult`. The SEV band is where a
+    large disturbance (or the chain from the neighbouring speed) ends on a cycle; the
+    linear band where even a small one does. Bounds are grid speeds (resolution = spacing).
+    """
+    speeds = np.asarray(result.speeds_kmh)
+
+    def band(starts):
+        on = np.zeros(len(speeds), dtype=bool)
+        for start in starts:
+            on |= np.array([r.outcome == "cycle" for r in result.runs[start]])
+        return runs_of(speeds, on)
+
+    sev = band(("large", "up", "down"))
+    # a band that reaches the first or last grid speed is cut there: no bifurcation speed
+    open_at = [e for e, hit in (("lower", sev and sev[0][0] == speeds[0]), ("upper", sev and sev[-1][1] == speeds[-1]))
+               if hit]
+    return {
+        "model": result.params.model,
+        "method": "sweep",
+        "speeds_kmh": speeds.tolist(),
+        "open_at": _open_at(open_at),
+        "warnings": [_open_warning(edge, (speeds[0], speeds[-1])) for edge in open_at],
+        "linear_band_kmh": [_grid_bounds(b, speeds) for b in band(("small",))],
+        "sev_band_kmh": [_grid_bounds(b, speeds) for b in sev],
+        "first_bifurcation_speed_kmh": sev[0][0] if sev and "lower" not in open_at else None,
+        "second_bifurcation_speed_kmh": sev[-1][1] if sev and "upper" not in open_at else None,
+        "grid_spacing_kmh": float(np.max(np.diff(speeds))) if len(speeds) > 1 else None,
+        "unsettled_runs": sum(not r.steady for runs in result.runs.values() for r in runs),
+    }
+
+
+def _grid_bounds(interval, speeds) -> list:
+    """A band of the sweep, a bound at the first or last grid speed as None (cut by the grid)."""
+    lo, hi = interval
+    return [None if lo == speeds[0] else lo, None if hi == speeds[-1] else hi]

@@ -70,7 +70,8 @@ def bifurcation(
     check_count(n_speeds, "--n-speeds", 3, MAX_SWEEP_SPEEDS if method is Method.sweep else MAX_GRID_POINTS)
     params = load(config, set_)
     if method is Method.sweep:
-        from ..analysis.bifurcation import OPERATING_MARGIN, sweep_bands
+        from ..analysis.bifurcation import OPERATING_MARGIN
+        from ..analysis.sweep import sweep_bands
 
         op = params.operating.speed_kmh  # the grid holds the operating speed, as the continuation's range does
         result = _sweep(params, (min(lo, op / OPERATING_MARGIN), max(hi, op * OPERATING_MARGIN)), n_speeds or 30, quiet)
