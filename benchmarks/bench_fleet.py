@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.fast_band import _FIXED_RANGE, FastBand, band_reference
+from polywear.analysis.fast_band import _FIXED_RANGE, FastBand, band_reference, pilot_references
 from polywear.analysis.fleet import FleetSpec, fleet_risk
 from polywear.analysis.global_sensitivity import DEFAULT_KEYS, sample_params
 from polywear.params import Params, get_value, with_updates
@@ -42,25 +42,35 @@ def _samples(base, n, seed):
             for _ in range(n)]
 
 
-def agreement(model: str, n: int, seed: int, amplitude_speeds=(80.0, 130.0)) -> None:
+def _references(base, n_pilot: int, seed: int, amplitude_speeds=()):
+    """The nominal reference and those of ``n_pilot`` pilot samples (drawn with another seed
+    than the samples compared), serial; prints their CPU time and topologies."""
+    t = time.process_time()
+    refs, failed = pilot_references([base, *_samples(base, n_pilot, seed + 1)], amplitude_speeds_kmh=amplitude_speeds,
+                                    backend="serial")
+    topologies = Counter((r.band.hopf_criticality, len(r.band.folds_kmh), "unusable" if r.unusable else "")
+                         for r in refs)
+    print(f"{base.model}: nominal + {n_pilot} pilot references, {time.process_time() - t:.1f} s CPU, "
+          f"{len(failed)} failed; topologies (Hopf criticalities, folds): {dict(topologies)}")
+    return refs
+
+
+def agreement(model: str, n: int, seed: int, n_pilot: int, amplitude_speeds=(80.0, 130.0)) -> None:
     base = with_updates(Params(), {"model": model})
-    t = time.perf_counter()
-    reference = band_reference(bifurcation_diagram(base, **_FIXED_RANGE), amplitude_speeds)
-    print(f"{model}: reference {time.perf_counter() - t:.2f} s, unusable: {reference.unusable or 'no'}")
-    solver = FastBand((reference,), amplitude_speeds_kmh=amplitude_speeds)
+    solver = FastBand(_references(base, n_pilot, seed, amplitude_speeds), amplitude_speeds_kmh=amplitude_speeds)
     t_fast, t_full, t_full_on_fast, paths, reasons, bad = 0.0, 0.0, 0.0, Counter(), Counter(), []
     worst_edge = worst_amp = 0.0
     for i, params in enumerate(_samples(base, n, seed)):
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         fast = solver(params)
-        t1 = time.perf_counter()
+        t1 = time.process_time()
         full = solver.full(params)
-        t2 = time.perf_counter()
+        t2 = time.process_time()
         t_fast += t1 - t0
         t_full += t2 - t1
         paths[fast.path] += 1
         if fast.path != "fast":
-            reasons[fast.reason.split(":")[0][:70]] += 1
+            reasons[fast.reason.value] += 1
             continue
         t_full_on_fast += t2 - t1
         same = (len(fast.hopf_kmh), len(fast.folds_kmh), len(fast.sev_band_kmh), len(fast.hard_regions_kmh)) == \
@@ -210,9 +220,10 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=20261201)
     parser.add_argument("--backend", choices=("serial", "processes"), action="append",
                         help="fleet: backend(s) to time (default: both)")
+    parser.add_argument("--pilot", type=int, default=32, help="pilot samples (references besides the nominal one)")
     args = parser.parse_args()
     if args.what == "agreement":
-        agreement(args.model, args.samples, args.seed)
+        agreement(args.model, args.samples, args.seed, args.pilot)
     elif args.what == "sobol":
         sobol(min(args.samples, 16))
     elif args.what == "fleet":

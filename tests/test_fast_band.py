@@ -6,12 +6,14 @@ points and folds), or falls back (and then is the full diagram); the toe law of 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.fast_band import _FIXED_RANGE, FastBand, band_reference
+from polywear.analysis.fast_band import (_FIXED_RANGE, BandPath, Fallback, FallbackReason, FastBand, band_from_diagram,
+                                         band_reference, pilot_indices, pilot_references)
 from polywear.analysis.global_sensitivity import DEFAULT_KEYS, sample_params
 from polywear.params import Params, get_value, with_updates
 
@@ -49,8 +51,30 @@ def assert_agrees(fast, full, rtol=1e-6, amplitude_rtol=1e-4):
 def test_reference_reproduces_itself(tread_solver):
     base, solver = tread_solver
     band = solver(base)
-    assert band.path == "fast", band.reason
+    assert band.path is BandPath.FAST and band.path == "fast", band.detail
+    assert band.reason is None and band.summary()["path"] == "fast"
     assert_agrees(band, solver.references[0].band, rtol=1e-9)
+
+
+def test_fallback_reasons_are_typed(tread_solver):
+    """No reference of the sample's model, or none with its Hopf signature: a typed reason."""
+    base, solver = tread_solver
+    axle = with_updates(Params(), {"model": "axle4dof"})
+    out = solver.try_fast(axle)
+    assert isinstance(out, Fallback) and out.reason is FallbackReason.NO_REFERENCE
+    # a reference whose Hopf points are not the sample's (tread1dof: soft, hard)
+    ref = solver.references[0]
+    other = FastBand((replace(ref, band=replace(ref.band, hopf_criticality=("soft",))),))
+    out = other.try_fast(base)
+    assert out.reason is FallbackReason.HOPF_SIGNATURE and "('soft', 'hard')" in out.detail
+    band = band_from_diagram(bifurcation_diagram(base, **_FIXED_RANGE), fallback=out)
+    assert band.path is BandPath.FULL and band.summary()["reason"] == "hopf_signature"
+
+
+def test_pilot_indices_are_spread_and_fixed():
+    assert list(pilot_indices(5, 8)) == [0, 1, 2, 3, 4]
+    idx = pilot_indices(9216, 32)
+    assert len(idx) == 32 and idx[0] == 0 and idx[-1] == 9215 and np.all(np.diff(idx) > 280)
 
 
 def test_toe_law_of_the_fold(tread_solver):
@@ -123,3 +147,20 @@ def test_hard_region_the_continuation_missed_is_confirmed_by_simulation(tread_so
     large = simulate(car, 210.0, 3.0, disturbance=2e-3).steady
     assert small.outcome == "equilibrium" and large.outcome == "cycle"
     assert large.amplitude[0] == pytest.approx(band.amplitude_x_m[0], rel=2e-3)
+
+
+def test_cycle_near_a_hopf_point_is_found_by_the_diagram():
+    """axle4dof sample 193 of the agreement run: soft Hopf point at 79.84 km/h. The diagram's
+    Newton at 80 km/h from the bracketing branch points stalled at the round-off floor
+    (steps of 1-2e-10 scaled against a tolerance of 1e-10) and reported no cycle there, so
+    the full path's amplitude was 0 where the fast path finds the small stable cycle."""
+    car = with_updates(Params(), {
+        "model": "axle4dof", "tread.lateral_stiffness_n_per_m": 1061544.7405375906,
+        "tread.lateral_damping_ns_per_m": 72.68078060402418, "operating.toe_deg": 0.4644238295129579,
+        "operating.camber_deg": -0.987686207752469, "friction.mu_static": 0.9239243546312512,
+        "tread.mass_kg": 0.9563313162239697, "operating.vertical_load_n": 3785.309079521403,
+    })
+    full = band_from_diagram(bifurcation_diagram(car, **_FIXED_RANGE), (80.0,))
+    assert full.hopf_kmh[0] < 80.0 < full.sev_band_kmh[0][1]
+    # square-root law from the Hopf point: ~2.5e-5 m at 0.16 km/h above it
+    assert 1e-5 < full.amplitude_x_m[0] < 5e-5

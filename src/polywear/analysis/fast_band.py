@@ -46,6 +46,7 @@ count every difference as a failure.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import Enum
 
 import numpy as np
 
@@ -57,7 +58,8 @@ from ..units import DEFAULT_SPEED_RANGE_KMH
 from ..solvers.continuation import BranchPoint, ContinuationSettings, solve_at_speed
 from .points import PointKind
 
-__all__ = ["Band", "BandReference", "FastBand", "band_from_diagram", "band_reference", "fold_curvature"]
+__all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "band_from_diagram", "band_reference",
+           "fold_curvature", "pilot_indices", "pilot_references"]
 
 
 def _fixed_range() -> dict:
@@ -76,13 +78,50 @@ LABEL_TOL_KMH = 1e-9
 """Largest distance [km/h] between a band end and the special point it is labelled with."""
 
 
+class BandPath(str, Enum):
+    """Which path gave a :class:`Band` (compares equal to its value: ``"fast"``, ``"full"``)."""
+
+    FAST = "fast"
+    FULL = "full"
+
+
+class FallbackReason(str, Enum):
+    """Why a sample took the full continuation (``Band.reason``; its value is a short tag)."""
+
+    NO_REFERENCE = "no_reference"
+    """No reference for this model (parameter vector of another length)."""
+    REFERENCE_UNUSABLE = "reference_unusable"
+    """Every reference with the sample's Hopf points has a PD/NS bifurcation, a real
+    crossing, a failed branch or a band end that is not a label."""
+    STABILITY_FAILED = "stability_failed"
+    """The eigenvalue analysis of the steady state failed."""
+    REAL_CROSSING = "real_crossing"
+    """A real eigenvalue crosses zero in the speed range."""
+    HOPF_SIGNATURE = "hopf_signature"
+    """No reference has the sample's number and criticalities of Hopf points (a band
+    opens or closes, a Bautin point is crossed)."""
+    NARROW_BAND = "narrow_band"
+    """A narrow band lies between two grid speeds."""
+    FOLD_NOT_FOLLOWED = "fold_not_followed"
+    """A fold could not be followed from the reference to the sample."""
+    FOLD_AMPLITUDE = "fold_amplitude"
+    """A fold's amplitude fell below ``min_fold_amplitude`` of the reference's (Bautin point near)."""
+    FOLD_OUT_OF_RANGE = "fold_out_of_range"
+    """A fold left the speed range."""
+    ORDER_CHANGED = "order_changed"
+    """The order of the Hopf and fold speeds differs from the reference's."""
+    AMPLITUDE_CYCLE = "amplitude_cycle"
+    """No stable cycle found at a chosen speed from the reference's."""
+
+
 @dataclass(frozen=True)
 class Band(Result):
     """Bifurcation speeds [km/h], bands [km/h] and amplitudes [m] of one parameter set.
 
     ``amplitude_x_m[i]`` is the largest tread amplitude (half peak-to-peak of ``x``) of a
     stable cycle at the i-th chosen speed (0 where there is none). ``path`` is
-    ``"fast"`` or ``"full"``; ``reason`` says why the full path was taken.
+    :class:`BandPath` (``"fast"`` or ``"full"``); ``reason`` is the :class:`FallbackReason`
+    when the fast path was tried and did not apply (None otherwise), ``detail`` its message.
     """
 
     hopf_kmh: tuple[float, ...]
@@ -94,8 +133,9 @@ class Band(Result):
     hard_regions_kmh: tuple[tuple[float, float], ...]
     amplitude_speeds_kmh: tuple[float, ...] = ()
     amplitude_x_m: tuple[float, ...] = ()
-    path: str = "full"
-    reason: str = ""
+    path: BandPath = BandPath.FULL
+    reason: FallbackReason | None = None
+    detail: str = ""
 
     def _dataset(self):
         """Hopf points, folds and amplitudes [m] along their own dimensions; bands [km/h] as (n, 2)."""
@@ -158,8 +198,9 @@ class Band(Result):
             "hard_regions_kmh": [list(b) for b in self.hard_regions_kmh],
             "amplitude_speeds_kmh": list(self.amplitude_speeds_kmh),
             "amplitude_x_m": list(self.amplitude_x_m),
-            "path": self.path,
-            "reason": self.reason,
+            "path": self.path.value,
+            "reason": None if self.reason is None else self.reason.value,
+            "detail": self.detail,
         }
 
 
@@ -168,8 +209,9 @@ def _stable_amplitude(cycles, ix: int) -> float:
     return max((float(c.amplitude[ix]) for c in cycles if c.stable), default=0.0)
 
 
-def band_from_diagram(diagram, amplitude_speeds_kmh=(), reason: str = "") -> Band:
-    """The :class:`Band` of a full bifurcation diagram (amplitudes by Newton at each speed)."""
+def band_from_diagram(diagram, amplitude_speeds_kmh=(), fallback=None) -> Band:
+    """The :class:`Band` of a full bifurcation diagram (amplitudes by Newton at each speed);
+    ``fallback`` (a :class:`Fallback`) when the fast path was tried first."""
     ix = diagram.state_names.index("x")
     speeds = tuple(float(v) for v in amplitude_speeds_kmh)
     return Band(
@@ -182,8 +224,9 @@ def band_from_diagram(diagram, amplitude_speeds_kmh=(), reason: str = "") -> Ban
         hard_regions_kmh=tuple(tuple(b) for b in diagram.hard_regions_kmh),
         amplitude_speeds_kmh=speeds,
         amplitude_x_m=tuple(_stable_amplitude(diagram.cycles_at(v), ix) for v in speeds),
-        path="full",
-        reason=reason,
+        path=BandPath.FULL,
+        reason=None if fallback is None else fallback.reason,
+        detail="" if fallback is None else fallback.detail,
     )
 
 
@@ -268,6 +311,8 @@ def band_reference(diagram, amplitude_speeds_kmh=()) -> BandReference:
         unusable = "period doubling or torus bifurcation in the reference"
     if diagram.stability.real_crossings_kmh:
         unusable = "real eigenvalue crossing in the reference"
+    if any(info["failed"] for info in diagram.branch_info):
+        unusable = "a cycle branch of the reference failed"
     labels = {}
     for name, intervals in (("sev", band.sev_band_kmh), ("hard", band.hard_regions_kmh),
                             ("stable", diagram.stable_cycle_intervals_kmh())):
@@ -291,9 +336,68 @@ def band_reference(diagram, amplitude_speeds_kmh=()) -> BandReference:
     )
 
 
+# -- several references: a deterministic pilot stage -------------------------------------------------
+@dataclass(frozen=True)
+class _PilotReference:
+    """Picklable task: the :class:`BandReference` of one parameter set, or why it failed."""
+
+    speed_range_kmh: tuple[float, float]
+    amplitude_speeds_kmh: tuple[float, ...]
+    settings: ContinuationSettings
+
+    def __call__(self, params: Params) -> BandReference | str:
+        from .bifurcation import bifurcation_diagram
+
+        try:
+            diagram = bifurcation_diagram(params, self.speed_range_kmh, self.settings, **_FIXED_RANGE)
+            return band_reference(diagram, self.amplitude_speeds_kmh)
+        except Exception as exc:  # a pilot that fails is no reference; the caller counts it
+            return f"{type(exc).__name__}: {exc}"
+
+
+def pilot_indices(n_samples: int, n_pilot: int) -> np.ndarray:
+    """``n_pilot`` evenly spaced indices into ``n_samples`` samples (all of them if fewer):
+    the pilot stage of a study or fleet, fixed by the sample list alone."""
+    if n_pilot >= n_samples:
+        return np.arange(n_samples)
+    return np.unique(np.round(np.linspace(0, n_samples - 1, n_pilot)).astype(int))
+
+
+def pilot_references(params_list, speed_range_kmh=DEFAULT_SPEED_RANGE_KMH, amplitude_speeds_kmh=(),
+                     settings: ContinuationSettings | None = None, **map_options) -> tuple[tuple, list[str]]:
+    """References of several parameter sets by the full continuation, for :class:`FastBand`.
+
+    A sample then starts from the nearest reference with its own Hopf signature, so the
+    topologies the pilot met (e.g. a hard first Hopf point, a second band) take the fast
+    path too. The pilot is computed before any sample and depends only on the parameter
+    sets given, so results stay independent of backend, batch size and worker count.
+    ``map_options`` go to :func:`polywear.parallel.map_batched` (backend, workers, ...).
+
+    Returns (the references, usable or not, and the messages of the pilots that failed).
+    """
+    from ..parallel import map_batched
+
+    task = _PilotReference(tuple(speed_range_kmh), tuple(float(v) for v in amplitude_speeds_kmh),
+                           settings or ContinuationSettings())
+    results = map_batched(task, list(params_list), **map_options)
+    return tuple(r for r in results if isinstance(r, BandReference)), [r for r in results if isinstance(r, str)]
+
+
 # -- the fast path ------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Fallback:
+    """Why the fast path does not apply to a sample: the typed reason and a message."""
+
+    reason: FallbackReason
+    detail: str = ""
+
+
 class _Fallback(Exception):
-    """The fast path does not apply to this sample (the message says why)."""
+    """The fast path does not apply to this sample (``reason``; the message says more)."""
+
+    def __init__(self, reason: FallbackReason, detail: str):
+        super().__init__(detail)
+        self.fallback = Fallback(reason, detail)
 
 
 MAX_MARCH = 40
@@ -453,8 +557,10 @@ class FastBand:
 
     Parameters
     ----------
-    references : solved parameter sets (:func:`band_reference`); the nearest one (relative
-        distance of the kernel parameter vectors) is the warm start.
+    references : solved parameter sets (:func:`band_reference`, :func:`pilot_references`);
+        the warm start is the nearest (relative distance of the kernel parameter vectors)
+        usable one whose Hopf points have the sample's number and criticalities (known
+        from the cheap first step, before any fold is followed).
     speed_range_kmh : where Hopf points and cycles are searched [km/h].
     amplitude_speeds_kmh : speeds [km/h] for ``Band.amplitude_x_m``; must be those the
         references were made with.
@@ -480,18 +586,15 @@ class FastBand:
         band = self.try_fast(params)
         return band if isinstance(band, Band) else self.full(params, band)
 
-    def try_fast(self, params: Params) -> Band | str:
+    def try_fast(self, params: Params) -> Band | Fallback:
         """The fast path's band, or why it does not apply (then nothing else is computed)."""
         model = get_model(params.model)
         p = model.pack(params)
-        ref = self._nearest(p)
-        reason = ref.unusable if ref is not None else "no reference"
-        if reason:
-            return reason
         try:
-            return self._fast(model, params, p, ref)
+            stab, ref = self._hopf(params, p)
+            return self._fast(model, params, p, ref, stab)
         except _Fallback as exc:
-            return str(exc)
+            return exc.fallback
 
     def usage_verdict(self, params: Params, speeds_kmh) -> tuple | None:
         """From the Hopf points alone: (SEV band holds a usage speed, a hard region holds one,
@@ -502,11 +605,8 @@ class FastBand:
         decided when it lies inside an interval whatever the fold speeds, or outside every
         interval whatever they are."""
         model = get_model(params.model)
-        ref = self._nearest(model.pack(params))
-        if ref is None or ref.unusable:
-            return None
         try:
-            stab = self._hopf(params, ref)
+            stab, ref = self._hopf(params, model.pack(params))
         except _Fallback:
             return None
         hopf = [h.speed_kmh for h in stab.hopf_points]
@@ -541,40 +641,47 @@ class FastBand:
         first = bounds(ref.sev_labels[0][0]) if ref.sev_labels else (np.nan, np.nan)
         return sev, hard, first[0] if first[0] == first[1] else np.nan
 
-    def full(self, params: Params, reason: str = "") -> Band:
-        """The full continuation's band (the fallback)."""
+    def full(self, params: Params, fallback: Fallback | None = None) -> Band:
+        """The full continuation's band (the fallback, with its reason)."""
         from .bifurcation import bifurcation_diagram
 
         diagram = bifurcation_diagram(params, self.speed_range_kmh, self.settings, **_FIXED_RANGE)
-        return band_from_diagram(diagram, self.amplitude_speeds_kmh, reason)
+        return band_from_diagram(diagram, self.amplitude_speeds_kmh, fallback)
 
-    def _nearest(self, p) -> BandReference | None:
-        candidates = [r for r in self.references if r.p.shape == p.shape]
-        if not candidates:
-            return None
-        return min(candidates, key=lambda r: float(np.sum((_difference(p, r.p) / (np.abs(r.p) + 1e-12)) ** 2)))
+    def _nearest(self, p, criticality: tuple) -> BandReference:
+        """The nearest usable reference with these Hopf criticalities (relative distance)."""
+        same = [r for r in self.references if r.p.shape == p.shape]
+        if not same:
+            raise _Fallback(FallbackReason.NO_REFERENCE, "no reference for this model")
+        same = [r for r in same if r.band.hopf_criticality == criticality]
+        if not same:
+            raise _Fallback(FallbackReason.HOPF_SIGNATURE, f"no reference with the Hopf points {criticality}")
+        usable = [r for r in same if not r.unusable]
+        if not usable:
+            raise _Fallback(FallbackReason.REFERENCE_UNUSABLE, same[0].unusable)
+        return min(usable, key=lambda r: float(np.sum((_difference(p, r.p) / (np.abs(r.p) + 1e-12)) ** 2)))
 
     # -- the steps --------------------------------------------------------------------------------
-    def _hopf(self, params, ref):
+    def _hopf(self, params, p):
+        """The stability analysis of ``params`` and the reference of its Hopf signature."""
         from .stability import StabilitySettings, stability_analysis
 
         try:
             stab = stability_analysis(params, self.speed_range_kmh, StabilitySettings(n_speeds=self.n_grid))
         except RuntimeError as exc:
-            raise _Fallback(f"stability: {exc}") from exc
+            raise _Fallback(FallbackReason.STABILITY_FAILED, f"stability: {exc}") from exc
         if stab.real_crossings_kmh:
-            raise _Fallback("real eigenvalue crossing")
-        crit = tuple(h.criticality for h in stab.hopf_points)
-        if crit != ref.band.hopf_criticality:
-            raise _Fallback(f"Hopf points {crit} differ from the reference's {ref.band.hopf_criticality}")
+            raise _Fallback(FallbackReason.REAL_CROSSING, "real eigenvalue crossing")
+        ref = self._nearest(p, tuple(h.criticality for h in stab.hopf_points))
         r = stab.eigenvalues.real.max(axis=1)
         inner = r[1:-1]
         peak = (inner >= r[:-2]) & (inner >= r[2:]) & (inner <= 0.0)
         trough = (inner <= r[:-2]) & (inner <= r[2:]) & (inner > 0.0)
         for i in np.flatnonzero(peak | trough) + 1:
             if _crosses_between(params, stab.speeds_kmh[i - 1], stab.speeds_kmh[i + 1], bool(peak[i - 1])):
-                raise _Fallback(f"a narrow band near {stab.speeds_kmh[i]:.1f} km/h, between grid speeds")
-        return stab
+                raise _Fallback(FallbackReason.NARROW_BAND,
+                                f"a narrow band near {stab.speeds_kmh[i]:.1f} km/h, between grid speeds")
+        return stab, ref
 
     def _fold(self, model, p, ref, j) -> BranchPoint:
         """Fold j of the reference followed from ``ref.p`` to ``p``.
@@ -597,7 +704,7 @@ class FastBand:
             if new is None or abs(new.orbit.speed - V_pred) > 0.25 * change + 1e-3 * fold.orbit.speed:
                 halvings += 1
                 if halvings > self.max_halvings:
-                    raise _Fallback(f"fold {j + 1} not followed to this sample (step halved {self.max_halvings} times)")
+                    raise _Fallback(FallbackReason.FOLD_NOT_FOLLOWED, f"fold {j + 1} not followed to this sample (step halved {self.max_halvings} times)")
                 h *= 0.5
                 continue
             slope = (new.orbit.speed - fold.orbit.speed) / (nxt - theta)
@@ -605,15 +712,14 @@ class FastBand:
         if self.adapt_mesh:
             fold = _relocate_fold(model, p, _adapted(model, p, fold), fold.orbit.speed, scales, self.settings, curvature)
             if fold is None:
-                raise _Fallback(f"fold {j + 1} lost after mesh adaptation")
+                raise _Fallback(FallbackReason.FOLD_NOT_FOLLOWED, f"fold {j + 1} lost after mesh adaptation")
         return fold
 
-    def _fast(self, model, params, p, ref) -> Band:
+    def _fast(self, model, params, p, ref, stab) -> Band:
         if ref.band.amplitude_speeds_kmh != tuple(float(v) for v in self.amplitude_speeds_kmh):
             raise ValueError(f"amplitude speeds {self.amplitude_speeds_kmh} differ from the reference's "
                              f"{ref.band.amplitude_speeds_kmh}")
         lo, hi = self.speed_range_kmh
-        stab = self._hopf(params, ref)
         hopf = tuple(h.speed_kmh for h in stab.hopf_points)
         ix = model.index("x")
         folds, fold_amp, fold_points = [], [], []
@@ -621,18 +727,18 @@ class FastBand:
             point = self._fold(model, p, ref, j)
             amplitude = float(point.orbit.amplitude()[ix])
             if amplitude < self.min_fold_amplitude * ref_amp:
-                raise _Fallback(f"fold {j + 1}: amplitude {amplitude:.3g} m, below "
+                raise _Fallback(FallbackReason.FOLD_AMPLITUDE, f"fold {j + 1}: amplitude {amplitude:.3g} m, below "
                                 f"{self.min_fold_amplitude} of the reference's (Bautin point near?)")
             V = ms_to_kmh(point.orbit.speed)
             if not lo < V < hi:
-                raise _Fallback(f"fold {j + 1} at {V:.2f} km/h, outside the speed range")
+                raise _Fallback(FallbackReason.FOLD_OUT_OF_RANGE, f"fold {j + 1} at {V:.2f} km/h, outside the speed range")
             folds.append(V)
             fold_amp.append(amplitude)
             fold_points.append(point)
         order = lambda hs, fs: [k for _, k in sorted([(v, ("H", i)) for i, v in enumerate(hs)]
                                                      + [(v, ("F", i)) for i, v in enumerate(fs)])]
         if order(hopf, folds) != order(ref.band.hopf_kmh, ref.band.folds_kmh):
-            raise _Fallback("the order of Hopf and fold speeds differs from the reference's")
+            raise _Fallback(FallbackReason.ORDER_CHANGED, "the order of Hopf and fold speeds differs from the reference's")
         speed_of = {("H", k): v for k, v in enumerate(hopf)} | {("F", k): v for k, v in enumerate(folds)}
         speed_of |= {("lo", 0): lo, ("hi", 0): hi}
 
@@ -648,7 +754,7 @@ class FastBand:
                 amplitudes.append(0.0)
                 continue
             if guess is None:
-                raise _Fallback(f"no reference cycle to start from at {v:g} km/h")
+                raise _Fallback(FallbackReason.AMPLITUDE_CYCLE, f"no reference cycle to start from at {v:g} km/h")
             V = kmh_to_ms(v)
             # the guess rescaled by the square-root law of the nearest Hopf end (ratio ~ 1 far
             # from it; near it Newton from the reference's tiny cycle fails), else as it is
@@ -657,7 +763,7 @@ class FastBand:
             if point is None:
                 point = solve_at_speed(model, p, guess, V, self.settings)
             if point is None or not point.stable:
-                raise _Fallback(f"stable cycle at {v:g} km/h not found from the reference's")
+                raise _Fallback(FallbackReason.AMPLITUDE_CYCLE, f"stable cycle at {v:g} km/h not found from the reference's")
             amplitudes.append(float(point.orbit.amplitude()[ix]))
         return Band(
             hopf_kmh=hopf,
@@ -669,5 +775,5 @@ class FastBand:
             hard_regions_kmh=mapped(ref.hard_labels),
             amplitude_speeds_kmh=tuple(self.amplitude_speeds_kmh),
             amplitude_x_m=tuple(amplitudes),
-            path="fast",
+            path=BandPath.FAST,
         )

@@ -262,8 +262,10 @@ class StudyEvaluator:
         from .bifurcation import bifurcation_diagram
 
         if self.fast is not None:
+            from .fast_band import Band
+
             band = self.fast.try_fast(params)
-            if not isinstance(band, str):
+            if isinstance(band, Band):
                 return _fast_outputs(band, self.speed_range_kmh, self.operating_range_kmh)
 
         diagram = bifurcation_diagram(params, self.speed_range_kmh)

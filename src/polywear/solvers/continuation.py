@@ -513,15 +513,20 @@ def solve_at_speed(model, p, guess: PeriodicOrbit, speed: float, settings: Conti
     border[1, -1] = 1.0
     scale = np.concatenate([np.tile(np.abs(guess.nodes).max(axis=0) + np.ptp(guess.nodes, axis=0) + 1e-300,
                                     coll.N * coll.m), [guess.period, abs(speed) + 1.0]])
+    previous = np.inf
     for it in range(1, settings.max_newton + 1):
         out = coll.solve(X, border, np.array([border[0] @ X, X[-1] - speed]))
         if out is None:
             return None
         dX, _, CL, CR = out
         X = X + dX
-        if np.max(np.abs(dX / scale)) < settings.newton_tol:
+        size = np.max(np.abs(dX / scale))
+        # converged, or at the round-off floor: below 10 tol and no longer halving (a small
+        # cycle near a Hopf point, ill-conditioned, whose steps hover about the tolerance)
+        if size < settings.newton_tol or (size < 10.0 * settings.newton_tol and size > 0.5 * previous):
             mu = np.linalg.eigvals(monodromy(CL, CR))
             return BranchPoint(coll.unpack(X), mu, np.zeros(coll.size), it)
+        previous = size
     return None
 
 
