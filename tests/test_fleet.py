@@ -278,6 +278,30 @@ def test_cli_json_summary(tmp_path):
     assert (tmp_path / "fleet.nc").exists()
 
 
+@pytest.mark.slow
+def test_cli_resume_is_bit_identical(tmp_path):
+    """`--checkpoint` then `--resume` from a checkpoint cut back to its first round (as an
+    interruption leaves it): the same summary and the same cars as the uninterrupted run."""
+    path = tmp_path / "fleet.toml"
+    path.write_text(TOE_SPEC.format(samples=4, seed=6, every=2))
+    ckpt = tmp_path / "ckpt"
+    ckpt.mkdir()
+    args = ["fleet", "--spec", str(path), "--backend", "serial", "--json", "-q", "--checkpoint", str(ckpt)]
+    code, whole, err = run_main(args + ["--out", str(tmp_path / "whole.csv")])
+    assert code == 0, err
+    data = dict(np.load(ckpt / "fleet_checkpoint.npz"))
+    assert int(data["done"]) == 4
+    data["values"][2:] = np.nan
+    np.savez(ckpt / "fleet_checkpoint.npz", **(data | {"done": 2, "status": data["status"][:2],
+                                                        "paths": data["paths"][:2]}))
+    code, resumed, err = run_main(args + ["--resume", "--out", str(tmp_path / "resumed.csv")])
+    assert code == 0, err
+    assert resumed == whole
+    assert (tmp_path / "resumed.csv").read_text() == (tmp_path / "whole.csv").read_text()
+    code, _, err = run_main(["fleet", "--spec", str(path), "--resume", "-q"])
+    assert code == 2 and "--resume needs --checkpoint" in err
+
+
 def test_paths_and_fallback_reasons_are_counted():
     """Summary: cars per path over the evaluated cars, fallbacks by reason tag, failed cars
     counted by kind and listed (index and whole reason)."""
