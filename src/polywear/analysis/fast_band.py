@@ -59,7 +59,7 @@ from ..solvers.continuation import BranchPoint, ContinuationSettings, solve_at_s
 from .points import PointKind
 
 __all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "band_from_diagram", "band_reference",
-           "fold_curvature", "pilot_indices", "pilot_references"]
+           "fold_curvature", "pilot_indices", "pilot_references", "pilot_size"]
 
 
 def _fixed_range() -> dict:
@@ -361,6 +361,18 @@ def pilot_indices(n_samples: int, n_pilot: int) -> np.ndarray:
     if n_pilot >= n_samples:
         return np.arange(n_samples)
     return np.unique(np.round(np.linspace(0, n_samples - 1, n_pilot)).astype(int))
+
+
+PILOT_MAX = 32
+"""Largest pilot stage [samples] of :func:`pilot_size`."""
+PILOT_EVERY = 32
+"""One pilot sample per this many samples [-] (pilot samples cost ~2.5 full continuations each)."""
+
+
+def pilot_size(n_samples: int) -> int:
+    """Pilot samples for a study or fleet of ``n_samples`` [-]: one per :data:`PILOT_EVERY`,
+    at most :data:`PILOT_MAX`."""
+    return min(PILOT_MAX, n_samples // PILOT_EVERY)
 
 
 def pilot_references(params_list, speed_range_kmh=DEFAULT_SPEED_RANGE_KMH, amplitude_speeds_kmh=(),

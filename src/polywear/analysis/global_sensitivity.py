@@ -506,8 +506,10 @@ def global_sensitivity(
         Called with the number of samples finished, after every batch.
     fast_band : bool
         With ``outputs = "bifurcation"``: try the fast band path
-        (:mod:`polywear.analysis.fast_band`, warm-started from the nominal diagram) on every
-        sample before the full continuation; the counts of both are in ``settings``.
+        (:mod:`polywear.analysis.fast_band`, warm-started from the nearest of the nominal and
+        pilot diagrams with the sample's Hopf signature, :func:`~polywear.analysis.fast_band.pilot_size`
+        evenly spaced samples) on every sample before the full continuation; the counts of
+        both are in ``settings``.
 
     Returns
     -------
@@ -530,12 +532,17 @@ def global_sensitivity(
         X = morris_sample.sample(problem, study.n_base, num_levels=study.morris_levels, seed=rng)
     fast = None
     if study.outputs == "bifurcation" and fast_band:
-        from .bifurcation import bifurcation_diagram
-        from .fast_band import _FIXED_RANGE, FastBand, band_reference
+        from .fast_band import FastBand, pilot_indices, pilot_references, pilot_size
 
-        reference = band_reference(bifurcation_diagram(params, study.speed_range_kmh, **_FIXED_RANGE),
-                                   study.operating_range_kmh)
-        fast = FastBand((reference,), tuple(study.speed_range_kmh), tuple(study.operating_range_kmh))
+        pilot = [params]  # the nominal set and evenly spaced samples: one reference per topology met
+        for i in pilot_indices(len(X), pilot_size(len(X))):
+            try:
+                pilot.append(sample_params(params, problem["names"], X[i]))
+            except ParameterError:  # an invalid sample is no reference (the study records it)
+                continue
+        references, _ = pilot_references(pilot, study.speed_range_kmh, study.operating_range_kmh,
+                                         backend=backend, workers=workers, scheduler=scheduler)
+        fast = FastBand(references, tuple(study.speed_range_kmh), tuple(study.operating_range_kmh))
     evaluator = StudyEvaluator(
         params, tuple(problem["names"]), study.outputs, study.speed_range_kmh, study.operating_range_kmh, fast
     )
