@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 from polywear.analysis.bifurcation import bifurcation_diagram
+from polywear.analysis.points import PointKind
 from polywear.models.base import kmh_to_ms
 from polywear.params import Params
-from polywear.validation.auto07p import auto07p_available
+from polywear.validation.auto07p import auto07p_available, special_points
 
 available, why = auto07p_available()
 pytestmark = [
@@ -79,6 +80,21 @@ def axle_both():
 
     params = Params(model="axle4dof")
     return bifurcation_diagram(params, (20.0, 300.0)), model_diagram(params, (20.0, 300.0))
+
+
+@pytest.mark.parametrize("pair", ["both", "axle_both"])
+def test_special_points_agree_one_to_one(pair, request):
+    """Both diagrams as SpecialPoints: the same kinds in the same order (Hopf, Hopf, fold),
+    at the same speeds and frequencies, with the same amplitudes at the fold."""
+    ours, auto = request.getfixturevalue(pair)
+    mine = [p for p in ours.special_points if p.kind in (PointKind.HOPF, PointKind.LP)]
+    theirs = special_points(auto)
+    assert [p.kind for p in mine] == [p.kind for p in theirs] == [PointKind.HOPF, PointKind.HOPF, PointKind.LP]
+    for a, b in zip(mine, theirs):
+        assert a.speed_kmh == pytest.approx(b.speed_kmh, rel=1e-6)
+        assert a.frequency_hz == pytest.approx(b.frequency_hz, rel=1e-6)
+    x = ours.state_names.index("x")
+    assert mine[2].amplitude[x] == pytest.approx(theirs[2].amplitude[x], rel=1e-5)
 
 
 def test_axle4dof_hopf_points_agree(axle_both):
