@@ -63,11 +63,11 @@ def _study(run, params, **kwargs):
     done, finished = [0], [0.0]
     t0 = time.perf_counter()
 
-    def progress(k):
-        done[0] += k
+    def progress(k, total, message=""):
+        done[0] = k
         finished[0] = time.perf_counter() - t0
 
-    result = run(params, on_progress=progress, **kwargs)
+    result = run(params, progress=progress, **kwargs)
     return result, time.perf_counter() - t0, finished[0]
 
 

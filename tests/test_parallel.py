@@ -38,18 +38,20 @@ def fails_on_three(x):
 @given(items=st.lists(st.integers(-1000, 1000), max_size=60), batch=st.one_of(st.none(), st.integers(1, 70)))
 def test_serial_is_the_plain_map_in_order(items, batch):
     done = []
-    assert map_batched(square, items, backend="serial", batch_size=batch, on_progress=done.append) == [
-        x * x for x in items
-    ]
-    assert sum(done) == len(items)
+    assert map_batched(square, items, backend="serial", batch_size=batch,
+                       progress=lambda d, total, message="": done.append((d, total))) == [x * x for x in items]
+    assert [d for d, _ in done] == sorted(d for d, _ in done) and all(t == len(items) for _, t in done)
+    assert (done[-1][0] if done else 0) == len(items)
 
 
 def test_processes_keep_the_order_and_report_progress():
     items = list(range(101))
     done = []
-    out = map_batched(square, items, backend="processes", workers=2, batch_size=7, on_progress=done.append)
+    out = map_batched(square, items, backend="processes", workers=2, batch_size=7,
+                      progress=lambda d, total, message="": done.append((d, total)))
     assert out == [x * x for x in items]
-    assert sum(done) == 101 and len(done) == math.ceil(101 / 7)
+    assert done[-1] == (101, 101) and len(done) == math.ceil(101 / 7)
+    assert [d for d, _ in done] == sorted(d for d, _ in done)
 
 
 def test_errors_in_a_task_propagate():
@@ -194,15 +196,15 @@ def test_dask_study_survives_a_killed_worker(cluster, reference):
     victim = cluster.workers[1]
     done = []
 
-    def kill_after_first_batch(n):
+    def kill_after_first_batch(n, total, message=""):
         done.append(n)
         if len(done) == 1:
             victim.kill()  # SIGKILL: tasks held or running there are recomputed elsewhere
             victim.wait(10)
 
     result = global_sensitivity(_study_params(), backend="dask", scheduler=cluster.address, batch_size=4,
-                                on_progress=kill_after_first_batch)
-    assert victim.poll() is not None and len(done) == 128 and sum(done) == 512
+                                progress=kill_after_first_batch)
+    assert victim.poll() is not None and len(done) == 128 and done[-1] == 512 and done == sorted(done)
     assert cluster.n_workers() == 1
     _same(reference, result)
 

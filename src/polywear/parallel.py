@@ -23,6 +23,8 @@ import os
 from contextlib import contextmanager
 from typing import Any, Callable, Sequence
 
+from .progress import Progress, StepCounter
+
 __all__ = ["BACKENDS", "map_batched", "default_batch_size"]
 
 BACKENDS = ("serial", "processes", "dask")
@@ -50,7 +52,7 @@ def map_batched(
     workers: int | None = None,
     scheduler: str | None = None,
     batch_size: int | None = None,
-    on_progress: Callable[[int], None] | None = None,
+    progress: Progress | None = None,
 ) -> list:
     """``[func(item) for item in items]`` computed in batches on a backend.
 
@@ -62,7 +64,8 @@ def map_batched(
     workers : size of the process pool [-] (default: the number of CPUs).
     scheduler : Dask scheduler address, e.g. ``tcp://10.0.0.5:8786`` (backend ``"dask"``).
     batch_size : items per task (default :func:`default_batch_size`).
-    on_progress : called with the number of items finished, after every batch.
+    progress : progress callback (:mod:`polywear.progress`): items finished of all items,
+        after every batch.
     """
     if backend not in BACKENDS:
         raise ValueError(f"backend = {backend!r}: must be one of {', '.join(BACKENDS)}")
@@ -77,7 +80,11 @@ def map_batched(
     items = list(items)
     if not items:
         return []
-    report = on_progress or (lambda n: None)
+    step = StepCounter(progress, len(items))
+
+    def report(n: int) -> None:
+        step(n=n)
+
     if backend == "serial":
         size = batch_size or default_batch_size(len(items), 1)
         out: list = []

@@ -16,6 +16,7 @@ from pathlib import Path
 from . import __version__
 from .io import atomic_path, write_text
 from .params import Params, to_toml
+from .progress import Progress, StepCounter
 from .units import DEFAULT_SPEED_RANGE_KMH
 
 __all__ = ["Report", "operating_verdict", "run_report"]
@@ -165,13 +166,13 @@ def run_report(
     out_dir: Path,
     speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
     operating_range_kmh: tuple[float, float] | None = None,
-    progress=None,
+    progress: Progress | None = None,
     wear_evolution_km: float | None = None,
 ) -> Report:
     """Run the main job and write figures, data, ``summary.json`` and ``report.html`` to ``out_dir``.
 
-    ``progress(message)`` is called before each step. This is ``polywear report`` and
-    ``pw.report``.
+    ``progress(stages done, None, message)`` is called before each stage (and with the
+    design diagrams), :mod:`polywear.progress`. This is ``polywear report`` and ``pw.report``.
 
     Parameters
     ----------
@@ -185,7 +186,7 @@ def run_report(
         Speeds to keep free of SEV [km/h] for the design options (default: the
         operating speed -30/+20 km/h).
     progress : callable, optional
-        Called with a short message before each step.
+        Progress callback (:mod:`polywear.progress`); the message names the stage.
     wear_evolution_km : float, optional
         Also run the wear evolution over this distance [km] at the operating speed and
         on the drive cycle (minutes); the wear map is always in the report.
@@ -205,7 +206,8 @@ def run_report(
     from .analysis.sensitivity import local_sensitivity
     from .analysis.simulation import simulate_disturbances
 
-    say = progress or (lambda message: None)
+    stage = StepCounter(progress)
+    say = stage.begin
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     files: dict[str, str] = {}
@@ -260,7 +262,7 @@ def run_report(
 
     say("design options for the operating range")
     design = clear_operating_range(params, operating_range, speed_range_kmh=speed_range_kmh, diagram=diagram,
-                                   progress=lambda message: say(f"design diagram: {message}"))
+                                   progress=stage.detail("design diagram: "))
     if design.best is not None:
         fig, ax = plt.subplots(figsize=(8, 4.5))
         design.plot(ax)
@@ -272,7 +274,7 @@ def run_report(
     sev = diagram.sev_band_kmh
     wear = wear_section(params, speed_range_kmh, save, out_dir, wear_evolution_km,
                         sev_band_kmh=(sev[0][0], sev[-1][1]) if sev and None not in (sev[0][0], sev[-1][1]) else None,
-                        progress=say)
+                        progress=stage.detail(""))
 
     summary = {
         "polywear_version": __version__,
@@ -288,6 +290,7 @@ def run_report(
     files["summary.json"] = "everything above as JSON"
     files["params.toml"] = "the parameter set used"
     write_text(out_dir / "report.html", _html(params, summary, verdict, files))
+    stage()
     files["report.html"] = "this report"
     return Report(params, summary, files)
 

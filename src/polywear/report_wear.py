@@ -9,17 +9,19 @@ import math
 import numpy as np
 
 from .params import Params
+from .progress import Progress, StepCounter
 
 __all__ = ["wear_section", "wear_html", "wear_sentences"]
 
 
 def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: float | None = None,
-                 step_km: float = 2000.0, sev_band_kmh=None, progress=None) -> dict:
+                 step_km: float = 2000.0, sev_band_kmh=None, progress: Progress | None = None) -> dict:
     """Compute the wear section; figures through ``save(fig, name, caption)``.
 
     The map over ``speed_range_kmh`` (300 speeds) is always computed (about a second);
     with ``evolution_km`` the evolution at the operating speed and on the drive cycle too
-    (minutes). Returns the JSON-ready summary of the section.
+    (minutes). ``progress`` (:mod:`polywear.progress`) counts these stages. Returns the
+    JSON-ready summary of the section.
     """
     import matplotlib.pyplot as plt
 
@@ -31,7 +33,7 @@ def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: f
             result.save(tmp)
     from .analysis.wear_map import wear_map
 
-    say = progress or (lambda message: None)
+    say = StepCounter(progress).begin
     say("polygonal wear: linear map")
     lo, hi = speed_range_kmh
     speeds = np.linspace(lo, hi, 300)

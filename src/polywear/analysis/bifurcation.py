@@ -26,6 +26,7 @@ from ..models import get_model
 from ..results import Result
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, to_toml
+from ..progress import Progress, StepCounter
 from ..solvers.continuation import (Branch, BranchEnd, ContinuationSettings, continue_from_hopf,
                                    same_special_point)
 from ..units import DEFAULT_SPEED_RANGE_KMH, MAX_SPEED_KMH, plot_scale
@@ -552,12 +553,13 @@ def bifurcation_diagram(
     speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
     settings: ContinuationSettings = ContinuationSettings(),
     n_speeds: int = 400,
-    on_step=None,
+    progress: Progress | None = None,
     extend: bool = True,
 ) -> BifurcationDiagram:
     """Continuation of equilibria and of the cycles from every Hopf point in the speed range.
 
-    ``on_step(branch_index, speed_kmh)`` is called after every continuation step.
+    ``progress(steps done, None, "branch b: speed")`` is called after every continuation
+    step (:mod:`polywear.progress`).
     With ``extend`` the range is not allowed to decide the answer: it is widened to hold
     the operating speed (``OPERATING_MARGIN``), and while the SEV band or a cycle branch
     runs into one of its ends, widened on that side (down to ``SPEED_FLOOR_KMH`` in one
@@ -577,8 +579,8 @@ def bifurcation_diagram(
         Collocation mesh and step control of the cycle continuation.
     n_speeds : int
         Grid of the stability analysis that brackets the Hopf points.
-    on_step : callable, optional
-        ``on_step(branch_index, speed_kmh)`` after every continuation step (progress).
+    progress : callable, optional
+        Progress callback (:mod:`polywear.progress`), called after every continuation step.
     extend : bool
         Widen the range until the answer no longer depends on it.
 
@@ -590,7 +592,7 @@ def bifurcation_diagram(
         ``summary()`` is what ``polywear bifurcation --json`` prints.
     """
     if extend:
-        return _extended_diagram(params, speed_range_kmh, settings, n_speeds, on_step)
+        return _extended_diagram(params, speed_range_kmh, settings, n_speeds, progress)
     lo, hi = (float(v) for v in speed_range_kmh)
     stab = stability_analysis(params, (lo, hi), StabilitySettings(n_speeds=n_speeds))
     model = get_model(params.model)
@@ -601,11 +603,13 @@ def bifurcation_diagram(
     cycles: list[CyclePoint] = []
     special: list[SpecialPoint] = []
     reached: set[int] = set()
+    step = StepCounter(progress)
     for k, hopf in enumerate(stab.hopf_points):
         if k in reached:
             continue
         b = len(branches)
-        callback = None if on_step is None else (lambda br, b=b: on_step(b, ms_to_kmh(br.points[-1].orbit.speed)))
+        callback = None if progress is None else (
+            lambda br, b=b: step(f"branch {b}: {ms_to_kmh(br.points[-1].orbit.speed):.1f} km/h"))
         branch = continue_from_hopf(model, p, hopf, bounds, settings, on_step=callback)
         branches.append(branch)
         end_hopf = None
@@ -651,8 +655,9 @@ def bifurcation_diagram(
     )
 
 
-def _extended_diagram(params, speed_range_kmh, settings, n_speeds, on_step) -> BifurcationDiagram:
+def _extended_diagram(params, speed_range_kmh, settings, n_speeds, progress) -> BifurcationDiagram:
     """The diagram on the requested range widened until the range no longer cuts the answer."""
+    step = StepCounter(progress)  # counts on across the widened ranges
     requested = tuple(float(v) for v in speed_range_kmh)
     lo, hi = requested
     op = params.operating.speed_kmh
@@ -666,7 +671,7 @@ def _extended_diagram(params, speed_range_kmh, settings, n_speeds, on_step) -> B
     while True:
         n = min(max(n_speeds, int(np.ceil((hi - lo) / spacing)) + 1), 4 * n_speeds)
         try:
-            wider = bifurcation_diagram(params, (lo, hi), settings, n, on_step, extend=False)
+            wider = bifurcation_diagram(params, (lo, hi), settings, n, step.relay if progress else None, extend=False)
         except (RuntimeError, ValueError, ArithmeticError) as exc:
             if diagram is None:
                 raise

@@ -20,7 +20,7 @@ import math
 import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -28,6 +28,7 @@ from ..models import get_model
 from ..results import Result
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import ADHESION_SCALE, ParameterError, Params, get_value, study_keys, with_updates
+from ..progress import Progress, StepCounter
 from ..units import STABILITY_SPEED_RANGE_KMH, polygon_order
 
 __all__ = [
@@ -435,7 +436,7 @@ def calibrate(
     n_speeds: int = 200,
     profile: bool = True,
     undetermined_above: float = 1.0,
-    on_evaluation: Callable[[], None] | None = None,
+    progress: Progress | None = None,
 ) -> CalibrationResult:
     """Fit ``keys`` to ``observations`` and report what the data determine.
 
@@ -456,8 +457,8 @@ def calibrate(
         A combination of relative parameter changes counts as undetermined when its
         linearized 95 % half-width exceeds this (1.0: +-100 %) or its singular value is
         at rounding level.
-    on_evaluation : callable, optional
-        Called after every model evaluation (progress).
+    progress : callable, optional
+        Progress callback (:mod:`polywear.progress`): model evaluations, total unknown.
     """
     from scipy.optimize import least_squares
 
@@ -486,6 +487,7 @@ def calibrate(
     sigma = np.array([o.sigma for o in observations])
     x0 = np.array([float(get_value(params, k)) for k in keys]) / scale
     cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+    step = StepCounter(progress)
 
     def evaluate(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         tag = np.asarray(x, dtype=float).tobytes()
@@ -498,8 +500,7 @@ def calibrate(
             if len(cache) > 64:
                 cache.clear()
             cache[tag] = ((values - observed) / sigma, jac * scale / sigma[:, None])
-            if on_evaluation is not None:
-                on_evaluation()
+            step()
         return cache[tag]
 
     r0 = evaluate(x0)[0]

@@ -27,7 +27,6 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
@@ -35,6 +34,7 @@ from ..models import get_model
 from ..results import Result
 from ..models.base import ms_to_kmh
 from ..params import ADHESION_SCALE, Params
+from ..progress import Progress, StepCounter
 from ..units import DEFAULT_SPEED_RANGE_KMH
 from .bifurcation import BifurcationDiagram, bifurcation_diagram
 from .sensitivity import (
@@ -368,7 +368,7 @@ class _Search:
     max_relative_change: float
     search_factor: float  # values between p0 / factor and p0 * factor
     speed_range: tuple[float, float]
-    progress: Callable[[str], None]
+    step: StepCounter  # bifurcation diagrams computed
     max_evaluations: int = 8
 
     def values(self, x: np.ndarray) -> tuple[float, ...]:
@@ -398,8 +398,9 @@ class _Search:
         for k, v in zip(self.keys, values):
             p = perturbed(p, k, v)  # ParameterError (a ValueError) outside the parameter rules
         option = DesignOption(self.keys, tuple(float(v) for v in self.nominal), values, False, [])
-        self.progress(option.change_text())
+        self.step.begin(option.change_text())
         diagram = bifurcation_diagram(p, self.speed_range)
+        self.step()
         band = diagram.sev_band_kmh
         g = _gap(band, self.low, self.high)
         lost = [info["at_speed_kmh"] for info in diagram.branch_info if info["failed"]]
@@ -513,7 +514,7 @@ def clear_operating_range(
     speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
     diagram: BifurcationDiagram | None = None,
     search_factor: float = 3.0,
-    progress: Callable[[str], None] | None = None,
+    progress: Progress | None = None,
 ) -> DesignResult:
     """Least change of each key (and of the ``combine`` keys together) that clears the range.
 
@@ -533,20 +534,22 @@ def clear_operating_range(
     diagram
         The nominal diagram, if already computed.
     progress
-        Called with a short description before each bifurcation diagram.
+        Progress callback (:mod:`polywear.progress`): bifurcation diagrams computed, total
+        unknown; the message names the change before each diagram.
     """
     lo, hi = (float(v) for v in operating_range_kmh)
     if not lo < hi:
         raise ValueError(f"operating range {lo} {hi}: need low < high [km/h]")
     if not max_relative_change > 0.0:
         raise ValueError(f"max_relative_change = {max_relative_change!r}: must be positive")
-    say = progress or (lambda message: None)
+    step = StepCounter(progress)
     # every diagram covers the operating range and its margin: a band starting just above
     # the speed range but inside the operating range must not be missed
     speed_range_kmh = (min(speed_range_kmh[0], max(lo - margin_kmh, 0.5 * lo)), max(speed_range_kmh[1], hi + margin_kmh))
     if diagram is None:
-        say("nominal bifurcation diagram")
+        step.begin("nominal bifurcation diagram")
         diagram = bifurcation_diagram(params, speed_range_kmh)
+        step()
     original = diagram
     model = get_model(params.model)
     keys, combine = tuple(dict.fromkeys(keys)), tuple(dict.fromkeys(combine))
@@ -577,7 +580,7 @@ def clear_operating_range(
     for group in [(k,) for k in keys] + ([combine] if len(combine) > 1 else []):
         search = _Search(params, group, np.array([nominal_value(params, k) for k in group]), low, high,
                          max_relative_change, max(search_factor, 1.0 + max_relative_change), tuple(speed_range_kmh),
-                         say)
+                         step)
         g1 = np.array([grad.get(("first_bifurcation", k), 0.0) for k in group])
         g2 = np.array([grad.get(("second_bifurcation", k), 0.0) for k in group])
         options.append(_best_option(search, g1, g2, band))

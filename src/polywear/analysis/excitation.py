@@ -10,13 +10,13 @@ steady rolling and starts outside it grow to the stable cycle.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Callable
 
 import numpy as np
 
 from ..models import get_model
 from ..models.base import kmh_to_ms
 from ..results import Result
+from ..progress import Progress, StepCounter
 from .bifurcation import BifurcationDiagram, CyclePoint
 from .simulation import SimulationResult, simulate
 
@@ -139,17 +139,18 @@ def settling_time(diagram: BifurcationDiagram, speed_kmh: float, cycles, factor:
 
 
 def excitation_portraits(diagram: BifurcationDiagram, speeds_kmh, duration_s: float | None = None,
-                         on_run: Callable[[], None] | None = None) -> list[ExcitationPortrait]:
+                         progress: Progress | None = None) -> list[ExcitationPortrait]:
     """Cycles from the diagram and trajectories from inside/outside each cycle at every speed.
 
     ``duration_s`` [s] per start; by default long enough for the slowest attractor there
-    to settle (:func:`settling_time`). ``on_run()`` is called after each simulation
-    (progress)."""
+    to settle (:func:`settling_time`). ``progress(runs done, None, "speed, start")`` is
+    called after each simulation (:mod:`polywear.progress`)."""
     params = diagram.params
     model = get_model(params.model)
     p = model.pack(params)
     x = diagram.state_names.index("x")
     out = []
+    step = StepCounter(progress)
     for speed in speeds_kmh:
         in_linear = any(a <= speed <= b for a, b in diagram.linear_band_kmh)
         in_sev = any(a <= speed <= b for a, b in diagram.sev_band_kmh)
@@ -173,8 +174,7 @@ def excitation_portraits(diagram: BifurcationDiagram, speeds_kmh, duration_s: fl
         runs = []
         for label, initial in starts.items():
             runs.append(replace(simulate(params, speed, duration, initial=initial), label=label))
-            if on_run is not None:
-                on_run()
+            step(f"{speed:.1f} km/h, {label}")
         out.append(ExcitationPortrait(speed, regime, cycles, runs))
     return out
 

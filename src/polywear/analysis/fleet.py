@@ -44,6 +44,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from .. import __version__
 from ..params import ADHESION_SCALE, ParameterError, Params, get_value, to_toml
+from ..progress import Progress, report, shifted
 from ..results import Result
 
 __all__ = ["FleetParameter", "FleetUsage", "FleetSpec", "load_fleet_spec", "sample_fleet", "FleetEvaluator",
@@ -507,12 +508,13 @@ def _checkpoint_path(out_dir: Path) -> Path:
 
 
 def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", workers=None, scheduler=None,
-               batch_size=None, checkpoint_dir=None, resume: bool = False, on_progress=None,
+               batch_size=None, checkpoint_dir=None, resume: bool = False, progress: Progress | None = None,
                reference=None) -> FleetResult:
     """Evaluate the fleet; with ``checkpoint_dir`` save every ``spec.checkpoint_every`` cars
     (``resume`` continues from the checkpoint, which must belong to the same params and spec).
     Every round of ``checkpoint_every`` cars is one :func:`~polywear.parallel.map_batched` call
-    (a new pool on the ``processes`` backend); without ``checkpoint_dir`` all cars are one round."""
+    (a new pool on the ``processes`` backend); without ``checkpoint_dir`` all cars are one round.
+    ``progress`` (:mod:`polywear.progress`): cars done of ``spec.samples``."""
     from ..parallel import map_batched
     from .bifurcation import bifurcation_diagram
     from .fast_band import _FIXED_RANGE, FastBand, band_reference
@@ -542,13 +544,12 @@ def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", w
         values[:done] = data["values"][:done]
         status = [str(s) for s in data["status"][:done]]
         paths = [str(s) for s in data["paths"][:done]]
-        if on_progress:
-            on_progress(done)
+        report(progress)(done, spec.samples)
     every = spec.checkpoint_every if ckpt is not None else spec.samples  # no checkpoint: one round
     for start in range(len(status), spec.samples, every):
         chunk = X[start:start + every]
         results = map_batched(evaluator, list(enumerate(chunk, start)), backend=backend, workers=workers, scheduler=scheduler,
-                              batch_size=batch_size, on_progress=on_progress)
+                              batch_size=batch_size, progress=shifted(progress, start, spec.samples))
         values[start:start + len(chunk)] = [r[0] for r in results]
         status += [r[1] for r in results]
         paths += [r[2] for r in results]

@@ -57,6 +57,7 @@ from ..params import (
     to_toml,
     with_updates,
 )
+from ..progress import Progress
 from ..results import Result
 from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH
 
@@ -482,7 +483,7 @@ def global_sensitivity(
     workers: int | None = None,
     scheduler: str | None = None,
     batch_size: int | None = None,
-    on_progress=None,
+    progress: Progress | None = None,
     fast_band: bool = True,
 ) -> GlobalSensitivityResult:
     """Run the study of ``params.study`` on the given backend (see :func:`polywear.parallel.map_batched`).
@@ -502,8 +503,9 @@ def global_sensitivity(
         Dask scheduler address, e.g. ``tcp://host:8786`` (backend ``"dask"``).
     batch_size : int, optional
         Samples per task.
-    on_progress : callable, optional
-        Called with the number of samples finished, after every batch.
+    progress : callable, optional
+        Progress callback (:mod:`polywear.progress`): samples finished of all samples,
+        after every batch.
     fast_band : bool
         With ``outputs = "bifurcation"``: try the fast band path
         (:mod:`polywear.analysis.fast_band`, warm-started from the nearest of the nominal and
@@ -547,7 +549,7 @@ def global_sensitivity(
         params, tuple(problem["names"]), study.outputs, study.speed_range_kmh, study.operating_range_kmh, fast
     )
     results = map_batched(evaluator, list(X), backend=backend, workers=workers, scheduler=scheduler,
-                          batch_size=batch_size, on_progress=on_progress)
+                          batch_size=batch_size, progress=progress)
     Y = np.array([r[0] for r in results], dtype=float)
     status = [r[1] for r in results]
     n_fast = sum(r[1].fast for r in results)  # fast band path; the others: continuation

@@ -32,6 +32,7 @@ from ..models import get_model
 from ..results import Result
 from ..models.base import ms_to_kmh
 from ..params import ADHESION_SCALE, PAPER_KEYS, Params, get_value, with_updates
+from ..progress import Progress, StepCounter
 from ..units import DEFAULT_SPEED_RANGE_KMH
 from .bifurcation import BifurcationDiagram, bifurcation_diagram
 from .derivatives import rhs_directional
@@ -274,6 +275,7 @@ def local_sensitivity(
     step: float = 1e-4,
     speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
     diagram: BifurcationDiagram | None = None,
+    progress: Progress | None = None,
     **diagram_options,
 ) -> SensitivityResult:
     """Sensitivity of every bifurcation speed to every parameter key.
@@ -298,6 +300,9 @@ def local_sensitivity(
         Speeds of the nominal (and perturbed) diagrams [km/h].
     diagram : BifurcationDiagram, optional
         The nominal diagram, if already computed.
+    progress : callable, optional
+        Progress callback (:mod:`polywear.progress`): continuation steps of all the
+        diagrams computed, total unknown.
     **diagram_options
         Passed to :func:`polywear.analysis.bifurcation.bifurcation_diagram`.
 
@@ -313,6 +318,8 @@ def local_sensitivity(
         raise ValueError(f"step = {step!r}: must be positive")
     model = get_model(params.model)
     p = model.pack(params)
+    if progress is not None:
+        diagram_options = {**diagram_options, "progress": StepCounter(progress).relay}
     diagram = diagram or bifurcation_diagram(params, speed_range_kmh, **diagram_options)
     nominal_q = _quantities(diagram)
     rows = []

@@ -43,6 +43,7 @@ from ..models import get_model
 from ..results import Result
 from ..models.base import kmh_to_ms
 from ..params import Params, get_value, to_toml, with_updates
+from ..progress import Progress, StepCounter
 from ..settings import check_count, check_fraction, check_positive
 from ..solvers.integrate import METHODS, StepStats, integrate
 
@@ -551,14 +552,15 @@ def simulate_disturbances(
     duration_s: float = 1.0,
     *,
     settings: SimulationSettings = SimulationSettings(),
-    on_run=None,
+    progress: Progress | None = None,
 ) -> SimulationSet:
-    """One run per disturbance of ``x`` [m] (the paper's Fig. 5); ``on_run()`` after each."""
+    """One run per disturbance of ``x`` [m] (the paper's Fig. 5); ``progress(runs done,
+    runs, label)`` after each (:mod:`polywear.progress`)."""
     runs = []
+    step = StepCounter(progress, len(disturbances))
     for d in disturbances:
         runs.append(_run(params, speed_kmh, duration_s, float(d), None, settings, f"x0 {d * 1e3:+g} mm"))
-        if on_run:
-            on_run()
+        step(runs[-1].label)
     return SimulationSet(tuple(runs), "disturbance_m", tuple(float(d) for d in disturbances))
 
 
@@ -571,14 +573,15 @@ def simulate_values(
     *,
     disturbance: float = 1e-4,
     settings: SimulationSettings = SimulationSettings(),
-    on_run=None,
+    progress: Progress | None = None,
 ) -> SimulationSet:
-    """One run per value of the configuration ``key`` (the paper's Figs. 7 and 8)."""
+    """One run per value of the configuration ``key`` (the paper's Figs. 7 and 8);
+    ``progress(runs done, runs, label)`` after each (:mod:`polywear.progress`)."""
     get_value(params, key)  # an unknown key fails here, before any run
     runs = []
+    step = StepCounter(progress, len(values))
     for v in values:
         varied = with_updates(params, {key: v})
         runs.append(_run(varied, speed_kmh, duration_s, disturbance, None, settings, f"{key} = {v:g}"))
-        if on_run:
-            on_run()
+        step(runs[-1].label)
     return SimulationSet(tuple(runs), key, tuple(float(v) for v in values))

@@ -44,6 +44,7 @@ from ..models import get_model
 from ..results import Result
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, ParameterError, to_toml
+from ..progress import Progress, StepCounter
 from ..settings import check_count, check_fraction, check_order, check_positive
 from ..solvers.continuation import BranchPoint, ContinuationSettings, fold_near
 from ..units import DEFAULT_SPEED_RANGE_KMH
@@ -640,11 +641,12 @@ def stability_map(
     operating_range_kmh: tuple[float, float] | None = None,
     folds: bool = True,
     settings: MapSettings = MapSettings(),
-    on_step=None,
+    progress: Progress | None = None,
 ) -> StabilityMap:
     """Hopf and fold-of-cycles curves of ``key`` over ``value_range`` and speeds [km/h].
 
-    ``on_step()`` is called after every continuation step (for a progress display).
+    ``progress(steps done, None)`` is called after every continuation step
+    (:mod:`polywear.progress`).
     This is ``polywear map`` and ``pw.stability_map``.
 
     Parameters
@@ -663,8 +665,8 @@ def stability_map(
         Also continue the folds of cycles (the SEV band's hard ends), not only Hopf points.
     settings : MapSettings
         Step control of the two-parameter continuation.
-    on_step : callable, optional
-        Progress callback, no arguments.
+    progress : callable, optional
+        Progress callback (:mod:`polywear.progress`), total unknown.
 
     Returns
     -------
@@ -674,6 +676,7 @@ def stability_map(
     from .bifurcation import bifurcation_diagram
     from .stability import stability_analysis
 
+    on_step = StepCounter(progress)  # called by the curve continuation after every step
     lo, hi = (float(v) for v in value_range)
     if not lo < hi:
         raise ValueError(f"range {lo} {hi}: need low < high")

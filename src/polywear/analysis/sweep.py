@@ -32,6 +32,7 @@ from ..models import get_model
 from ..results import Result
 from ..models.base import kmh_to_ms
 from ..params import Params, to_toml
+from ..progress import Progress, StepCounter
 from ..solvers.integrate import integrate
 from ..units import plot_scale
 from .simulation import SimulationSettings, classify_window, initial_state
@@ -228,11 +229,12 @@ def sweep(
     chunk_s: float = 0.25,
     max_duration_s: float = 4.0,
     map=map,  # noqa: A002 - the builtin is the default executor
-    on_run=None,
+    progress: Progress | None = None,
 ) -> SweepResult:
     """Steady states at each speed [km/h] from small and large disturbances of ``x`` [m]
     and along increasing and decreasing speed. ``map`` runs the independent small/large
-    starts (e.g. a process pool's ``map``); ``on_run()`` is called after every run."""
+    starts (e.g. a process pool's ``map``); ``progress(runs done, runs, start)`` is
+    called after every run (:mod:`polywear.progress`)."""
     speeds = np.unique(np.asarray(speeds_kmh, dtype=float))
     if speeds.size == 0 or not np.all(np.isfinite(speeds)) or speeds[0] <= 0.0:
         raise ValueError(f"speeds {speeds_kmh!r}: need at least one positive finite speed [km/h]")
@@ -242,10 +244,10 @@ def sweep(
     jobs = [(params, v, s, d, settings, chunk_s, max_duration_s)
             for s, d in (("small", small), ("large", large)) for v in speeds]
     independent = []
+    step = StepCounter(progress, 4 * speeds.size)
     for run in map(_settle_job, jobs):
         independent.append(run)
-        if on_run:
-            on_run()
+        step(f"{run.start} start at {run.speed_kmh:.1f} km/h")
     runs = {"small": independent[: speeds.size], "large": independent[speeds.size:]}
     for start, order in (("up", speeds), ("down", speeds[::-1])):
         chain = []
@@ -256,8 +258,7 @@ def sweep(
                 run = settle(params, v, chain[-1].final_state, start=start, settings=settings,
                              chunk_s=chunk_s, max_duration_s=max_duration_s)
             chain.append(run)
-            if on_run:
-                on_run()
+            step(f"{start} start at {v:.1f} km/h")
         runs[start] = sorted(chain, key=lambda r: r.speed_kmh)
     return SweepResult(params=params, speeds_kmh=speeds, runs=runs, small=float(small), large=float(large),
                        settings=settings, chunk_s=float(chunk_s), max_duration_s=float(max_duration_s))

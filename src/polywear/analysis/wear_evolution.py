@@ -39,6 +39,7 @@ from ..models import get_model
 from ..models.base import kmh_to_ms
 from ..models.profile import coupled_model, patch_sinc, profile_vector
 from ..params import Params, to_toml
+from ..progress import Progress
 from ..results import Result
 from ..solvers.integrate import integrate
 from .wear_law import energetic_rate, friction_power, profile_samples
@@ -505,13 +506,13 @@ class EvolutionResult(Result):
 
 
 def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000.0, revolutions: int = 16,
-           on_step=None) -> EvolutionResult:
+           progress: Progress | None = None) -> EvolutionResult:
     """Worn profile from seeded roughness over ``distance_km`` [km] on a drive cycle.
 
     ``cycle``: ((speed [km/h], share), ...), default ``params.wear.cycle_shares()``;
     ``step_km``: distance step; ``revolutions``: simulated revolutions per window where
     the tread vibrates (3 where steady rolling is stable: nothing drifts there);
-    ``on_step(distance_km)`` after every step.
+    ``progress(km done, distance_km)`` after every step (:mod:`polywear.progress`).
     """
     if not (math.isfinite(distance_km) and distance_km > 0):
         raise ValueError(f"distance {distance_km!r} km: must be positive")
@@ -585,8 +586,8 @@ def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000
         distance.append(done)
         orders_hist.append([w.order for w in wins])
         locked_hist.append([w.locked and math.isfinite(w.order) for w in wins])
-        if on_step is not None:
-            on_step(done)
+        if progress is not None:
+            progress(done, distance_km, "")
     distance = np.array(distance)
     steps = np.diff(distance)
     return EvolutionResult(params=params, distance_km=distance, harmonics=np.array(history),

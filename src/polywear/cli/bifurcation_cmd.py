@@ -80,13 +80,13 @@ def bifurcation(
         from ..analysis.bifurcation import bifurcation_diagram
         from ..solvers.continuation import ContinuationSettings
 
-        with progress("continuation", total=None, enabled=not quiet) as advance:
+        with progress("continuation steps", enabled=not quiet) as update:
             result = bifurcation_diagram(
                 params,
                 (lo, hi),
                 ContinuationSettings(n_intervals=n_intervals),
                 n_speeds=n_speeds or 400,
-                on_step=lambda b, v: advance(1),
+                progress=update,
             )
         summary = result.summary()
     if out:
@@ -107,8 +107,8 @@ def _sweep(params, speed_range, n_speeds, quiet):
     from ..analysis.sweep import sweep
 
     speeds = np.linspace(speed_range[0], speed_range[1], n_speeds)
-    with progress("sweep", total=4 * n_speeds, enabled=not quiet) as advance:
-        return sweep(params, speeds, on_run=lambda *a: advance(1))
+    with progress("sweep", enabled=not quiet) as update:
+        return sweep(params, speeds, progress=update)
 
 
 def _print_summary(s: dict) -> None:

@@ -57,8 +57,8 @@ def calibrate(
 
     observations = read_observations(observed, params)
     info(f"calibrate: {len(vary)} parameter(s) to {len(observations)} observation(s) ...", quiet)
-    with progress("model evaluations", None, enabled=not quiet) as advance:
-        result = fit(params, observations, vary, (lo, hi), profile=profile, on_evaluation=advance)
+    with progress("model evaluations", enabled=not quiet) as update:
+        result = fit(params, observations, vary, (lo, hi), profile=profile, progress=update)
     if out:
         write_output(out, result.save, quiet)
     if fitted:

@@ -260,29 +260,51 @@ def info(message: str, quiet: bool = False) -> None:
         typer.echo(message, err=True)
 
 
+def status_lines(prefix: str, quiet: bool = False) -> Callable[[float, float | None, str], None]:
+    """A progress callback (:mod:`polywear.progress`) that writes each message as a status
+    line on stderr (:func:`info`): for long stages rather than many small steps."""
+
+    def show(done: float, total: float | None, message: str = "") -> None:
+        if message:
+            info(f"{prefix}{message} ...", quiet)
+
+    return show
+
+
 @contextmanager
-def progress(description: str, total: float | None, enabled: bool = True) -> Iterator[Any]:
-    """A rich progress bar on stderr (a terminal only: logs stay clean); yields ``advance(n=1)``."""
+def progress(description: str, enabled: bool = True) -> Iterator[Any]:
+    """A rich progress bar on stderr (a terminal only: logs stay clean).
+
+    Yields a progress callback ``update(done, total, message)`` (the library's convention,
+    :mod:`polywear.progress`) to pass as ``progress=`` to an entry point: the bar shows
+    ``done/total`` (``done`` alone while the total is unknown) and the latest message.
+    """
     from rich.console import Console
+
+    from ..progress import report
 
     console = Console(stderr=True)
     if not (enabled and console.is_terminal):
-        yield lambda n=1: None
+        yield report(None)
         return
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+    from rich.progress import BarColumn, Progress, ProgressColumn, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+    from rich.text import Text
 
-    count = "{task.completed:.0f}/{task.total:.0f}" if total is not None else "{task.completed:.0f} steps"
-    columns = [
-        TextColumn("[progress.description]{task.description}"),
-        BarColumn(),
-        TextColumn(count),
-        TimeElapsedColumn(),
-    ]
-    if total is not None:
-        columns.append(TimeRemainingColumn())
+    class Count(ProgressColumn):
+        def render(self, task) -> Text:
+            total = "" if task.total is None else f"/{task.total:.0f}"
+            return Text(f"{task.completed:.0f}{total}")
+
+    columns = [TextColumn("[progress.description]{task.description}"), BarColumn(), Count(), TimeElapsedColumn(),
+               TimeRemainingColumn()]
     with Progress(*columns, console=console, transient=True) as bar:
-        task = bar.add_task(description, total=total)
-        yield lambda n=1: bar.advance(task, n)
+        task = bar.add_task(description, total=None)
+
+        def update(done: float, total: float | None, message: str = "") -> None:
+            text = {"description": f"{description}: {message}"} if message else {}  # else keep the last one
+            bar.update(task, completed=done, total=total, **text)
+
+        yield update
 
 
 def write_figure(path: Path, make_figure, quiet: bool = False) -> None:

@@ -85,12 +85,12 @@ def design(
     check_param_keys((*keys, *(combine or ())))
     info(f"design: {len(keys) + bool(combine)} options, each searched in both directions by bifurcation diagrams ...",
          quiet)
-    with progress("design: bifurcation diagrams", total=None, enabled=not quiet) as advance:
+    with progress("design: bifurcation diagrams", enabled=not quiet) as update:
         try:
             result = clear_operating_range(
                 params, operating_range, keys=keys, combine=tuple(combine or ()), max_relative_change=max_change,
                 margin_kmh=margin, speed_range_kmh=speed_range, search_factor=search_factor,
-                progress=lambda message: advance(1),
+                progress=update,
             )
         except ValueError as exc:
             raise UserError(str(exc)) from None

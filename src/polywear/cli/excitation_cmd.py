@@ -58,9 +58,9 @@ def excitation(
     from ..analysis.excitation import default_speeds, excitation_portraits, portraits_figure
 
     info("excitation: bifurcation diagram ...", quiet)
-    with progress("continuation steps", total=None, enabled=not quiet) as advance:
+    with progress("continuation steps", enabled=not quiet) as update:
         diagram = bifurcation_diagram(params, (min([20.0, *(speed or [])]) * 0.5, max([300.0, *(speed or [])]) * 1.1),
-                                      on_step=lambda b, v: advance(1))
+                                      progress=update)
     speeds = speed or default_speeds(diagram, params.operating.speed_kmh)
     if not speeds:  # the safe car: an answer, not an error
         lo, hi = diagram.speed_range_kmh
@@ -71,8 +71,8 @@ def excitation(
             typer.echo(note)
         return
     info(f"excitation: simulating at {', '.join(f'{v:.1f}' for v in speeds)} km/h ...", quiet)
-    with progress("excitation: simulations", total=None, enabled=not quiet) as advance:
-        portraits = excitation_portraits(diagram, speeds, duration, on_run=advance)
+    with progress("excitation: simulations", enabled=not quiet) as update:
+        portraits = excitation_portraits(diagram, speeds, duration, progress=update)
     if plot:
         write_figure(plot, lambda: portraits_figure(portraits), quiet)
     summary = {"model": params.model, "portraits": [p.summary() for p in portraits]}

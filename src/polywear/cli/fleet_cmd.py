@@ -62,11 +62,11 @@ def fleet(
     chosen = chosen_backend(backend, scheduler, 5.0)
     info(f"fleet of {fleet_spec.samples} {params.model} cars, {len(fleet_spec.parameter)} parameters, on {chosen}",
          quiet)
-    with progress("fleet", total=fleet_spec.samples, enabled=not quiet) as advance, dask_connect_timeout(
+    with progress("fleet", enabled=not quiet) as update, dask_connect_timeout(
         5.0 if chosen == "dask" else None
     ):
         result = fleet_risk(params, fleet_spec, backend=chosen, workers=workers, scheduler=scheduler,
-                            checkpoint_dir=checkpoint, resume=resume, on_progress=advance)
+                            checkpoint_dir=checkpoint, resume=resume, progress=update)
     if out:
         write_output(out, result.save, quiet)
     if plot:

@@ -170,9 +170,9 @@ def loops(
     params = load(config, set_)
     if v_mean is None:
         v_mean = _operating_sliding_velocity(params)
-    with progress("loops", total=len(freqs), enabled=not quiet) as advance:
+    with progress("loops", enabled=not quiet) as update:
         result = hysteresis_loops(params.friction, v_mean, v_amplitude, freqs, points_per_period=points,
-                                  progress=advance)
+                                  progress=update)
     _save(result, out, quiet)
     if plot:
         _write_plot(result, plot, quiet=quiet)
@@ -313,9 +313,9 @@ def fit_loops(
     params = load(config, set_)
     try:
         data = read_loops_csv(path)
-        with progress("fitting loops", total=None, enabled=not quiet) as advance:
+        with progress("fitting loops: model evaluations", enabled=not quiet) as update:
             result = fit_measured_loops(*data, params.friction, harmonics=harmonics, confidence=confidence,
-                                        progress=advance, source=str(path))
+                                        progress=update, source=str(path))
     except FrictionDataError as exc:
         raise UserError(str(exc)) from None
     _report_fit(result, params, path, out, plot, json_, quiet)

@@ -69,9 +69,9 @@ def map_(
     lo, hi = range_
     if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
         raise UserError(f"--range {lo} {hi}: need finite low < high")
-    with progress(f"map of {param}: continuation steps", total=None, enabled=not quiet) as advance:
+    with progress(f"map of {param}: continuation steps", enabled=not quiet) as update:
         result = stability_map(params, param, (lo, hi), tuple(speed_range), operating_range, folds=not no_folds,
-                               on_step=advance)
+                               progress=update)
     if out:
         write_output(out, result.save, quiet)
     if plot:

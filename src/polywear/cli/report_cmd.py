@@ -18,9 +18,9 @@ from .common import (
     UserError,
     check_speed_range,
     emit_json,
-    info,
     load,
     output_folder,
+    status_lines,
 )
 
 
@@ -55,7 +55,7 @@ def report(
     # written into a new folder that replaces --out only when complete: never a mix of two runs
     with fresh_directory(out) as folder:
         result = run_report(params, folder, speed_range, operating_range,
-                            progress=lambda message: info(f"polywear report: {message} ...", quiet),
+                            progress=status_lines("polywear report: ", quiet),
                             wear_evolution_km=wear_km)
     if json_:
         emit_json(result.summary)

@@ -75,9 +75,9 @@ def sensitivity(
     for key in keys:
         if not parameter_direction(model, params, key).any():
             info(f"note: {key} does not enter model {params.model}; its sensitivity is 0", quiet)
-    with progress(f"{method.value} sensitivity: continuation steps", total=None, enabled=not quiet) as advance:
+    with progress(f"{method.value} sensitivity: continuation steps", enabled=not quiet) as update:
         try:
-            result = local_sensitivity(params, keys, method.value, step, (lo, hi), on_step=lambda b, v: advance(1))
+            result = local_sensitivity(params, keys, method.value, step, (lo, hi), progress=update)
         except ValueError as exc:
             raise UserError(str(exc)) from None
     for note in result.notes:  # why a bifurcation speed has no row (none in the range, an open band edge)

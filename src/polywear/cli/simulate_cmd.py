@@ -126,14 +126,14 @@ def simulate(
         raise UserError(f"{n_runs} runs: at most {MAX_RUNS} disturbances or sweep values")
     from ..solvers.integrate import IntegrationError
 
-    with progress(f"simulating {duration:g} s", total=n_runs, enabled=not quiet) as advance:
+    with progress(f"simulating {duration:g} s", enabled=not quiet) as update:
         try:
             if key:
                 result = simulate_values(params, key, values, speed, duration, disturbance=disturbances[0],
-                                         settings=settings, on_run=advance)
+                                         settings=settings, progress=update)
             else:
                 result = simulate_disturbances(params, disturbances, speed, duration, settings=settings,
-                                               on_run=advance)
+                                               progress=update)
         except IntegrationError as exc:
             raise UserError(str(exc)) from None
     runs = result.runs

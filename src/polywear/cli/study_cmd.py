@@ -67,12 +67,12 @@ def study(
         n_runs = study_.n_base * (D + 1)
     where = scheduler if chosen == "dask" else f"{workers or 'all'} local workers" if chosen == "processes" else "serial"
     info(f"{study_.method} study of {params.model}: {D} parameters, {n_runs} runs ({study_.outputs}) on {where}", quiet)
-    with progress(f"{study_.method} study", total=n_runs, enabled=not quiet) as advance, dask_connect_timeout(
+    with progress(f"{study_.method} study", enabled=not quiet) as update, dask_connect_timeout(
         connect_timeout if chosen == "dask" else None
     ):
         try:
             result = global_sensitivity(params, backend=chosen, workers=workers, scheduler=scheduler,
-                                        batch_size=batch_size, on_progress=advance)
+                                        batch_size=batch_size, progress=update)
         except OSError as exc:  # includes connection failures and timeouts of the Dask client
             raise UserError(f"cannot reach the Dask scheduler {scheduler} within {connect_timeout:g} s: {exc}") from None
     if out:

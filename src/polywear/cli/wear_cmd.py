@@ -220,15 +220,9 @@ def evolve_(
     from ..analysis.wear_evolution import evolve
     from .common import progress
 
-    with progress("wear evolve", total=distance_km, enabled=not quiet) as advance:
-        done = [0.0]
-
-        def on_step(distance):
-            advance(distance - done[0])
-            done[0] = distance
-
+    with progress("wear evolve [km]", enabled=not quiet) as update:
         try:
-            result = evolve(params, distance_km, pairs, step_km, revolutions, on_step=on_step)
+            result = evolve(params, distance_km, pairs, step_km, revolutions, progress=update)
         except (ValueError, RuntimeError, ArithmeticError) as exc:
             raise UserError(f"wear evolve: {exc}") from None
     if out:

@@ -11,6 +11,7 @@ import numpy as np
 from ... import __version__
 from ...params import Friction, with_updates
 from ...physics.lugre import steady_friction
+from ...progress import Progress, StepCounter
 from ...results import Result
 from .curve import STEADY_PARAMETERS, _axes, _friction_toml, _steady_args, steady_curve
 from .data import FrictionDataError
@@ -456,7 +457,7 @@ def fit_loops(
     sigma0_range: tuple[float, float] = (1.0, 1e6),
     confidence: float = 0.95,
     rtol: float = 1e-8,
-    progress: Callable[[], None] | None = None,
+    progress: Progress | None = None,
     source: str = "",
 ) -> LoopFit:
     """Fit sigma0 and sigma1 to measured periodic friction loops.
@@ -473,7 +474,8 @@ def fit_loops(
     least-squares solution (variable projection); sigma0 is found by a scan of
     ``sigma0_range`` [1/m] in half-decade steps followed by a bounded Brent search in
     log sigma0. Standard errors come from the Jacobian at the optimum (central
-    difference in sigma0, analytic in sigma1).
+    difference in sigma0, analytic in sigma1). ``progress`` (:mod:`polywear.progress`)
+    counts the model evaluations (one per sigma0, all loops), total unknown.
     """
     from scipy.optimize import minimize_scalar
 
@@ -509,6 +511,8 @@ def fit_loops(
         groups.append((idx, period, _fourier_velocity(t_all[idx], v_all[idx], f, harmonics), grid,
                        where[1:-1]))
 
+    evaluated = StepCounter(progress)
+
     def model(sigma0: float):
         """z, dz/dt and v of the model at every point, for this sigma0."""
         friction = base.model_copy(update={"sigma0_per_m": sigma0})
@@ -516,8 +520,7 @@ def fit_loops(
         for idx, period, v_of_t, grid, where in groups:
             loop, _ = _periodic_orbit(friction, v_of_t, period, grid, rtol, None)
             z[idx], zdot[idx], v[idx] = loop.deflection[where], loop.rate[where], loop.velocity[where]
-        if progress is not None:
-            progress()
+        evaluated(f"sigma0 = {sigma0:.4g} 1/m")
         return z, zdot, v
 
     evaluations: dict[float, tuple] = {}

@@ -22,6 +22,7 @@ from ...physics.lugre import (
     steady_friction,
     stribeck,
 )
+from ...progress import Progress, StepCounter
 from ...results import Result
 from .curve import SteadyCurve, _axes, _friction_toml, _steady_args, steady_curve
 
@@ -256,7 +257,7 @@ def hysteresis_loops(
     points_per_period: int = 400,
     rtol: float = 1e-10,
     atol: float | None = None,
-    progress: Callable[[], None] | None = None,
+    progress: Progress | None = None,
 ) -> HysteresisLoops:
     """Periodic LuGre friction loops for a sinusoidal sliding velocity (the paper's Fig. 1).
 
@@ -278,7 +279,7 @@ def hysteresis_loops(
     rtol, atol : float
         Integration tolerances (see :func:`bristle_response`).
     progress : callable, optional
-        Called once per finished frequency.
+        Progress callback (:mod:`polywear.progress`), once per finished frequency.
     """
     freqs = np.atleast_1d(np.asarray(frequencies_hz, dtype=float))
     if freqs.size == 0 or not np.all(np.isfinite(freqs)) or np.any(freqs <= 0.0):
@@ -288,11 +289,11 @@ def hysteresis_loops(
     if points_per_period < 8:
         raise ValueError(f"points_per_period = {points_per_period}: must be at least 8")
     rows = []
+    step = StepCounter(progress, freqs.size)
     for f in freqs:
         t = np.linspace(0.0, 1.0 / f, points_per_period + 1)
         rows.append(_periodic_orbit(friction, _sinusoid(v_mean, v_amplitude, f), 1.0 / f, t, rtol, atol))
-        if progress is not None:
-            progress()
+        step(f"{f:g} Hz")
     stack = lambda name: np.array([getattr(loop, name)[:-1] for loop, _ in rows])  # noqa: E731
     return HysteresisLoops(
         friction=friction,
