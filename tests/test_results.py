@@ -207,7 +207,7 @@ def results(diagram, tmp_path_factory):
 
 
 def test_every_public_result_class_is_covered():
-    """Every class with a summary() in the analysis package derives from Result and is a case here."""
+    """The public result classes of the analysis package derive from Result, and each is a case here."""
     import importlib
     import pkgutil
 
@@ -217,7 +217,11 @@ def test_every_public_result_class_is_covered():
     for info in pkgutil.walk_packages(analysis.__path__, "polywear.analysis."):
         module = importlib.import_module(info.name)
         for obj in vars(module).values():
-            if isinstance(obj, type) and obj.__module__ == info.name and issubclass(obj, Result):
+            if not (isinstance(obj, type) and obj.__module__ == info.name) or obj.__name__.startswith("_"):
+                continue
+            if hasattr(obj, "summary") and hasattr(obj, "plot"):  # what makes a result
+                assert issubclass(obj, Result), obj
+            if issubclass(obj, Result):
                 found.add(obj.__name__)
     assert found >= {"StabilityResult", "BifurcationDiagram", "SimulationResult", "SimulationSet", "SweepResult",
                      "SensitivityResult", "GlobalSensitivityResult", "DesignResult", "ExcitationPortrait",
@@ -302,3 +306,25 @@ def test_save_is_atomic_and_leaves_no_partial_file(results, tmp_path):
     with pytest.raises(RuntimeError):
         broken.save(target)
     assert target.read_text() == "old" and [p.name for p in tmp_path.iterdir()] == ["s.json"]
+
+
+def test_report_holds_its_results(tmp_path):
+    """The main job returns the result objects it computed; summary.json is derived from them."""
+    from polywear.analysis.bifurcation import BifurcationDiagram
+    from polywear.analysis.design import DesignResult
+    from polywear.analysis.sensitivity import SensitivityResult
+    from polywear.analysis.simulation import SimulationSet
+    from polywear.analysis.wear_map import WearMap
+    from polywear.report import run_report
+
+    report = run_report(Params(), tmp_path)
+    assert isinstance(report.diagram, BifurcationDiagram) and report.stability is report.diagram.stability
+    assert isinstance(report.sensitivity, SensitivityResult) and isinstance(report.design, DesignResult)
+    assert isinstance(report.disturbances, SimulationSet) and isinstance(report.wear_map, WearMap)
+    assert all(isinstance(p, Result) for p in report.portraits)
+    summary = report.summary()
+    assert json.loads((tmp_path / "summary.json").read_text()) == json.loads(json.dumps(summary, default=float))
+    assert summary["bifurcation"] == report.diagram.summary() and summary["design"] == report.design.summary()
+    assert summary["wear"] == report.wear.summary()
+    with xr.open_dataset(tmp_path / "bifurcation.nc", engine="h5netcdf") as saved:
+        np.testing.assert_array_equal(saved["speed_kmh"].values, report.diagram.to_xarray()["speed_kmh"].values)

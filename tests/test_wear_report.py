@@ -29,7 +29,9 @@ def test_sentences_say_sides_distance_and_locking():
 
 def test_section_with_the_map_only(tmp_path):
     params = with_updates(Params(), {"operating.speed_kmh": 110.0})
-    section = wear_section(params, (20.0, 300.0), lambda fig, name, caption: None, tmp_path)
+    result = wear_section(params, (20.0, 300.0), lambda fig, name, caption: None, tmp_path)
+    assert result.evolutions == [] and list(result.points.speeds_kmh) == [50.0, 80.0, 110.0, 120.0]
+    section = result.summary()
     assert section["evolutions"] == [] and (tmp_path / "wear_map.nc").exists()
     speeds = [r["speed_kmh"] for r in section["map_rows"]]
     assert speeds == [50.0, 80.0, 110.0, 120.0]  # the cycle's speeds and the operating speed
@@ -49,7 +51,9 @@ def test_section_with_map_and_a_short_evolution(tmp_path):
         saved[name] = caption
         plt.close(fig)
 
-    section = wear_section(params, (20.0, 120.0), save, tmp_path, evolution_km=2000.0, step_km=2000.0)
+    result = wear_section(params, (20.0, 120.0), save, tmp_path, evolution_km=2000.0, step_km=2000.0)
+    assert [label for label, _ in result.evolutions] == ["operating speed", "drive cycle"]
+    section = result.summary()
     assert {"wear_map.png", "wear_evolution_operating.png", "wear_evolution_cycle_polar.png"} <= set(saved)
     assert (tmp_path / "wear_map.nc").exists() and (tmp_path / "wear_evolution_cycle.nc").exists()
     assert [r["speed_kmh"] for r in section["map_rows"]] == [40.0, 45.0]

@@ -12,6 +12,7 @@ import html
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from . import __version__
 from .io import atomic_path, write_text
@@ -19,16 +20,59 @@ from .params import Params, to_toml
 from .progress import Progress, StepCounter
 from .units import DEFAULT_SPEED_RANGE_KMH
 
+if TYPE_CHECKING:
+    from .analysis.bifurcation import BifurcationDiagram
+    from .analysis.design import DesignResult
+    from .analysis.excitation import ExcitationPortrait
+    from .analysis.sensitivity import SensitivityResult
+    from .analysis.simulation import SimulationSet
+    from .analysis.stability import StabilityResult
+    from .analysis.wear_map import WearMap
+    from .report_wear import WearSection
+
 __all__ = ["Report", "operating_verdict", "run_report"]
 
 
 @dataclass
 class Report:
-    """Everything the main job computed, with the files it wrote."""
+    """Everything the main job computed: the result objects, the verdict at the operating
+    speed and the files written (name -> caption). :meth:`summary` is ``summary.json``."""
 
     params: Params
-    summary: dict
+    diagram: BifurcationDiagram
+    """The bifurcation diagram over the analysed speeds."""
+    verdict: dict
+    """What happens at the operating speed (:func:`operating_verdict`)."""
+    disturbances: SimulationSet
+    """Runs at the operating speed from small and large disturbances (the phase portraits)."""
+    sensitivity: SensitivityResult
+    design: DesignResult
+    wear: WearSection
+    """The linear wear map, the map at the drive-cycle speeds and the evolutions if run."""
+    portraits: list[ExcitationPortrait] = field(default_factory=list)
+    """Soft and hard self-excitation at a soft and a hard speed (empty if there is none)."""
     files: dict = field(default_factory=dict)
+
+    @property
+    def stability(self) -> StabilityResult:
+        """Linear stability of steady rolling (the diagram's)."""
+        return self.diagram.stability
+
+    @property
+    def wear_map(self) -> WearMap:
+        return self.wear.wear_map
+
+    def summary(self) -> dict:
+        """The JSON summary (``summary.json``, ``polywear report --json``), from the results."""
+        return {
+            "polywear_version": __version__,
+            "model": self.params.model,
+            "operating": self.verdict,
+            "bifurcation": self.diagram.summary(),
+            "sensitivity": self.sensitivity.summary(),
+            "design": self.design.summary(),
+            "wear": self.wear.summary(),
+        }
 
 
 def operating_verdict(diagram, params: Params, speed_kmh: float) -> dict:
@@ -194,7 +238,8 @@ def run_report(
     Returns
     -------
     Report
-        The summary (verdict, bands, sensitivities, design options) and the files written.
+        The results (diagram, runs, sensitivities, design options, wear), the verdict and
+        the files written; ``summary()`` is what ``summary.json`` holds.
     """
     import matplotlib
 
@@ -247,8 +292,9 @@ def run_report(
     from .analysis.excitation import default_speeds, excitation_portraits, portraits_figure
 
     speeds = default_speeds(diagram, speed)
-    if speeds:
-        save(portraits_figure(excitation_portraits(diagram, speeds)), "excitation.png",
+    portraits = excitation_portraits(diagram, speeds) if speeds else []
+    if portraits:
+        save(portraits_figure(portraits), "excitation.png",
              "Soft and hard self-excitation: cycles from the continuation and trajectories from inside and "
              "outside them (paper Fig. 2)")
     save(runs.plot()[0].figure, "phase_portraits.png", f"Phase portraits at {speed:g} km/h from small and large disturbances (paper Fig. 5)")
@@ -276,15 +322,8 @@ def run_report(
                         sev_band_kmh=(sev[0][0], sev[-1][1]) if sev and None not in (sev[0][0], sev[-1][1]) else None,
                         progress=stage.detail(""))
 
-    summary = {
-        "polywear_version": __version__,
-        "model": params.model,
-        "operating": verdict,
-        "bifurcation": diagram.summary(),
-        "sensitivity": sens.summary(),
-        "design": design.summary(),
-        "wear": wear,
-    }
+    report = Report(params, diagram, verdict, runs, sens, design, wear, portraits, files)
+    summary = report.summary()
     write_text(out_dir / "summary.json", json.dumps(summary, indent=2, default=float))
     write_text(out_dir / "params.toml", to_toml(params))
     files["summary.json"] = "everything above as JSON"
@@ -292,7 +331,7 @@ def run_report(
     write_text(out_dir / "report.html", _html(params, summary, verdict, files))
     stage()
     files["report.html"] = "this report"
-    return Report(params, summary, files)
+    return report
 
 
 def _html(params: Params, summary: dict, verdict: dict, files: dict) -> str:

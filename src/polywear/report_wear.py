@@ -5,13 +5,38 @@ from __future__ import annotations
 
 import html
 import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .params import Params
+
+if TYPE_CHECKING:
+    from .analysis.wear_evolution import EvolutionResult
+    from .analysis.wear_map import WearMap
 from .progress import Progress, StepCounter
 
-__all__ = ["wear_section", "wear_html", "wear_sentences"]
+__all__ = ["WearSection", "wear_section", "wear_html", "wear_sentences"]
+
+
+@dataclass
+class WearSection:
+    """The report's wear results: the linear map over the speed range, the map at the
+    operating and drive-cycle speeds, and the evolutions ``(label, result)`` if run."""
+
+    wear_map: WearMap
+    points: WearMap
+    evolutions: list[tuple[str, EvolutionResult]] = field(default_factory=list)
+
+    def summary(self) -> dict:
+        """The JSON-ready wear section of ``summary.json``, with the verdict in words."""
+        out = {"map_rows": self.points.summary()["rows"],
+               "linear_band_kmh": [list(b) for b in self.wear_map.linear_band_kmh],
+               "energetic_rate_mm3_per_j": self.wear_map.params.wear.energetic_rate_mm3_per_j,
+               "evolutions": [{"label": label, **result.summary()} for label, result in self.evolutions]}
+        out["sentences"] = wear_sentences(out)
+        return out
 
 
 def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: float | None = None,
@@ -21,7 +46,7 @@ def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: f
     The map over ``speed_range_kmh`` (300 speeds) is always computed (about a second);
     with ``evolution_km`` the evolution at the operating speed and on the drive cycle too
     (minutes). ``progress`` (:mod:`polywear.progress`) counts these stages. Returns the
-    JSON-ready summary of the section.
+    wear results (:class:`WearSection`).
     """
     import matplotlib.pyplot as plt
 
@@ -45,9 +70,7 @@ def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: f
                               "distances scale as 1/k_e")
     op = params.operating.speed_kmh
     at = sorted({op, *(v for v, _ in params.wear.cycle_shares())})
-    point = wear_map(params, at)
-    out = {"map_rows": point.summary()["rows"], "linear_band_kmh": [list(b) for b in m.linear_band_kmh],
-           "energetic_rate_mm3_per_j": params.wear.energetic_rate_mm3_per_j, "evolutions": []}
+    section = WearSection(m, wear_map(params, at))
     if evolution_km:
         runs = [("operating speed", ((op, 1.0),)), ("drive cycle", params.wear.cycle_shares())]
         for label, cycle in runs:
@@ -61,9 +84,8 @@ def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: f
             fig = plt.figure(figsize=(5.5, 5.5))
             result.plot_polar(fig.add_subplot(projection="polar"))
             save(fig, f"{stem}_polar.png", f"The worn tire at four distances, {label}")
-            out["evolutions"].append({"label": label, **result.summary()})
-    out["sentences"] = wear_sentences(out)
-    return out
+            section.evolutions.append((label, result))
+    return section
 
 
 def wear_sentences(section: dict) -> list[str]:

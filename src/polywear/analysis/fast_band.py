@@ -156,8 +156,7 @@ class Band(Result):
                 "hard_regions_kmh": (("hard_region", "end"), bands(self.hard_regions_kmh), {"units": "km/h"}),
             },
             coords={"amplitude_speed_kmh": np.array(self.amplitude_speeds_kmh, dtype=float), "end": ["low", "high"]},
-            attrs={"path": str(self.summary()["path"]), "reason": str(self.summary()["reason"] or ""),
-                   "detail": self.detail},
+            attrs={"path": str(self.summary()["path"]), "reason": str(self.summary()["reason"] or "")},
         )
 
     def plot(self, ax=None):

@@ -57,11 +57,12 @@ def report(
         result = run_report(params, folder, speed_range, operating_range,
                             progress=status_lines("polywear report: ", quiet),
                             wear_evolution_km=wear_km)
+    summary = result.summary()
     if json_:
-        emit_json(result.summary)
+        emit_json(summary)
         return
-    for warning in result.summary["bifurcation"].get("warnings", []):
+    for warning in summary["bifurcation"].get("warnings", []):
         typer.echo(f"warning: {warning}", err=True)
-    for line in text_summary(result.summary):
+    for line in text_summary(summary):
         typer.echo(line)
     typer.echo(f"report: {out / 'report.html'}")
