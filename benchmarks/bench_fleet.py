@@ -1,8 +1,8 @@
 """Fast band path and fleet risk: agreement with the full continuation, per-sample costs,
 Sobol and fleet extrapolations, Dask 1 -> 2 workers, cost growth (nothing is asserted).
 
-    .venv/bin/python benchmarks/bench_fleet.py agreement --model axle4dof --samples 200
-    .venv/bin/python benchmarks/bench_fleet.py sobol
+    .venv/bin/python benchmarks/bench_fleet.py agreement --model axle4dof --samples 200 --pilot 32
+    .venv/bin/python benchmarks/bench_fleet.py sobol --samples 16
     .venv/bin/python benchmarks/bench_fleet.py fleet --samples 400
     .venv/bin/python benchmarks/bench_fleet.py fleet --samples 100000 --backend processes
     .venv/bin/python benchmarks/bench_fleet.py dask --samples 200
@@ -101,23 +101,35 @@ def agreement(model: str, n: int, seed: int, n_pilot: int, amplitude_speeds=(80.
           f"{t_full / t_fast:.2f}x")
 
 
-def sobol(n_small: int) -> None:
-    """Sobol study of axle4dof, N = n_small (first and second order layout), 7 parameters, both
-    bifurcation speeds, 2 local processes; extrapolated to N = 1024."""
+def _cpu() -> float:
+    """CPU time [s] of this process and of its children waited for (the pool's workers)."""
+    import resource
+
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + kids.ru_utime + kids.ru_stime
+
+
+def sobol(n_base: int, modes=("fast", "full")) -> None:
+    """Sobol study of axle4dof, N = n_base (first-order layout: 9 runs per base sample),
+    7 parameters, both bifurcation speeds, 2 local processes, with the fast band path (and
+    its pilot stage) and/or the continuation only. CPU time (this process and the pool's
+    workers) and wall time; N = 1024 extrapolated linearly from the CPU time on 2 cores."""
+    from polywear.analysis.fast_band import pilot_size
     from polywear.analysis.global_sensitivity import global_sensitivity
 
-    for fast in (True, False):
+    for mode in modes:
         params = with_updates(Params(), {"model": "axle4dof", "study.method": "sobol", "study.outputs": "bifurcation",
-                                         "study.n_base": n_small, "study.second_order": False,
+                                         "study.n_base": n_base, "study.second_order": False,
                                          "study.bootstrap": 100})
-        t = time.perf_counter()
-        result = global_sensitivity(params, backend="processes", workers=2, fast_band=fast)
-        dt = time.perf_counter() - t
+        c, t = _cpu(), time.perf_counter()
+        result = global_sensitivity(params, backend="processes", workers=2, fast_band=mode == "fast")
+        dt, dc = time.perf_counter() - t, _cpu() - c
         runs = len(result.status)
-        print(f"axle4dof Sobol N = {n_small} (first order: {runs} runs), fast band {fast}: {dt:.1f} s, "
-              f"{result.settings.get('fast_band_samples', 0)} fast, failures {result.failures()}; "
-              f"N = 1024 ({1024 * 9} runs): ~{dt * 1024 / n_small / 60:.1f} min; "
-              f"with S2 ({1024 * 16} runs): ~{dt * 1024 * 16 / (n_small * 9) / 60:.1f} min")
+        pilot = pilot_size(runs) if mode == "fast" else 0
+        print(f"axle4dof Sobol N = {n_base} ({runs} runs), {mode}: wall {dt:.1f} s, CPU {dc:.1f} s "
+              f"({1e3 * dc / runs:.0f} ms per run incl. {pilot} pilot diagrams), "
+              f"{result.settings.get('fast_band_samples', 0)} on the fast path, failures {result.failures()}; "
+              f"N = 1024 ({1024 * 9} runs) on 2 free cores: ~{dc / runs * 1024 * 9 / 2 / 60:.1f} min")
 
 
 TOE_LOAD = [
@@ -155,20 +167,14 @@ def fleet(n: int, backends) -> None:
     needs) on n cars, on each backend (serial, 2 local processes). Wall time, CPU per car
     (this process and the pool's workers: ``getrusage`` of the children waited for) and
     cars per path."""
-    import resource
-
-    def cpu():
-        kids = resource.getrusage(resource.RUSAGE_CHILDREN)
-        return time.process_time() + kids.ru_utime + kids.ru_stime
-
     reference = _fleet_reference(_fleet_spec(n))
     for every, size in ((1, min(n // 10, WHOLE_BAND_CARS)), (100, n)):
         spec = _fleet_spec(size).model_copy(update={"band_every": every})
         for backend in backends:
             workers = 1 if backend == "serial" else 2
-            c, t = cpu(), time.perf_counter()
+            c, t = _cpu(), time.perf_counter()
             result = fleet_risk(Params(), spec, backend=backend, workers=workers, reference=reference)
-            dt, dc = time.perf_counter() - t, cpu() - c
+            dt, dc = time.perf_counter() - t, _cpu() - c
             s = result.summary()
             print(f"tread1dof fleet of {size}, band_every {every}, {backend} ({workers}): wall {dt:.1f} s = "
                   f"{1e3 * dt / size:.2f} ms per car, CPU {1e3 * dc / size:.2f} ms per car; paths {s['paths']}, "
@@ -220,12 +226,14 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=20261201)
     parser.add_argument("--backend", choices=("serial", "processes"), action="append",
                         help="fleet: backend(s) to time (default: both)")
+    parser.add_argument("--mode", choices=("fast", "full"), action="append",
+                        help="sobol: fast band path with pilot, or continuation only (default: both)")
     parser.add_argument("--pilot", type=int, default=32, help="pilot samples (references besides the nominal one)")
     args = parser.parse_args()
     if args.what == "agreement":
         agreement(args.model, args.samples, args.seed, args.pilot)
     elif args.what == "sobol":
-        sobol(min(args.samples, 16))
+        sobol(args.samples, args.mode or ("fast", "full"))
     elif args.what == "fleet":
         fleet(args.samples, args.backend or ("serial", "processes"))
     elif args.what == "dask":

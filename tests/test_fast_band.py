@@ -164,3 +164,26 @@ def test_cycle_near_a_hopf_point_is_found_by_the_diagram():
     assert full.hopf_kmh[0] < 80.0 < full.sev_band_kmh[0][1]
     # square-root law from the Hopf point: ~2.5e-5 m at 0.16 km/h above it
     assert 1e-5 < full.amplitude_x_m[0] < 5e-5
+
+
+@pytest.mark.slow
+def test_a_second_reference_serves_its_hopf_signature():
+    """axle4dof at +-5 %: samples whose first Hopf point is hard (a Bautin point crossed)
+    fall back with the nominal reference alone (HOPF_SIGNATURE); with a reference of that
+    topology (another such sample) they take the fast path and agree with the continuation."""
+    base = with_updates(Params(), {"model": "axle4dof"})
+    rng = np.random.default_rng(20261201)
+    nominal = np.array([get_value(base, k) for k in DEFAULT_KEYS])
+    samples = [sample_params(base, DEFAULT_KEYS, nominal * (1.0 + 0.05 * (2.0 * rng.random(len(nominal)) - 1.0)))
+               for _ in range(10)]
+    refs, failed = pilot_references([base, samples[3]], amplitude_speeds_kmh=AMPLITUDE_SPEEDS, backend="serial")
+    assert not failed and [r.band.hopf_criticality for r in refs] == [("soft", "hard"), ("hard", "hard")]
+    alone = FastBand(refs[:1], amplitude_speeds_kmh=AMPLITUDE_SPEEDS)
+    both = FastBand(refs, amplitude_speeds_kmh=AMPLITUDE_SPEEDS)
+    paths = []
+    for params in (samples[5], samples[8], samples[9]):
+        assert alone.try_fast(params).reason is FallbackReason.HOPF_SIGNATURE
+        band = both(params)
+        paths.append(band.path)
+        assert_agrees(band, both.full(params))
+    assert paths.count(BandPath.FAST) >= 2, paths
