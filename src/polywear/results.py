@@ -4,9 +4,9 @@ Every public result (a bifurcation diagram, a simulation, a stability map, a wea
 friction fit, ...) derives from :class:`Result` and offers the same methods:
 
 - ``summary()``: a JSON-serialisable dict (what the command's ``--json`` prints);
-- ``to_xarray()``: an :class:`xarray.Dataset` whose attributes carry the parameters
+- ``to_xarray()``: an ``xarray.Dataset`` whose attributes carry the parameters
   (``params_toml``, ``model``), ``polywear_version``, ``settings`` and ``summary_json``;
-- ``to_dataframe()``: a :class:`pandas.DataFrame` of the main rows (the table ``--csv`` writes);
+- ``to_dataframe()``: a ``pandas.DataFrame`` of the main rows (the table ``--csv`` writes);
 - ``plot(ax=None)``: draws onto ``ax`` (new axes if None) and returns the artists; never shows;
 - ``figure()``: a new matplotlib Figure with the default plot(s);
 - ``save(path)``: the suffix decides: ``.nc`` netCDF of ``to_xarray()``, ``.json`` the summary

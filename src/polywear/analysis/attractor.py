@@ -80,7 +80,7 @@ class Attractor(Result):
         return self.run.settings
 
     def _dataset(self):
-        """The classified piece (see :meth:`SimulationResult.to_xarray`) with the regime in attrs."""
+        """The classified piece's data (a :class:`SimulationResult`) with the regime in attrs."""
         ds = self.run._dataset()
         ds.attrs.update(regime=self.regime, start=self.start, simulated_s=self.simulated_s,
                         dominant_frequency_hz=self.dominant_frequency_hz)
