@@ -51,8 +51,8 @@ class SpecialPoint:
 
     kind: PointKind
     speed_kmh: float
-    frequency_hz: float = float("nan")
-    """Frequency of the oscillation there [Hz] (NaN where none is known)."""
+    frequency_hz: float | None = None
+    """Frequency of the oscillation there [Hz] (None where none is known)."""
     amplitude: np.ndarray | None = field(default=None, compare=False)
     branch: int | None = None
     value: float | None = None

@@ -2,6 +2,11 @@
 
 The submodules are imported on first attribute access (``pw.solvers.integrate``), so
 ``import polywear.solvers`` stays light.
+
+Solvers work in SI: a speed here is the model's ``V`` [m/s] (``PeriodicOrbit.speed``,
+``Branch.end_speed``), labels of special points are AUTO-07p's strings (``"LP"``,
+``"PD"``, ``"NS"``). The analysis layer turns them into results in km/h (a field in m/s
+there ends in ``_ms``) and into ``PointKind`` members (``polywear.analysis.points``).
 """
 
 from __future__ import annotations
