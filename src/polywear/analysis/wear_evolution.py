@@ -16,16 +16,23 @@ Fast dynamics and slow wear alternate (``docs/wear.md``). For a distance step ``
    to ``C_j r_j^M (1 - r_j^N)/(1 - r_j)``, whose size relative to N coherent writes is
    ``|sin(pi eps N)/(N sin pi eps)|`` (eps = distance of j nu to the nearest integer):
    the cancellation is computed over the whole step, not over the simulated window. A
-   vibration whose order is an integer to within ``LOCK_TOLERANCE`` is *locked*.
+   vibration is *locked* when its order is an integer to within ``LOCK_TOLERANCE`` or
+   when its phase relative to the tire settles over the window (``SETTLED_PHASE``: after
+   a profile change a locked vibration relaxes to its new phase, and its order measured
+   over the window is off the integer by that transient only); all it writes is coherent.
 3. **Update.** Unlocked, the coherent write of harmonic n is proportional to ``W_n``
    (the response to harmonic n lands on harmonic n only), so it is integrated exactly
    as ``W_n exp(N S_n / W_n)``; locked, the cycle writes its own pattern at a rate that
-   does not depend on ``W``, and ``W + N S`` is exact. On a drive cycle with locked and
-   unlocked speeds, ``dW/dN = a W + b`` is integrated exactly (:func:`_update`). Harmonics below ``1e-6`` of the
-   profile's RMS, or an exponent above ``MAX_EXPONENT`` in a step, take the additive
-   form. The step is shortened while the change exceeds ``MAX_CHANGE`` (see there).
+   does not depend on ``W`` to first order, ``W + N S``, with S extrapolated to the middle
+   of the step from the change since the last step's locked window (second order in the
+   step, as Adams-Bashforth). On a drive cycle with locked and unlocked speeds,
+   ``dW/dN = a W + b`` is integrated exactly (:func:`_update`). Harmonics below ``1e-6``
+   of the profile's RMS, or an exponent above ``MAX_EXPONENT`` in a step, take the
+   additive form. The step is shortened while the change exceeds ``MAX_CHANGE`` (see there).
 4. **Linear regime.** At a speed where rolling is steady and the profile is small
    (``LINEAR_LOAD``), the window's rates ``S_n / W_n`` are reused instead of simulating.
+5. **Parallel.** The windows of a step's speeds are independent: with ``workers > 1``
+   they run in a pool of processes at the same time (same result).
 """
 
 from __future__ import annotations
@@ -39,7 +46,6 @@ from ..models import get_model
 from ..models.base import kmh_to_ms
 from ..models.profile import coupled_model, patch_sinc, profile_vector
 from ..params import Params, to_toml
-from ..progress import Progress
 from ..results import Result
 from ..solvers.integrate import integrate
 from .wear_law import energetic_rate, friction_power, profile_samples
@@ -49,6 +55,10 @@ __all__ = ["WindowWear", "window_wear", "EvolutionResult", "evolve", "initial_ro
 
 LOCK_TOLERANCE = 1e-6
 """A vibration whose order is this close to an integer is locked [-]."""
+SETTLED_PHASE = 0.01
+"""A vibration is also locked when its phase relative to the tire settles: the drift of
+its phase at the nearest integer order over the last quarter of the window, continued at
+the rate it decays from the quarter before, adds up to less than this [cycles]."""
 VIBRATION_RMS = 0.01
 """The tread vibrates (self-excited) when the RMS of its velocity fluctuation exceeds this
 [m/s]: 10 um at 150 Hz, far above the response to a worn profile of a tenth of a
@@ -191,7 +201,12 @@ def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float,
     vibrating = float(np.std(xdot)) > VIBRATION_RMS
     nu = _dominant_order(t, xdot, 1.0 / T) if vibrating else math.nan
     eps = _detuning(nu) if vibrating else []
-    locked = vibrating and eps[0] < LOCK_TOLERANCE
+    # the phase per revolution is followed without aliasing while it turns by less than 1/4 cycle
+    locked = vibrating and (eps[0] < LOCK_TOLERANCE or (
+        eps[0] < 0.25 and _remaining_drift(_tire_phase(xdot, u[:, -1], round(nu), per_rev, revolutions))
+        < SETTLED_PHASE))
+    if locked:  # everything the window writes is written in the same place every revolution
+        eps = [0.0] * SIDEBANDS
     if max_revolutions is not None and vibrating and not locked:
         needed = min(max_revolutions, _separating_window(eps))
         if needed > revolutions:
@@ -211,6 +226,24 @@ def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float,
     return WindowWear(coherent=coherent, drifting=drifting, ratios=ratios, mean_per_rev=mean,
                       revolutions=revolutions, order=nu, locked=bool(locked), end_state=run.u_end.copy(),
                       energy_per_rev=energy, profile=np.array(W))
+
+
+def _tire_phase(signal, angle, order: int, per_rev: int, revolutions: int) -> np.ndarray:
+    """Phase [cycles] of ``signal``'s line at integer ``order`` relative to the tire, per
+    revolution (unwrapped): constant where the vibration is locked to the tire, turning by
+    eps per revolution where it drifts."""
+    rot = signal[: revolutions * per_rev] * np.exp(-1j * order * angle[: revolutions * per_rev])
+    return np.unwrap(np.angle(rot.reshape(revolutions, per_rev).sum(axis=1))) / (2.0 * math.pi)
+
+
+def _remaining_drift(phase: np.ndarray) -> float:
+    """Phase drift [cycles] from the start of the window's last quarter on, if it keeps
+    decaying geometrically at the rate from the quarter before to the last (inf if it does
+    not decay): how far a settling phase has still to go."""
+    q = max(phase.size // 4, 1)
+    last = abs(phase[-1] - phase[-1 - q])
+    before = abs(phase[-1 - q] - phase[-1 - 2 * q]) if phase.size > 2 * q else math.inf
+    return last / (1.0 - last / before) if last < before else math.inf
 
 
 def _detuning(nu: float) -> list[float]:
@@ -506,19 +539,48 @@ class EvolutionResult(Result):
 
 
 def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000.0, revolutions: int = 16,
-           progress: Progress | None = None) -> EvolutionResult:
+           on_step=None, workers: int = 1) -> EvolutionResult:
     """Worn profile from seeded roughness over ``distance_km`` [km] on a drive cycle.
 
     ``cycle``: ((speed [km/h], share), ...), default ``params.wear.cycle_shares()``;
     ``step_km``: distance step; ``revolutions``: simulated revolutions per window where
     the tread vibrates (3 where steady rolling is stable: nothing drifts there);
-    ``progress(km done, distance_km)`` after every step (:mod:`polywear.progress`).
+    ``on_step(distance_km)`` after every step;
+    ``workers``: processes that simulate the windows of the cycle's speeds at the same
+    time (1: all in this process; the result is the same).
     """
     if not (math.isfinite(distance_km) and distance_km > 0):
         raise ValueError(f"distance {distance_km!r} km: must be positive")
     if not (math.isfinite(step_km) and step_km > 0):
         raise ValueError(f"step {step_km!r} km: must be positive")
+    if workers < 1:
+        raise ValueError(f"workers = {workers!r}: must be at least 1")
     cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
+    if workers == 1 or len(cycle) == 1:
+        return _evolve(params, distance_km, cycle, step_km, revolutions, on_step, None)
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    from ..parallel import _ignore_interrupt
+
+    with ProcessPoolExecutor(min(workers, len(cycle)), mp_context=multiprocessing.get_context("spawn"),
+                             initializer=_ignore_interrupt) as pool:
+        return _evolve(params, distance_km, cycle, step_km, revolutions, on_step, pool)
+
+
+def _windows(pool, jobs, base, longest: int) -> list[WindowWear]:
+    """:func:`window_wear` of every job ``(params, V, W, state, settle_s, revolutions)``:
+    in ``pool`` when there is one and more than one job (the cycle's speeds at the same
+    time), else here."""
+    if pool is None or len(jobs) < 2:
+        return [window_wear(*job, base=base, max_revolutions=longest) for job in jobs]
+    futures = [pool.submit(window_wear, *job, max_revolutions=longest) for job in jobs]
+    return [future.result() for future in futures]
+
+
+def _evolve(params: Params, distance_km: float, cycle, step_km: float, revolutions: int, on_step, pool
+            ) -> EvolutionResult:
+    """:func:`evolve` on a given cycle, the windows of each step run by :func:`_windows`."""
     base = get_model(params.model)
     coupled = coupled_model(base)
     R = params.operating.rolling_radius_m
@@ -541,6 +603,7 @@ def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000
     orders_hist, locked_hist = [], []
     mean = energy = done = 0.0
     linear = [None] * len(cycle)  # per speed: the steady-rolling window whose rates S_n / W_n are reused
+    last_locked = [None] * len(cycle)  # per speed: (coherent write, distance) of the last step's locked window
     sinc = patch_sinc(np.arange(1, W.size + 1), params.tire.contact_length_m, R)
     load_scale = LINEAR_LOAD * params.operating.vertical_load_n / params.tire.vertical_stiffness_n_per_m \
         if params.tire.vertical_stiffness_n_per_m > 0 else math.inf
@@ -548,24 +611,32 @@ def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000
         h = min(step, distance_km - done)
         wins = []
         small = float(np.sum(np.abs(sinc * W))) < load_scale  # |w_c| bounded by the sum of |sinc_n W_n|
-        for j, (v_kmh, share) in enumerate(cycle):
-            if small and linear[j] is not None:
+        run = [j for j in range(len(cycle)) if not (small and linear[j] is not None)]
+        jobs = [(params, float(kmh_to_ms(cycle[j][0])), W, states[j], settles[j][0], windows[j]) for j in run]
+        simulated = dict(zip(run, _windows(pool, jobs, base, longest)))
+        for j in range(len(cycle)):
+            if j not in simulated:
                 wins.append(linear[j].rescaled(W))
                 continue
-            V = float(kmh_to_ms(v_kmh))
-            win = window_wear(params, V, W, states[j], settles[j][0], windows[j], base, longest)
+            win = simulated[j]
             if math.isfinite(win.order):  # the next window at this speed starts long enough
-                windows[j] = max(shortest[j], min(longest, _separating_window(_detuning(win.order))))
+                drifting = 0 if win.locked else _separating_window(_detuning(win.order))
+                windows[j] = max(shortest[j], min(longest, drifting))
             settles[j][0] = settles[j][1]
             states[j] = win.end_state
             linear[j] = win if (small and not math.isfinite(win.order)) else None
             wins.append(win)
         locked = [w.locked and math.isfinite(w.order) for w in wins]
         vibrating = any(math.isfinite(w.order) for w in wins)
+        # locked in this step and the last: the write's change per km, for the step's mean write
+        trend = [(w.coherent - last[0]) / (done - last[1]) if lk and last is not None else 0.0
+                 for w, lk, last in zip(wins, locked, last_locked)]
+        last_locked = [(w.coherent, done) if lk else None for w, lk in zip(wins, locked)]
         for _ in range(8):  # shorten the step where the profile would change by more than MAX_CHANGE
             n_revs = [share * h * 1000.0 / (2.0 * math.pi * R) for _, share in cycle]
             free = sum((n * w.coherent for n, w, lk in zip(n_revs, wins, locked) if not lk), np.zeros_like(W))
-            forcing = sum((n * w.coherent for n, w, lk in zip(n_revs, wins, locked) if lk), np.zeros_like(W))
+            forcing = sum((n * (w.coherent + 0.5 * h * d) for n, w, lk, d in zip(n_revs, wins, locked, trend) if lk),
+                          np.zeros_like(W))
             drifting_total = sum(w.written(n) - n * w.coherent for n, w in zip(n_revs, wins))
             W_new, added = _update(W, free, forcing)
             W_new = W_new + drifting_total
@@ -586,8 +657,8 @@ def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000
         distance.append(done)
         orders_hist.append([w.order for w in wins])
         locked_hist.append([w.locked and math.isfinite(w.order) for w in wins])
-        if progress is not None:
-            progress(done, distance_km, "")
+        if on_step is not None:
+            on_step(done)
     distance = np.array(distance)
     steps = np.diff(distance)
     return EvolutionResult(params=params, distance_km=distance, harmonics=np.array(history),
