@@ -43,6 +43,8 @@ EXPECTED = {
     "fleet": "polywear.analysis.fleet:fleet_risk",
     "load_fleet_spec": "polywear.analysis.fleet:load_fleet_spec",
     "campbell": "polywear.analysis.campbell:campbell",
+    "SpecialPoint": "polywear.analysis.points:SpecialPoint",
+    "PointKind": "polywear.analysis.points:PointKind",
     "read_run": "polywear.analysis.campbell:read_run",
     "friction": "polywear.analysis.friction",
     "models": "polywear.models",

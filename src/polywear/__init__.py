@@ -31,6 +31,8 @@ Entry points (each is the function or class named in brackets):
 - ``StabilitySettings``, ``ContinuationSettings``, ``SimulationSettings``, ``MapSettings``:
   validated frozen numerical settings of ``stability``, ``bifurcation``, ``simulate``,
   ``stability_map`` (a bad value raises ``ValueError`` naming the field)
+- ``SpecialPoint``, ``PointKind`` [analysis.points]: the special points of diagrams,
+  stability maps and the AUTO-07p reference (Hopf, fold, period doubling, ...)
 - ``friction`` (LuGre curves, loops and fits), ``models``, ``solvers``: modules.
 """
 
@@ -67,6 +69,8 @@ _ENTRY_POINTS: dict[str, tuple[str, str | None]] = {
     "fleet": ("polywear.analysis.fleet", "fleet_risk"),
     "load_fleet_spec": ("polywear.analysis.fleet", "load_fleet_spec"),
     "campbell": ("polywear.analysis.campbell", "campbell"),
+    "SpecialPoint": ("polywear.analysis.points", "SpecialPoint"),
+    "PointKind": ("polywear.analysis.points", "PointKind"),
     "read_run": ("polywear.analysis.campbell", "read_run"),
     "friction": ("polywear.analysis.friction", None),
     "models": ("polywear.models", None),
