@@ -53,9 +53,9 @@ def _simulation_set(d):
 
 
 def _sweep(d):
-    from polywear.analysis.sweep import sweep
+    from polywear.analysis.sweep import SweepSettings, sweep
 
-    return sweep(Params(), [60.0, 120.0], max_duration_s=0.5)
+    return sweep(Params(), [60.0, 120.0], settings=SweepSettings(max_duration_s=0.5))
 
 
 def _sensitivity(d):

@@ -13,7 +13,8 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.sensitivity import ADHESION_SCALE, PAPER_PARAMETERS, local_sensitivity, perturbed
+from polywear.analysis.sensitivity import (ADHESION_SCALE, PAPER_PARAMETERS, SensitivitySettings, local_sensitivity,
+                                           perturbed)
 from polywear.params import ADHESION_SCALE as STUDY_ADHESION_SCALE
 from polywear.params import Params, with_updates
 
@@ -121,7 +122,7 @@ def test_camber_does_not_enter_tread1dof(nominal):
 def test_exact_matches_central_differences_for_all_seven_parameters(nominal):
     """Central differences re-run the whole continuation (Hopf points and fold) at p +- dp."""
     exact = _by_quantity(local_sensitivity(Params(), diagram=nominal))
-    central = _by_quantity(local_sensitivity(Params(), method="central", step=1e-4, diagram=nominal))
+    central = _by_quantity(local_sensitivity(Params(), settings=SensitivitySettings("central", 1e-4), diagram=nominal))
     for key, value in exact.items():
         assert central[key] is not None, key
         scale = max(abs(value), 1e-12)
@@ -141,7 +142,7 @@ def test_step_study_truncation_then_rounding(nominal):
     def errors(method, step_list):
         out = {}
         for h in step_list:
-            d = _by_quantity(local_sensitivity(Params(), [key], method=method, step=h, diagram=nominal))
+            d = _by_quantity(local_sensitivity(Params(), [key], SensitivitySettings(method, h), diagram=nominal))
             out[h] = {q: _relative_error(d[(q, key)], exact[(q, key)]) for q in ("hopf_1", "hopf_2", "fold_1")}
         return out
 
@@ -174,7 +175,7 @@ def test_axle4dof_exact_matches_central_differences():
     diagram = bifurcation_diagram(params)
     keys = ("operating.toe_deg", "operating.camber_deg", ADHESION_SCALE)
     exact = _by_quantity(local_sensitivity(params, keys, diagram=diagram))
-    central = _by_quantity(local_sensitivity(params, keys, method="central", step=1e-4, diagram=diagram))
+    central = _by_quantity(local_sensitivity(params, keys, SensitivitySettings("central", 1e-4), diagram=diagram))
     assert {q for q, _ in exact} >= {"hopf_1", "hopf_2", "first_bifurcation", "second_bifurcation"}
     for key, value in exact.items():
         assert abs(central[key] - value) <= 1e-4 * abs(value), (key, value, central[key])

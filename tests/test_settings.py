@@ -9,9 +9,12 @@ import pickle
 
 import pytest
 
+from polywear.analysis.campbell import CampbellSettings
+from polywear.analysis.sensitivity import SensitivitySettings
 from polywear.analysis.simulation import SimulationSettings
 from polywear.analysis.stability import StabilitySettings
 from polywear.analysis.stability_map import MapSettings
+from polywear.analysis.sweep import SweepSettings
 from polywear.solvers.continuation import ContinuationSettings
 from polywear.validation.auto07p import AutoSettings
 
@@ -57,9 +60,24 @@ BAD = [
     (AutoSettings, "epsu", 0.0),
     (AutoSettings, "ds", 10.0),  # above dsmax
     (AutoSettings, "dsmax_cycles", 1e-3),  # below ds
+    (SweepSettings, "small", 0.0),
+    (SweepSettings, "large", math.nan),
+    (SweepSettings, "chunk_s", -0.25),
+    (SweepSettings, "max_duration_s", 0.1),  # shorter than one chunk
+    (SweepSettings, "simulation", None),
+    (CampbellSettings, "window_s", 0.0),
+    (CampbellSettings, "overlap", 1.0),
+    (CampbellSettings, "overlap", -0.1),
+    (CampbellSettings, "f_range_hz", (50.0, 10.0)),
+    (CampbellSettings, "peak_db", -3.0),
+    (CampbellSettings, "sev_db", math.inf),
+    (CampbellSettings, "disturbance_m", 0.0),
+    (SensitivitySettings, "method", "backward"),
+    (SensitivitySettings, "step", 0.0),
 ]
 
-CLASSES = [ContinuationSettings, MapSettings, StabilitySettings, SimulationSettings, AutoSettings]
+CLASSES = [ContinuationSettings, MapSettings, StabilitySettings, SimulationSettings, AutoSettings, SweepSettings,
+           CampbellSettings, SensitivitySettings]
 
 
 @pytest.mark.parametrize(("cls", "name", "value"), BAD, ids=[f"{c.__name__}.{n}={v!r}" for c, n, v in BAD])
@@ -87,6 +105,11 @@ def test_defaults_are_unchanged():
     m = MapSettings()
     assert (m.ds_initial, m.ds_max, m.ds_min, m.n_seeds, m.n_grid, m.continuation) == (
         0.01, 0.03, 1e-7, 3, 81, ContinuationSettings())
+    s = SweepSettings()
+    assert (s.small, s.large, s.chunk_s, s.max_duration_s, s.simulation) == (1e-5, 1e-3, 0.25, 4.0, SimulationSettings())
+    c = CampbellSettings()
+    assert (c.window_s, c.overlap, c.f_range_hz, c.peak_db, c.sev_db, c.disturbance_m) == (0.5, 0.75, None, 15.0, 20.0,
+                                                                                          1e-6)
 
 
 def test_infinite_multiplier_tolerance_switches_the_check_off():

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from polywear.analysis.simulation import SimulationSettings, simulate
-from polywear.analysis.sweep import START_TYPES, settle, sweep
+from polywear.analysis.sweep import START_TYPES, SweepSettings, settle, sweep
 from polywear.models import get_model
 from polywear.parallel import map_batched
 from polywear.params import Params
@@ -89,8 +89,8 @@ def test_settle_continues_in_chunks_until_steady():
 @pytest.mark.slow
 def test_runs_can_go_through_the_executor_interface():
     pooled = sweep(DEFAULTS, [110.0], map=partial(map_batched, backend="processes", workers=2),
-                   max_duration_s=1.0)
-    serial = sweep(DEFAULTS, [110.0], max_duration_s=1.0)
+                   settings=SweepSettings(max_duration_s=1.0))
+    serial = sweep(DEFAULTS, [110.0], settings=SweepSettings(max_duration_s=1.0))
     for start in START_TYPES:
         np.testing.assert_array_equal(pooled.runs[start][0].amplitude, serial.runs[start][0].amplitude)
     pickle.loads(pickle.dumps(serial.runs["small"][0]))
@@ -121,6 +121,6 @@ def test_bad_input():
     with pytest.raises(ValueError, match="speeds"):
         sweep(DEFAULTS, [-10.0, 100.0])
     with pytest.raises(ValueError, match="large"):
-        sweep(DEFAULTS, [100.0], large=0.0)
+        sweep(DEFAULTS, [100.0], settings=SweepSettings(large=0.0))
     with pytest.raises(ValueError, match="chunk"):
         settle(DEFAULTS, 100.0, np.zeros(3), chunk_s=1.0, max_duration_s=0.5)

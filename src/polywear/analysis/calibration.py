@@ -221,7 +221,7 @@ def _hopf_rows(params: Params, obs: list[Observation], keys: list[str], speed_ra
 def _band_rows(params: Params, obs: list[Observation], keys: list[str], diagram):
     from .sensitivity import local_sensitivity
 
-    sens = local_sensitivity(params, keys, method="exact", diagram=diagram).rows
+    sens = local_sensitivity(params, keys, diagram=diagram).rows
     values, rows = [], []
     for o in obs:
         name = _BAND[o.quantity]

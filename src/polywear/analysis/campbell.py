@@ -41,12 +41,14 @@ import numpy as np
 from .. import __version__
 from ..params import ParameterError, Params
 from ..results import Result
+from ..settings import check_fraction, check_positive
 from ..units import polygon_order, wheel_rotation_frequency_hz
 
 __all__ = [
     "MeasurementError",
     "Run",
     "CampbellResult",
+    "CampbellSettings",
     "read_run",
     "campbell",
     "ramp_delay",
@@ -62,6 +64,34 @@ _TIME_UNITS = {"s": 1.0, "sec": 1.0, "second": 1.0, "seconds": 1.0, "ms": 1e-3}
 _SPEED_UNITS = {"km/h": 1.0, "kmh": 1.0, "kph": 1.0, "m/s": 3.6, "mph": 1.609344}
 _WHEEL_UNITS = {"rad/s": 1.0, "rpm": 2.0 * math.pi / 60.0, "1/min": 2.0 * math.pi / 60.0}
 _HEADER = re.compile(r"^\s*(.*?)\s*[\[(]\s*([^\])]*?)\s*[\])]\s*$")
+
+
+@dataclass(frozen=True)
+class CampbellSettings:
+    """Numerical settings of :func:`campbell` (spectrogram, feature detection, ramp simulation)."""
+
+    window_s: float = 0.5
+    """Spectrogram window [s] (frequency resolution 1/window_s)."""
+    overlap: float = 0.75
+    """Overlap of consecutive windows [-], in [0, 1)."""
+    f_range_hz: tuple[float, float] | None = None
+    """Frequencies searched for features [Hz]; default 10 Hz to 0.4 fs."""
+    peak_db: float = 15.0
+    """Peak prominence over the bin's median level [dB]."""
+    sev_db: float = 20.0
+    """Level SEV must reach over the bin's median level [dB]."""
+    disturbance_m: float = 1e-6
+    """Tread disturbance of the ramp simulation [m] (see :func:`ramp_delay`)."""
+
+    def __post_init__(self) -> None:
+        check_positive(self, "window_s", "peak_db", "sev_db", "disturbance_m")
+        check_fraction(self, "overlap", closed_low=True)
+        if self.overlap >= 1.0:
+            raise ValueError(f"CampbellSettings: overlap = {self.overlap!r}: must lie in [0, 1)")
+        if self.f_range_hz is not None:
+            lo, hi = self.f_range_hz
+            if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 <= lo < hi):
+                raise ValueError(f"CampbellSettings: f_range_hz = {self.f_range_hz!r}: need 0 <= low < high [Hz]")
 
 
 def order_frequency_hz(order: float, speed_kmh, radius_m: float):
@@ -652,14 +682,9 @@ def _prediction(params: Params, speed_range, run_speeds_kmh) -> dict:
 def campbell(
     run: Run,
     params: Params,
-    window_s: float = 0.5,
-    overlap: float = 0.75,
-    f_range_hz: tuple[float, float] | None = None,
-    peak_db: float = 15.0,
-    sev_db: float = 20.0,
+    settings: CampbellSettings = CampbellSettings(),
     predict: bool = True,
     correct_ramp: bool = True,
-    disturbance_m: float = 1e-6,
 ) -> CampbellResult:
     """Campbell map of ``run`` with features, SEV and (``predict``) the model's band over it.
 
@@ -669,27 +694,24 @@ def campbell(
     params : Params
         The model's parameters: rolling radius for the order rays, the prediction and the
         ramp-delay simulation.
-    window_s, overlap : float
-        Spectrogram window [s] (frequency resolution 1/window_s) and its overlap [-].
-    f_range_hz : (float, float), optional
-        Frequencies searched for features [Hz]; default 10 Hz to 0.4 fs.
-    peak_db, sev_db : float
-        Peak prominence over the bin's median level, and the level SEV must reach [dB].
+    settings : CampbellSettings
+        Spectrogram window and overlap, frequencies searched, detection levels [dB] and
+        the disturbance of the ramp simulation.
     predict : bool
         Hopf points and SEV band of the model (a continuation) and the wear map's
         fastest-growing orders over the map.
     correct_ramp : bool
         Simulate the ramp through the nearest destabilizing Hopf point and correct the onset.
-    disturbance_m : float
-        Tread disturbance of the ramp simulation [m] (see :func:`ramp_delay`).
     """
     from scipy.signal import spectrogram
+
+    window_s, overlap, peak_db, sev_db = settings.window_s, settings.overlap, settings.peak_db, settings.sev_db
 
     fs = run.sample_rate_hz
     n = int(round(window_s * fs))
     if n < 16 or n > len(run.t) // 2:
         raise MeasurementError(f"window of {window_s} s is {n} samples: need 16 to half the run ({len(run.t)} samples)")
-    f_lo, f_hi = f_range_hz or (10.0, 0.4 * fs)
+    f_lo, f_hi = settings.f_range_hz or (10.0, 0.4 * fs)
     power = []
     for x, _ in run.channels.values():
         freqs, times, sxx = spectrogram(x, fs, window="hann", nperseg=n, noverlap=int(overlap * n),
@@ -738,12 +760,12 @@ def campbell(
     prediction = _prediction(params, (max(5.0, 0.5 * run.speed_kmh.min()), max(300.0, 1.2 * run.speed_kmh.max())),
                              run.speed_kmh) if predict else {}
     if sev is not None and sev.get("onset") and correct_ramp:
-        _correct_onset(sev, run, params, disturbance_m)
+        _correct_onset(sev, run, params, settings.disturbance_m)
     features = sorted((f for f, _ in classified), key=lambda f: -f["level_db"])
     return CampbellResult(run, freqs, times, speeds, power_db,
                           (["sum"] if len(power) > 1 else []) + list(run.channels), features, sev, prediction,
                           radius, {"window_s": window_s, "overlap": overlap, "peak_db": peak_db, "sev_db": sev_db,
-                                   "disturbance_m": disturbance_m})
+                                   "disturbance_m": settings.disturbance_m})
 
 
 def _correct_onset(sev: dict, run: Run, params: Params, disturbance_m: float) -> None:

@@ -33,6 +33,7 @@ from ..results import Result
 from ..models.base import ms_to_kmh
 from ..params import ADHESION_SCALE, PAPER_KEYS, Params, get_value, with_updates
 from ..progress import Progress, StepCounter
+from ..settings import check_positive
 from ..units import DEFAULT_SPEED_RANGE_KMH
 from .bifurcation import BifurcationDiagram, bifurcation_diagram
 from .derivatives import rhs_directional
@@ -43,6 +44,7 @@ __all__ = [
     "PAPER_PARAMETERS",
     "ADHESION_SCALE",
     "SensitivityResult",
+    "SensitivitySettings",
     "local_sensitivity",
     "parameter_direction",
     "hopf_speed_derivative",
@@ -52,6 +54,25 @@ __all__ = [
 _MU = PAPER_KEYS.index("friction.mu_static") + 1
 PAPER_PARAMETERS = (*PAPER_KEYS[:_MU], ADHESION_SCALE, *PAPER_KEYS[_MU:])
 """The paper's seven parameters (Fig. 9), adhesion read both ways."""
+
+METHODS = ("exact", "central", "forward")
+
+
+@dataclass(frozen=True)
+class SensitivitySettings:
+    """Numerical settings of :func:`local_sensitivity`."""
+
+    method: str = "exact"
+    """``"exact"``: implicit-function theorem on the defining system of each Hopf point and
+    fold; ``"central"`` or ``"forward"``: finite differences (forward as the paper's eq. (3))."""
+    step: float = 1e-4
+    """Finite-difference step [-], relative to the nominal value (absolute where it is 0)."""
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ValueError(f"SensitivitySettings: method = {self.method!r}: must be one of {', '.join(METHODS)}")
+        check_positive(self, "step")
+
 
 PARAMETER_LABELS = {
     "tread.lateral_stiffness_n_per_m": "tread lateral stiffness",
@@ -271,8 +292,7 @@ def _speed_kmh(entry) -> float:
 def local_sensitivity(
     params: Params,
     keys=PAPER_PARAMETERS,
-    method: str = "exact",
-    step: float = 1e-4,
+    settings: SensitivitySettings = SensitivitySettings(),
     speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
     diagram: BifurcationDiagram | None = None,
     progress: Progress | None = None,
@@ -280,8 +300,7 @@ def local_sensitivity(
 ) -> SensitivityResult:
     """Sensitivity of every bifurcation speed to every parameter key.
 
-    ``step`` is relative to the nominal value (absolute where the nominal is 0) for the
-    finite-difference methods. ``diagram`` reuses a nominal diagram already computed.
+    ``diagram`` reuses a nominal diagram already computed.
     This is ``polywear sensitivity`` and ``pw.sensitivity``.
 
     Parameters
@@ -291,11 +310,8 @@ def local_sensitivity(
     keys : sequence of str
         Configuration keys (``"table.key"``) or ``"adhesion_scale"`` (mu_s and mu_c
         scaled together); default the paper's seven parameters, adhesion both ways.
-    method : {"exact", "central", "forward"}
-        Implicit-function theorem on the defining system of each Hopf point and fold,
-        central differences, or forward differences as the paper's eq. (3).
-    step : float
-        Relative finite-difference step [-].
+    settings : SensitivitySettings
+        The method (exact, central or forward differences) and the relative step.
     speed_range_kmh : (float, float)
         Speeds of the nominal (and perturbed) diagrams [km/h].
     diagram : BifurcationDiagram, optional
@@ -312,10 +328,7 @@ def local_sensitivity(
         One row per (bifurcation speed, parameter): derivative dV/dp [km/h per key
         unit] and normalized ``S = (p/V) dV/dp`` [-].
     """
-    if method not in ("exact", "central", "forward"):
-        raise ValueError(f"method = {method!r}: must be exact, central or forward")
-    if not step > 0:
-        raise ValueError(f"step = {step!r}: must be positive")
+    method, step = settings.method, settings.step
     model = get_model(params.model)
     p = model.pack(params)
     if progress is not None:

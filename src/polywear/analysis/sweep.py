@@ -33,16 +33,43 @@ from ..results import Result
 from ..models.base import kmh_to_ms
 from ..params import Params, to_toml
 from ..progress import Progress, StepCounter
+from ..settings import check_order, check_positive
 from ..solvers.integrate import integrate
 from ..units import plot_scale
 from .simulation import SimulationSettings, classify_window, initial_state
 from .bifurcation import _open_at, _open_warning
 from .intervals import runs_of
 
-__all__ = ["START_TYPES", "SteadyRun", "SweepResult", "settle", "sweep", "sweep_bands"]
+__all__ = ["START_TYPES", "SteadyRun", "SweepResult", "SweepSettings", "settle", "sweep", "sweep_bands"]
 
 START_TYPES = ("small", "large", "up", "down")
 _MARKERS = {"small": ("o", "C0"), "large": ("s", "C3"), "up": ("^", "C2"), "down": ("v", "C1")}
+
+
+@dataclass(frozen=True)
+class SweepSettings:
+    """Starts and run control of :func:`sweep`."""
+
+    small: float = 1e-5
+    """Small disturbance of ``x`` [m] (finite, non-zero, either sign)."""
+    large: float = 1e-3
+    """Large disturbance of ``x`` [m] (finite, non-zero, either sign)."""
+    chunk_s: float = 0.25
+    """Integration chunk [s]: a run stops after the first chunk that has settled."""
+    max_duration_s: float = 4.0
+    """Longest run [s] (at least one chunk)."""
+    simulation: SimulationSettings = SimulationSettings()
+    """Integrator and steady-state test of every chunk."""
+
+    def __post_init__(self) -> None:
+        for name in ("small", "large"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value != 0.0):
+                raise ValueError(f"SweepSettings: {name} = {value!r}: must be a finite, non-zero disturbance [m]")
+        check_positive(self, "chunk_s", "max_duration_s")
+        check_order(self, "chunk_s", "max_duration_s")
+        if not isinstance(self.simulation, SimulationSettings):
+            raise ValueError(f"SweepSettings: simulation = {self.simulation!r}: must be a SimulationSettings")
 
 
 @dataclass(frozen=True)
@@ -223,25 +250,21 @@ def sweep(
     params: Params,
     speeds_kmh,
     *,
-    small: float = 1e-5,
-    large: float = 1e-3,
-    settings: SimulationSettings = SimulationSettings(),
-    chunk_s: float = 0.25,
-    max_duration_s: float = 4.0,
+    settings: SweepSettings = SweepSettings(),
     map=map,  # noqa: A002 - the builtin is the default executor
     progress: Progress | None = None,
 ) -> SweepResult:
     """Steady states at each speed [km/h] from small and large disturbances of ``x`` [m]
     and along increasing and decreasing speed. ``map`` runs the independent small/large
     starts (e.g. a process pool's ``map``); ``progress(runs done, runs, start)`` is
-    called after every run (:mod:`polywear.progress`)."""
+    called after every run (:mod:`polywear.progress`). ``settings``: the disturbances,
+    chunk and longest run, and the simulation settings (:class:`SweepSettings`)."""
     speeds = np.unique(np.asarray(speeds_kmh, dtype=float))
     if speeds.size == 0 or not np.all(np.isfinite(speeds)) or speeds[0] <= 0.0:
         raise ValueError(f"speeds {speeds_kmh!r}: need at least one positive finite speed [km/h]")
-    for name, value in (("small", small), ("large", large)):
-        if not (math.isfinite(value) and value != 0.0):
-            raise ValueError(f"{name} disturbance = {value!r} m: must be finite and non-zero")
-    jobs = [(params, v, s, d, settings, chunk_s, max_duration_s)
+    small, large, chunk_s, max_duration_s = settings.small, settings.large, settings.chunk_s, settings.max_duration_s
+    simulation = settings.simulation
+    jobs = [(params, v, s, d, simulation, chunk_s, max_duration_s)
             for s, d in (("small", small), ("large", large)) for v in speeds]
     independent = []
     step = StepCounter(progress, 4 * speeds.size)
@@ -253,15 +276,15 @@ def sweep(
         chain = []
         for i, v in enumerate(order):
             if i == 0:
-                run = _settle_job((params, v, start, small, settings, chunk_s, max_duration_s))
+                run = _settle_job((params, v, start, small, simulation, chunk_s, max_duration_s))
             else:
-                run = settle(params, v, chain[-1].final_state, start=start, settings=settings,
+                run = settle(params, v, chain[-1].final_state, start=start, settings=simulation,
                              chunk_s=chunk_s, max_duration_s=max_duration_s)
             chain.append(run)
             step(f"{start} start at {v:.1f} km/h")
         runs[start] = sorted(chain, key=lambda r: r.speed_kmh)
     return SweepResult(params=params, speeds_kmh=speeds, runs=runs, small=float(small), large=float(large),
-                       settings=settings, chunk_s=float(chunk_s), max_duration_s=float(max_duration_s))
+                       settings=simulation, chunk_s=float(chunk_s), max_duration_s=float(max_duration_s))
 
 
 # -- bands as the sweep sees them --------------------------------------------------------------

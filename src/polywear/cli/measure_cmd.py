@@ -64,15 +64,15 @@ def campbell(
     if not (math.isfinite(disturbance_m) and 0.0 < disturbance_m < 1e-2):
         raise UserError(f"--disturbance {disturbance_m}: must be between 0 and 0.01 m")
     params = load(config, set_)
-    from ..analysis.campbell import campbell as analyze, read_run
+    from ..analysis.campbell import CampbellSettings, campbell as analyze, read_run
 
     run = read_run(run_file, time_column, speed_column, channel or (), params.operating.rolling_radius_m)
     for note in run.notes:
         info(f"note: {note}", quiet)
     info(f"measure campbell: {len(run.t)} samples at {run.sample_rate_hz:g} Hz, {len(run.channels)} channel(s)"
          + (", model prediction and ramp simulation ..." if predict or ramp_correction else " ..."), quiet)
-    result = analyze(run, params, window_s=window_s, predict=predict, correct_ramp=ramp_correction,
-                     disturbance_m=disturbance_m)
+    result = analyze(run, params, CampbellSettings(window_s=window_s, disturbance_m=disturbance_m), predict=predict,
+                     correct_ramp=ramp_correction)
     if out:
         write_output(out, result.save, quiet)
     if observations:
