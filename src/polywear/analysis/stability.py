@@ -105,10 +105,10 @@ class HopfPoint:
         }
 
 
-def equilibrium_eigenvalues(model, p, speeds) -> tuple[np.ndarray, np.ndarray]:
-    """Equilibria ``(n_speeds, n)`` and Jacobian eigenvalues ``(n_speeds, n)`` at speeds [m/s]
+def equilibrium_eigenvalues(model, p, speeds_ms) -> tuple[np.ndarray, np.ndarray]:
+    """Equilibria ``(n_speeds, n)`` and Jacobian eigenvalues ``(n_speeds, n)`` at ``speeds_ms`` [m/s]
     (the Jacobians stacked into one LAPACK call: the same eigenvalues as one call each)."""
-    speeds = np.atleast_1d(np.asarray(speeds, dtype=float))
+    speeds = np.atleast_1d(np.asarray(speeds_ms, dtype=float))
     states = np.empty((len(speeds), model.n))
     jacobians = np.empty((len(speeds), model.n, model.n))
     for i, V in enumerate(speeds):
