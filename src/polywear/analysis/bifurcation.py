@@ -21,11 +21,10 @@ from functools import cached_property
 
 import numpy as np
 
-from .. import __version__
 from ..models import get_model
 from ..results import Result
 from ..models.base import kmh_to_ms, ms_to_kmh
-from ..params import Params, to_toml
+from ..params import Params
 from ..progress import Progress, StepCounter
 from ..solvers.continuation import (Branch, BranchEnd, ContinuationSettings, continue_from_hopf,
                                    same_special_point)
@@ -344,13 +343,7 @@ class BifurcationDiagram(Result):
         ds = xr.Dataset(
             data,
             coords={"state": names, "speed": ("speed", self.stability.speeds_kmh, {"units": "km/h"})},
-            attrs={
-                "model": self.params.model,
-                "params_toml": to_toml(self.params),
-                "polywear_version": __version__,
-                "settings": repr(self.settings),
-                "summary_json": _json(self.summary()),
-            },
+            attrs={"summary_json": _json(self.summary())},  # model, params_toml, version, settings: Result
         )
         return ds
 

@@ -38,7 +38,6 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
 from ..params import ParameterError, Params
 from ..results import Result
 from ..settings import check_fraction, check_positive
@@ -600,7 +599,7 @@ class CampbellResult(Result):
             {"power_db": (("channel", "frequency_hz", "time_s"), self.power_db)},
             coords={"channel": self.channel_names, "frequency_hz": self.frequencies_hz, "time_s": self.times_s,
                     "speed_kmh": ("time_s", self.speeds_kmh)},
-            attrs={"source": self.run.source, "polywear_version": __version__, "rolling_radius_m": self.radius_m,
+            attrs={"source": self.run.source, "rolling_radius_m": self.radius_m,
                    **{k: str(v) for k, v in self.settings.items()}},
         )
         ds["power_db"].attrs["units"] = "dB (re 1 channel unit^2)"

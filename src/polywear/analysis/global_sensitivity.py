@@ -38,14 +38,12 @@ confidence half-width from N/2 to N, and every half-width is at most
 
 from __future__ import annotations
 
-import json
 import warnings
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
 
 import numpy as np
 
-from .. import __version__
 from ..models.base import ms_to_kmh
 from ..params import (
     ADHESION_SCALE,
@@ -54,7 +52,6 @@ from ..params import (
     ParameterError,
     StudyParameter,
     get_value,
-    to_toml,
     with_updates,
 )
 from ..progress import Progress
@@ -420,13 +417,7 @@ class GlobalSensitivityResult(Result):
         return xr.Dataset(
             data,
             coords={"param": self.names, "output": list(self.outputs)},
-            attrs={
-                "model": self.params.model,
-                "method": self.method,
-                "params_toml": to_toml(self.params),
-                "polywear_version": __version__,
-                "summary_json": json.dumps(self.summary()),
-            },
+            attrs={"method": self.method},
         )
 
     def plot(self, ax=None, output: str | None = None):

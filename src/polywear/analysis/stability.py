@@ -18,11 +18,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import brentq
 
-from .. import __version__
 from ..models import get_model
 from ..results import Result
 from ..models.base import kmh_to_ms, ms_to_kmh
-from ..params import Params, to_toml
+from ..params import Params
 from ..settings import check_count, check_positive
 from ..units import DEFAULT_SPEED_RANGE_KMH, STABILITY_SPEED_RANGE_KMH
 from .derivatives import bilinear, jac_directional, rhs_directional, trilinear
@@ -242,9 +241,6 @@ class StabilityResult(Result):
             },
             coords={"speed_kmh": self.speeds_kmh, "state": list(self.state_names)},
             attrs={
-                "model": self.params.model,
-                "params_toml": to_toml(self.params),
-                "polywear_version": __version__,
                 "hopf_speeds_kmh": [h.speed_kmh for h in self.hopf_points],
                 "hopf_frequencies_hz": [h.frequency_hz for h in self.hopf_points],
                 **{k: str(v) for k, v in self.settings.items()},

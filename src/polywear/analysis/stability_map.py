@@ -34,16 +34,14 @@ one-parameter diagrams in the tests check it); the SEV band is their union.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import __version__
 from ..models import get_model
 from ..results import Result
 from ..models.base import kmh_to_ms, ms_to_kmh
-from ..params import Params, ParameterError, to_toml
+from ..params import Params, ParameterError
 from ..progress import Progress, StepCounter
 from ..settings import check_count, check_fraction, check_order, check_positive
 from ..solvers.continuation import BranchPoint, ContinuationSettings, fold_near
@@ -536,13 +534,7 @@ class StabilityMap(Result):
                                       "3 unknown (no equilibrium found)"}),
             },
             coords={"value": self.grid_values, "speed_kmh": speeds},
-            attrs={
-                "model": self.params.model,
-                "param": self.key,
-                "params_toml": to_toml(self.params),
-                "polywear_version": __version__,
-                "summary_json": json.dumps(self.summary()),
-            },
+            attrs={"param": self.key},
         )
         return ds
 

@@ -30,7 +30,7 @@ from ..models import get_model
 from ..results import Result
 from ..models.base import kmh_to_ms
 from ..models.profile import patch_sinc
-from ..params import Params, to_toml
+from ..params import Params
 from ..units import wheel_rotation_frequency_hz
 from .stability import mode_label, stability_analysis
 from .wear_law import energetic_rate
@@ -187,8 +187,6 @@ class WearMap(Result):
         """xarray Dataset over (speed_kmh, order)."""
         import xarray as xr
 
-        from .. import __version__
-
         dims = ("speed_kmh", "order")
         return xr.Dataset(
             {
@@ -203,8 +201,7 @@ class WearMap(Result):
                 "mean_wear_mm_per_1000km": ("speed_kmh", self.mean_wear_mm_per_1000km),
             },
             coords={"speed_kmh": self.speeds_kmh, "order": self.orders},
-            attrs={"model": self.params.model, "params_toml": to_toml(self.params),
-                   "polywear_version": __version__, **{k: str(v) for k, v in self.settings.items()}},
+            attrs={k: str(v) for k, v in self.settings.items()},
         )
 
     def plot(self, ax=None, sev_band_kmh: tuple[float, float] | None = None, rays=(5, 10, 15, 20, 30, 40, 60)):

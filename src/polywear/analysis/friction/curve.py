@@ -12,7 +12,6 @@ from typing import Any
 
 import numpy as np
 
-from ... import __version__
 from ...params import Friction
 from ...physics.lugre import steady_friction, steady_friction_slope
 from ...results import Result
@@ -115,8 +114,7 @@ class SteadyCurve(Result):
         return xr.Dataset(
             {"mu": ("velocity", self.mu, {"long_name": "steady friction coefficient", "units": "1"})},
             coords={"velocity": ("velocity", self.velocity, {"long_name": "sliding velocity", "units": "m/s"})},
-            attrs={"title": "LuGre static friction curve", "friction_toml": _friction_toml(self.friction),
-                   "polywear_version": __version__},
+            attrs={"title": "LuGre static friction curve", "friction_toml": _friction_toml(self.friction)},
         )
 
     def plot(self, ax=None, **kwargs):

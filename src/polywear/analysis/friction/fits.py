@@ -8,7 +8,6 @@ from typing import Any, Callable, ClassVar
 
 import numpy as np
 
-from ... import __version__
 from ...params import Friction, with_updates
 from ...physics.lugre import steady_friction
 from ...progress import Progress, StepCounter
@@ -135,7 +134,6 @@ class _ParameterFit(Result):
             "r_squared": self.r_squared,
             "converged": int(self.converged),
             "message": self.message,
-            "polywear_version": __version__,
         }
 
 

@@ -12,7 +12,6 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ... import __version__
 from ...params import Friction
 from ...physics.lugre import (
     bristle_decay_rate,
@@ -206,8 +205,6 @@ class HysteresisLoops(Result):
                 "v_mean_m_per_s": self.v_mean,
                 "v_amplitude_m_per_s": self.v_amplitude,
                 "friction_toml": _friction_toml(self.friction),
-                "settings": repr(self.settings),
-                "polywear_version": __version__,
             },
         )
 
