@@ -11,6 +11,7 @@ import pytest
 
 from polywear.analysis.calibration import (
     CalibrationError,
+    CalibrationSettings,
     Observation,
     calibrate,
     predict,
@@ -80,9 +81,10 @@ def test_recovery_within_stated_intervals_in_50_trials():
     evaluations = []
     for _ in range(50):
         truth = with_updates(Params(), {k: get_value(Params(), k) * math.exp(rng.normal(0.0, 0.1)) for k in KEYS})
-        exact, _ = predict(truth, base, KEYS, n_speeds=60)
+        exact, _ = predict(truth, base, KEYS, settings=CalibrationSettings(n_speeds=60))
         noisy = exact + rng.normal(size=len(base)) * np.array([o.sigma for o in base])
-        result = calibrate(Params(), _with_values(base, noisy), KEYS, n_speeds=60, profile=False)
+        result = calibrate(Params(), _with_values(base, noisy), KEYS, settings=CalibrationSettings(n_speeds=60),
+                           profile=False)
         evaluations.append(result.identifiability["evaluations"])
         for j, entry in enumerate(result.parameters):
             assert entry["identifiable"]

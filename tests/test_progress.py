@@ -80,6 +80,16 @@ def test_simulations_report_runs_done_of_all_runs():
     assert [m for _, _, m in calls] == [run.label for run in result.runs]
 
 
+def test_bifurcation_counts_continuation_steps():
+    from polywear.analysis.bifurcation import bifurcation_diagram
+
+    calls, progress = _recorder()
+    diagram = bifurcation_diagram(Params(), progress=progress)
+    assert [d for d, _, _ in calls] == list(range(1, len(calls) + 1))  # one report per step, counted on
+    assert all(total is None and message.startswith("branch ") for _, total, message in calls)
+    assert len(calls) >= sum(len(b.points) for b in diagram.branches) > 0
+
+
 def test_friction_loops_report_each_frequency():
     from polywear.analysis.friction.loops import hysteresis_loops
 

@@ -9,6 +9,7 @@ import pickle
 
 import pytest
 
+from polywear.analysis.calibration import CalibrationSettings
 from polywear.analysis.campbell import CampbellSettings
 from polywear.analysis.sensitivity import SensitivitySettings
 from polywear.analysis.simulation import SimulationSettings
@@ -74,10 +75,12 @@ BAD = [
     (CampbellSettings, "disturbance_m", 0.0),
     (SensitivitySettings, "method", "backward"),
     (SensitivitySettings, "step", 0.0),
+    (CalibrationSettings, "n_speeds", 2),
+    (CalibrationSettings, "undetermined_above", 0.0),
 ]
 
 CLASSES = [ContinuationSettings, MapSettings, StabilitySettings, SimulationSettings, AutoSettings, SweepSettings,
-           CampbellSettings, SensitivitySettings]
+           CampbellSettings, SensitivitySettings, CalibrationSettings]
 
 
 @pytest.mark.parametrize(("cls", "name", "value"), BAD, ids=[f"{c.__name__}.{n}={v!r}" for c, n, v in BAD])

@@ -29,6 +29,7 @@ from ..results import Result
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import ADHESION_SCALE, ParameterError, Params, get_value, study_keys, with_updates
 from ..progress import Progress, StepCounter
+from ..settings import check_count, check_positive
 from ..units import STABILITY_SPEED_RANGE_KMH, polygon_order
 
 __all__ = [
@@ -36,6 +37,7 @@ __all__ = [
     "CalibrationError",
     "Observation",
     "CalibrationResult",
+    "CalibrationSettings",
     "read_observations",
     "predict",
     "calibrate",
@@ -69,6 +71,22 @@ Z_95 = 1.959963984540054
 
 class CalibrationError(ParameterError):
     """The observations or the request cannot be fitted (one line)."""
+
+
+@dataclass(frozen=True)
+class CalibrationSettings:
+    """Numerical settings of :func:`calibrate` and :func:`predict`."""
+
+    n_speeds: int = 200
+    """Grid speeds bracketing the Hopf points (then located to 1e-10 m/s), at least 3."""
+    undetermined_above: float = 1.0
+    """A combination of relative parameter changes counts as undetermined when its
+    linearized 95 % half-width exceeds this (1.0: +-100 %) or its singular value is at
+    rounding level [-]."""
+
+    def __post_init__(self) -> None:
+        check_count(self, "n_speeds", minimum=3)
+        check_positive(self, "undetermined_above")
 
 
 @dataclass(frozen=True)
@@ -313,9 +331,10 @@ def predict(
     observations: list[Observation],
     keys: list[str] | tuple[str, ...] = (),
     speed_range_kmh: tuple[float, float] = STABILITY_SPEED_RANGE_KMH,
-    n_speeds: int = 200,
+    settings: CalibrationSettings = CalibrationSettings(),
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Model values of the observed quantities and their derivatives.
+    """Model values of the observed quantities and their derivatives (``settings.n_speeds``
+    brackets the Hopf points).
 
     Returns
     -------
@@ -340,7 +359,7 @@ def predict(
                 continue
             obs = [observations[i] for i in mine]
             if kind == "hopf":
-                vals, rows = _hopf_rows(cond, obs, keys, speed_range_kmh, n_speeds)
+                vals, rows = _hopf_rows(cond, obs, keys, speed_range_kmh, settings.n_speeds)
             else:
                 if diagram is None:
                     from .bifurcation import bifurcation_diagram
@@ -433,9 +452,8 @@ def calibrate(
     observations: list[Observation],
     keys: list[str] | tuple[str, ...],
     speed_range_kmh: tuple[float, float] = STABILITY_SPEED_RANGE_KMH,
-    n_speeds: int = 200,
+    settings: CalibrationSettings = CalibrationSettings(),
     profile: bool = True,
-    undetermined_above: float = 1.0,
     progress: Progress | None = None,
 ) -> CalibrationResult:
     """Fit ``keys`` to ``observations`` and report what the data determine.
@@ -449,19 +467,16 @@ def calibrate(
         Float configuration keys to vary (``table.key``).
     speed_range_kmh : (float, float)
         Speeds searched for Hopf points and bands [km/h].
-    n_speeds : int
-        Grid speeds bracketing the Hopf points (then located to 1e-10 m/s).
+    settings : CalibrationSettings
+        Speed grid of the Hopf points and the threshold of an undetermined combination.
     profile : bool
         Also compute profile-likelihood intervals (a refit per evaluation).
-    undetermined_above : float
-        A combination of relative parameter changes counts as undetermined when its
-        linearized 95 % half-width exceeds this (1.0: +-100 %) or its singular value is
-        at rounding level.
     progress : callable, optional
         Progress callback (:mod:`polywear.progress`): model evaluations, total unknown.
     """
     from scipy.optimize import least_squares
 
+    n_speeds, undetermined_above = settings.n_speeds, settings.undetermined_above
     keys = list(keys)
     allowed = set(study_keys()) - {ADHESION_SCALE}
     for key in keys:
@@ -494,7 +509,7 @@ def calibrate(
         if tag not in cache:
             try:
                 trial = with_updates(params, dict(zip(keys, map(float, x * scale))))
-                values, jac = predict(trial, observations, keys, speed_range_kmh, n_speeds)
+                values, jac = predict(trial, observations, keys, speed_range_kmh, settings)
             except ParameterError:  # a cross-rule (e.g. mu_c <= mu_s) broken: not a valid point
                 values, jac = np.full(n, math.nan), np.full((n, m), math.nan)
             if len(cache) > 64:

@@ -46,6 +46,7 @@ from ..models import get_model
 from ..models.base import kmh_to_ms
 from ..models.profile import coupled_model, patch_sinc, profile_vector
 from ..params import Params, to_toml
+from ..progress import Progress
 from ..results import Result
 from ..solvers.integrate import integrate
 from .wear_law import energetic_rate, friction_power, profile_samples
@@ -539,13 +540,13 @@ class EvolutionResult(Result):
 
 
 def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000.0, revolutions: int = 16,
-           on_step=None, workers: int = 1) -> EvolutionResult:
+           progress: Progress | None = None, workers: int = 1) -> EvolutionResult:
     """Worn profile from seeded roughness over ``distance_km`` [km] on a drive cycle.
 
     ``cycle``: ((speed [km/h], share), ...), default ``params.wear.cycle_shares()``;
     ``step_km``: distance step; ``revolutions``: simulated revolutions per window where
     the tread vibrates (3 where steady rolling is stable: nothing drifts there);
-    ``on_step(distance_km)`` after every step;
+    ``progress(km done, distance_km)`` after every step (:mod:`polywear.progress`);
     ``workers``: processes that simulate the windows of the cycle's speeds at the same
     time (1: all in this process; the result is the same).
     """
@@ -557,7 +558,7 @@ def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000
         raise ValueError(f"workers = {workers!r}: must be at least 1")
     cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
     if workers == 1 or len(cycle) == 1:
-        return _evolve(params, distance_km, cycle, step_km, revolutions, on_step, None)
+        return _evolve(params, distance_km, cycle, step_km, revolutions, progress, None)
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
@@ -565,7 +566,7 @@ def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000
 
     with ProcessPoolExecutor(min(workers, len(cycle)), mp_context=multiprocessing.get_context("spawn"),
                              initializer=_ignore_interrupt) as pool:
-        return _evolve(params, distance_km, cycle, step_km, revolutions, on_step, pool)
+        return _evolve(params, distance_km, cycle, step_km, revolutions, progress, pool)
 
 
 def _windows(pool, jobs, base, longest: int) -> list[WindowWear]:
@@ -578,7 +579,7 @@ def _windows(pool, jobs, base, longest: int) -> list[WindowWear]:
     return [future.result() for future in futures]
 
 
-def _evolve(params: Params, distance_km: float, cycle, step_km: float, revolutions: int, on_step, pool
+def _evolve(params: Params, distance_km: float, cycle, step_km: float, revolutions: int, progress, pool
             ) -> EvolutionResult:
     """:func:`evolve` on a given cycle, the windows of each step run by :func:`_windows`."""
     base = get_model(params.model)
@@ -657,8 +658,8 @@ def _evolve(params: Params, distance_km: float, cycle, step_km: float, revolutio
         distance.append(done)
         orders_hist.append([w.order for w in wins])
         locked_hist.append([w.locked and math.isfinite(w.order) for w in wins])
-        if on_step is not None:
-            on_step(done)
+        if progress is not None:
+            progress(done, distance_km, "")
     distance = np.array(distance)
     steps = np.diff(distance)
     return EvolutionResult(params=params, distance_km=distance, harmonics=np.array(history),
