@@ -37,14 +37,14 @@ def report(progress: Progress | None) -> Progress:
     return _silent if progress is None else progress
 
 
-def shifted(progress: Progress | None, start: float, total: float | None) -> Progress | None:
-    """Progress of a part of the work that begins at ``start`` of ``total`` (None for None)."""
+def shifted(progress: Progress | None, start: float, whole: float | None) -> Progress | None:
+    """Progress of a part of the work that begins at ``start`` of ``whole`` (None for None)."""
     if progress is None:
         return None
     forward = progress
 
-    def part(done: float, part_total: float | None, message: str = "") -> None:
-        forward(start + done, total, message)
+    def part(done: float, total: float | None, message: str = "") -> None:
+        forward(start + done, whole, message)
 
     return part
 

@@ -301,8 +301,10 @@ def progress(description: str, enabled: bool = True) -> Iterator[Any]:
         task = bar.add_task(description, total=None)
 
         def update(done: float, total: float | None, message: str = "") -> None:
-            text = {"description": f"{description}: {message}"} if message else {}  # else keep the last one
-            bar.update(task, completed=done, total=total, **text)
+            if message:
+                bar.update(task, completed=done, total=total, description=f"{description}: {message}")
+            else:  # keep the last message
+                bar.update(task, completed=done, total=total)
 
         yield update
 
