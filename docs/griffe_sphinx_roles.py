@@ -38,8 +38,10 @@ def _shown(path: str, alone: set[str], with_members: set[str]) -> bool:
     return any(path.startswith(f"{parent}.") for parent in with_members)
 
 
-def _target(obj: griffe.Object, name: str) -> str | None:
-    """Full path of ``name`` as seen from ``obj``'s docstring, or None."""
+def _target(obj: griffe.Object, name: str, split: bool = True) -> str | None:
+    """Full path of ``name`` as seen from ``obj``'s docstring, or None (``split``: also try
+    ``Class.member`` with the class resolved in scope; once, so that a member griffe cannot
+    find, e.g. an inherited method, ends the search instead of recursing)."""
     name = name.lstrip(".")
     try:
         return obj.resolve(name) if obj.parent is None else obj.parent.resolve(name)
@@ -49,11 +51,11 @@ def _target(obj: griffe.Object, name: str) -> str | None:
         return obj.modules_collection.get_member(name).path
     except (KeyError, ValueError, AttributeError):
         pass
-    if "." in name:  # a member of a class in scope, e.g. Class.method
+    if split and "." in name:  # a member of a class in scope, e.g. Class.method
         head, _, tail = name.partition(".")
-        base = _target(obj, head)
+        base = _target(obj, head, split=False)
         if base is not None:
-            return _target(obj, f"{base}.{tail}")
+            return _target(obj, f"{base}.{tail}", split=False)
     return None
 
 
