@@ -187,3 +187,19 @@ def test_a_second_reference_serves_its_hopf_signature():
         paths.append(band.path)
         assert_agrees(band, both.full(params))
     assert paths.count(BandPath.FAST) >= 2, paths
+
+
+def test_a_reference_whose_band_runs_to_the_range_end_is_not_used(tread_solver):
+    """tread1dof, toe 0.38 deg: the fold lies above 300 km/h, so the SEV band ends at the
+    range end. A sample at toe 0.43 deg (nearer to it than to the nominal 0.5 deg) has its
+    fold at ~296 km/h; started from that reference it would report no fold and a band to
+    300 km/h (8 of 200 samples did so in an agreement run). Such a reference is unusable."""
+    base, solver = tread_solver
+    beyond = band_reference(bifurcation_diagram(with_updates(base, {"operating.toe_deg": 0.38}), **_FIXED_RANGE),
+                            AMPLITUDE_SPEEDS)
+    assert beyond.unusable.startswith("an interval of the reference ends at an end of the speed range")
+    car = with_updates(base, {"operating.toe_deg": 0.43})
+    both = FastBand((solver.references[0], beyond), amplitude_speeds_kmh=AMPLITUDE_SPEEDS)
+    band = both(car)
+    assert band.path is BandPath.FAST and len(band.folds_kmh) == 1 and band.folds_kmh[0] < 300.0
+    assert_agrees(band, both.full(car))

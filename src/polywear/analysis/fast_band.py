@@ -318,6 +318,10 @@ def band_reference(diagram, amplitude_speeds_kmh=()) -> BandReference:
         labels[name] = _labelled(intervals, band.hopf_kmh, band.folds_kmh, diagram.speed_range_kmh)
         if labels[name] is None and not unusable:
             unusable = f"an end of the reference's {name} intervals is not a Hopf point, fold or range end"
+    if not unusable and any(kind in ("lo", "hi") for pairs in labels.values() for pair in pairs for kind, _ in pair):
+        # a branch leaves the range: its fold lies beyond it, or none was found there; a
+        # sample whose fold lies inside the range would get the range end as band edge
+        unusable = "an interval of the reference ends at an end of the speed range (a fold may lie beyond it)"
     return BandReference(
         params=diagram.params,
         p=p,
