@@ -13,10 +13,11 @@ continues whole branches; the fast path solves the defining systems directly:
    p_ref)`` from ``theta = 0`` to 1. Predictor: the exact fold-speed gradient of the
    reference (left null vector of the collocation system,
    :func:`~polywear.analysis.sensitivity.fold_speed_derivative`), then secants.
-   Corrector (:func:`_relocate_fold`): Newton onto the new cycle branch, pseudo-arclength
-   steps towards the fold until the speed component of the tangent changes sign, secant
-   iteration inside that bracket. The first try is one step; a step whose fold misses the
-   prediction by more than a quarter of the predicted change is halved, a good one doubled.
+   Corrector (:func:`~polywear.solvers.continuation.locate_fold`): Newton onto the new
+   cycle branch, pseudo-arclength steps towards the fold until the speed component of
+   the tangent changes sign, secant iteration inside that bracket. The first try is one
+   step; a step whose fold misses the prediction by more than a quarter of the predicted
+   change is halved, a good one doubled.
 3. **Bands by label**: every end of the reference's SEV band, hard regions and
    stable-cycle intervals is labelled by the special point it sits at (Hopf point k, fold
    j, an end of the speed range); the sample's bands are the same intervals with its own
@@ -55,7 +56,8 @@ from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params
 from ..results import Result
 from ..units import DEFAULT_SPEED_RANGE_KMH
-from ..solvers.continuation import BranchPoint, ContinuationSettings, solve_at_speed
+from ..solvers.continuation import (BranchPoint, ContinuationSettings, fold_curvature, locate_fold,
+                                    on_adapted_mesh, solve_at_speed)
 from .points import PointKind
 
 __all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "band_from_diagram", "band_reference",
@@ -415,116 +417,6 @@ class _Fallback(Exception):
         self.fallback = Fallback(reason, detail)
 
 
-MAX_MARCH = 40
-"""Largest number of arclength steps (march and secant) of one fold relocation."""
-MAX_STEP = 0.5
-"""Largest arclength step [scaled] of the march towards the fold."""
-
-
-def _fold_stepper(model, p, orbit, speed: float, scales, settings):
-    """The continuation's Newton corrector (scaled norm: states, 0.1 V, the period) at ``p``."""
-    from ..solvers.continuation import _Stepper
-
-    return _Stepper(model, p, orbit.mesh, settings, scales, 0.1 * speed, orbit.period)
-
-
-def fold_curvature(model, p, fold: BranchPoint, scales, settings, h: float = 1e-3) -> float:
-    """d(dV/ds)/ds at a fold [m/s per scaled arclength^2], by central difference along its branch."""
-    stepper = _fold_stepper(model, p, fold.orbit, fold.orbit.speed, scales, settings)
-    X, t = stepper.coll.pack(fold.orbit), stepper.unit(fold.tangent)
-    g = []
-    for s in (-h, h):
-        out = stepper.correct(X, t, s, fold.orbit)
-        if out is None:
-            return np.nan
-        g.append(float(out[1][-1]))
-    return (g[1] - g[0]) / (2.0 * h)
-
-
-def _relocate_fold(model, p, guess: BranchPoint, speed: float, scales, settings,
-                   curvature: float = np.nan) -> BranchPoint | None:
-    """The fold of cycles at ``p`` near ``guess`` (a fold at a nearby parameter vector).
-
-    Newton onto the cycle branch at ``p`` from the guess with its speed replaced by
-    ``speed`` [m/s] (the border row is the guess's tangent, so this lands on the branch
-    near the fold, not on it). The speed component ``g = dV/ds`` of the branch tangent
-    vanishes at the fold and is nearly linear in the arclength ``s`` there, so: steps of
-    ``-1.2 g / (dg/ds)`` (``curvature``, the reference's, first; then the secant slope of
-    the last two points) until ``g`` changes sign, then secant iteration inside that
-    bracket (bisection when a secant step leaves it) to ``|g| < settings.fold_tol``.
-    None if Newton fails or no fold is bracketed within :data:`MAX_MARCH` steps.
-    (:func:`~polywear.solvers.continuation.fold_near` takes one fixed probe step and
-    unbracketed secant steps, which fail when the landing point is further from the fold
-    than a Newton step reaches.)
-    """
-    orbit = guess.orbit
-    stepper = _fold_stepper(model, p, orbit, speed, scales, settings)
-    c = stepper.coll
-    X0 = c.pack(orbit)
-    X0[-1] = speed
-    out = stepper.correct(X0, stepper.unit(guess.tangent), 0.0, orbit)
-    if out is None:
-        return None
-    X, t, g = out[0], out[1], float(out[1][-1])
-    best = BranchPoint(c.unpack(X), out[3], t, out[2], "LP")
-    slope = curvature if np.isfinite(curvature) and curvature != 0.0 else -np.sign(g) / 1e-2
-    limit = MAX_STEP  # halved at every failed step, grown by half at every good one
-    step = float(np.clip(-1.2 * g / slope, -limit, limit))
-    bracket = None
-    start = c.unpack(X)  # phase reference of the steps from X (X moves only while marching)
-    for _ in range(MAX_MARCH):
-        if abs(g) < settings.fold_tol:
-            return best
-        if bracket is None:
-            nxt = stepper.correct(X, t, step, start)
-            if nxt is None:
-                step *= 0.5
-                limit = abs(step)
-                if limit < settings.ds_min:
-                    return None
-                continue
-            limit = min(1.5 * limit, MAX_STEP)
-            g_new = float(nxt[1][-1])
-            best = BranchPoint(c.unpack(nxt[0]), nxt[3], nxt[1], nxt[2], "LP")
-            if np.sign(g_new) != np.sign(g):  # bracketed in [0, step] from X
-                bracket = [(0.0, g), (step, g_new)]
-                s_prev, g_prev, s_cur, g_cur = 0.0, g, step, g_new
-                g = g_new
-                continue
-            slope = (g_new - g) / step
-            X, t, g = nxt[0], nxt[1], g_new
-            start = c.unpack(X)
-            if slope == 0.0 or -g / slope * np.sign(step) < 0:  # moving away from the fold: turn round
-                step = -float(np.clip(2.0 * step, -limit, limit))
-            else:
-                step = float(np.clip(-1.2 * g / slope, -limit, limit))
-            continue
-        (sa, ga), (sb, gb) = bracket
-        s_new = s_cur - g_cur * (s_cur - s_prev) / (g_cur - g_prev) if g_cur != g_prev else 0.5 * (sa + sb)
-        if not min(sa, sb) < s_new < max(sa, sb):
-            s_new = 0.5 * (sa + sb)
-        nxt = stepper.correct(X, t, s_new, start)
-        if nxt is None:
-            return None
-        g_new = float(nxt[1][-1])
-        best = BranchPoint(c.unpack(nxt[0]), nxt[3], nxt[1], nxt[2], "LP")
-        bracket = [(s_new, g_new), (sb, gb)] if np.sign(g_new) == np.sign(gb) * -1 else [(sa, ga), (s_new, g_new)]
-        s_prev, g_prev, s_cur, g_cur = s_cur, g_cur, s_new, g_new
-        g = g_new
-    return None
-
-
-def _adapted(model, p, fold: BranchPoint) -> BranchPoint:
-    """The fold's orbit and tangent on a mesh adapted to its orbit."""
-    from ..solvers.collocation import Collocation
-
-    c = Collocation(model, p, fold.orbit.mesh, fold.orbit.m)
-    mesh = c.adapted_mesh(fold.orbit)
-    new = Collocation(model, p, mesh, fold.orbit.m)
-    tangent = new.pack(c.unpack(fold.tangent).with_mesh(mesh))
-    return BranchPoint(fold.orbit.with_mesh(mesh), fold.multipliers, tangent, fold.newton_iterations, "LP")
-
-
 def _difference(p: np.ndarray, p_ref: np.ndarray) -> np.ndarray:
     """``p - p_ref``, zero in slots that are not parameters (NaN: a model's per-speed cache)."""
     both = np.isfinite(p) & np.isfinite(p_ref)
@@ -714,7 +606,7 @@ class FastBand:
         while theta < 1.0:
             nxt = min(1.0, theta + h)
             V_pred = fold.orbit.speed + (nxt - theta) * slope
-            new = _relocate_fold(model, ref.p + nxt * direction, fold, V_pred, scales, self.settings, curvature)
+            new = locate_fold(model, ref.p + nxt * direction, fold, V_pred, scales, self.settings, curvature)
             change = abs(V_pred - fold.orbit.speed)
             if new is None or abs(new.orbit.speed - V_pred) > 0.25 * change + 1e-3 * fold.orbit.speed:
                 halvings += 1
@@ -725,7 +617,8 @@ class FastBand:
             slope = (new.orbit.speed - fold.orbit.speed) / (nxt - theta)
             fold, theta, h = new, nxt, 2.0 * h
         if self.adapt_mesh:
-            fold = _relocate_fold(model, p, _adapted(model, p, fold), fold.orbit.speed, scales, self.settings, curvature)
+            fold = locate_fold(model, p, on_adapted_mesh(model, p, fold), fold.orbit.speed, scales, self.settings,
+                               curvature)
             if fold is None:
                 raise _Fallback(FallbackReason.FOLD_NOT_FOLLOWED, f"fold {j + 1} lost after mesh adaptation")
         return fold

@@ -2,6 +2,9 @@
 
 For one parameter key ``theta`` (any float key or ``adhesion_scale``) over a range:
 
+The two-parameter continuation itself is :mod:`polywear.solvers.curve_continuation`;
+this module evaluates the model along it, seeds the curves and builds the map.
+
 * **Hopf curves** by pseudo-arclength continuation of ``Re lambda(V, theta) = 0`` for
   the tracked critical eigenvalue ``lambda``, in coordinates scaled by the widths of the
   speed and parameter ranges. The gradient ``(d Re lambda/dV, d Re lambda/d theta)``
@@ -15,9 +18,10 @@ For one parameter key ``theta`` (any float key or ``adhesion_scale``) over a ran
 * **Fold curves** by natural continuation in ``theta``: the predictor is the exact
   derivative ``dV_fold/d theta`` (:func:`~polywear.analysis.sensitivity.fold_speed_derivative`,
   left null vector of the collocation system), the corrector re-locates the fold at
-  the new ``theta``: one Newton solve onto the new cycle branch from the predicted
-  orbit, then a secant iteration along the branch on the speed component of its
-  tangent (the fold condition). A fold curve ends at the range, where the corrector
+  the new ``theta`` (:func:`~polywear.solvers.continuation.locate_fold`): one Newton
+  solve onto the new cycle branch from the predicted orbit, a march along the branch
+  until the speed component of its tangent (zero at the fold) changes sign, then
+  a secant iteration inside that bracket. A fold curve ends at the range, where the corrector
   fails (a turning point of the fold curve, e.g. a cusp), or where the fold's
   amplitude has shrunk towards a Bautin point.
 
@@ -44,7 +48,8 @@ from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, ParameterError
 from ..progress import Progress, StepCounter
 from ..settings import check_count, check_fraction, check_order, check_positive
-from ..solvers.continuation import BranchPoint, ContinuationSettings, fold_near
+from ..solvers.continuation import BranchPoint, ContinuationSettings
+from ..solvers.curve_continuation import HopfCurveTracer, HopfState, follow_fold_curve, trace_hopf_curve
 from ..units import DEFAULT_SPEED_RANGE_KMH
 from .intervals import runs_of, union
 from .points import PointKind, SpecialPoint
@@ -146,38 +151,19 @@ class FoldCurve:
 
 
 # -- Hopf curves -------------------------------------------------------------------------------
-@dataclass
-class _HopfState:
-    V: float  # [m/s]
-    theta: float
-    lam: complex
-    u: np.ndarray
-    q: np.ndarray
-    w: np.ndarray
-    J: np.ndarray
-    p: np.ndarray
-    dlam: tuple[complex, complex]  # (dlambda/dV, dlambda/dtheta)
-    tangent: np.ndarray = field(default_factory=lambda: np.zeros(2))
+def _eigen_at(model, p_of, direction):
+    """``eigen_at(V, theta, lam_guess)`` for :class:`~polywear.solvers.curve_continuation.HopfCurveTracer`:
+    equilibrium and the critical eigentriple nearest ``lam_guess`` (Im > 0) at (V [m/s], theta),
+    with the exact derivatives of the eigenvalue in V and theta."""
+    from scipy.linalg import eig
 
-
-class _HopfTracer:
-    """Evaluation, corrector and events of Re lambda(V, theta) = 0 in scaled coordinates."""
-
-    def __init__(self, model, p_of, direction, speed_box, value_box, settings: MapSettings):
-        self.model, self.p_of, self.direction = model, p_of, direction
-        self.speed_box, self.value_box, self.settings = speed_box, value_box, settings
-        self.scale = np.array([speed_box[1] - speed_box[0], value_box[1] - value_box[0]])
-
-    def state(self, V, theta, lam_guess) -> _HopfState | None:
-        """Equilibrium and the critical eigentriple nearest ``lam_guess`` (Im > 0) at (V, theta)."""
-        from scipy.linalg import eig
-
-        p = self.p_of(theta)
+    def at(V: float, theta: float, lam_guess: complex) -> HopfState | None:
+        p = p_of(theta)
         try:
-            u = self.model.equilibrium(V, p)
+            u = model.equilibrium(V, p)
         except (RuntimeError, ValueError, FloatingPointError):
             return None
-        J = self.model.jacobian(u, V, p)
+        J = model.jacobian(u, V, p)
         vals, vl, vr = eig(J, left=True, right=True)
         oscillatory = np.flatnonzero(vals.imag > 1e-9 * max(np.abs(vals).max(), 1.0))
         if oscillatory.size == 0:
@@ -186,160 +172,24 @@ class _HopfTracer:
         q = vr[:, i] / np.linalg.norm(vr[:, i])
         w = vl[:, i]
         w = w / np.conj(np.vdot(w, q))  # w^H q = 1
-        dV = critical_eigenvalue_derivative(self.model, u, V, p, q, w, dV=1.0)
-        dth = critical_eigenvalue_derivative(self.model, u, V, p, q, w, dp=self.direction)
-        st = _HopfState(V, theta, vals[i], u, q, w, J, p, (dV, dth))
-        g = np.array([dV.real, dth.real]) * self.scale
-        st.tangent = np.array([-g[1], g[0]]) / np.hypot(*g)
-        return st
+        dV = critical_eigenvalue_derivative(model, u, V, p, q, w, dV=1.0)
+        dth = critical_eigenvalue_derivative(model, u, V, p, q, w, dp=direction)
+        return HopfState(V, theta, vals[i], u, q, w, J, p, (dV, dth))
 
-    def scaled(self, st: _HopfState) -> np.ndarray:
-        return np.array([st.V, st.theta]) / self.scale
-
-    def correct(self, start: _HopfState, tangent: np.ndarray, ds: float) -> tuple[_HopfState, int] | None:
-        """Newton from start + ds * tangent on {Re lambda = 0, tangent . (y - y_start) = ds}."""
-        y0 = self.scaled(start)
-        y = y0 + ds * tangent
-        lam = start.lam + ds * (start.dlam[0] * tangent[0] * self.scale[0] + start.dlam[1] * tangent[1] * self.scale[1])
-        for it in range(1, self.settings.max_newton + 1):
-            st = self.state(y[0] * self.scale[0], y[1] * self.scale[1], lam)
-            if st is None:
-                return None
-            F = np.array([st.lam.real, tangent @ (y - y0) - ds])
-            A = np.array([[st.dlam[0].real * self.scale[0], st.dlam[1].real * self.scale[1]], tangent])
-            try:
-                dy = np.linalg.solve(A, -F)
-            except np.linalg.LinAlgError:
-                return None
-            y = y + dy
-            lam = st.lam + st.dlam[0] * dy[0] * self.scale[0] + st.dlam[1] * dy[1] * self.scale[1]
-            if np.max(np.abs(dy)) < self.settings.newton_tol:
-                final = self.state(y[0] * self.scale[0], y[1] * self.scale[1], lam)
-                if final is None or abs(final.lam.real) > 1e-6 * abs(final.lam):
-                    return None
-                if final.tangent @ tangent < 0:
-                    final.tangent = -final.tangent
-                return final, it
-        return None
-
-    def on_edge(self, inside: _HopfState, outside_y: np.ndarray) -> _HopfState | None:
-        """The curve's point on the box edge crossed between ``inside`` and ``outside_y`` (scaled)."""
-        y0 = self.scaled(inside)
-        lo = np.array([self.speed_box[0], self.value_box[0]]) / self.scale
-        hi = np.array([self.speed_box[1], self.value_box[1]]) / self.scale
-        best, axis, bound = 2.0, 0, 0.0
-        for k in range(2):
-            for edge in (lo[k], hi[k]):
-                d = outside_y[k] - y0[k]
-                if d != 0.0 and 0.0 <= (edge - y0[k]) / d < best:
-                    best, axis, bound = (edge - y0[k]) / d, k, edge
-        # Newton on the free coordinate with the crossed one fixed at the edge
-        y = y0 + best * (outside_y - y0)
-        y[axis] = bound
-        lam = inside.lam
-        for _ in range(self.settings.max_newton):
-            st = self.state(y[0] * self.scale[0], y[1] * self.scale[1], lam)
-            if st is None:
-                return None
-            free = 1 - axis
-            slope = st.dlam[free].real * self.scale[free]
-            step = -st.lam.real / slope
-            y[free] += step
-            lam = st.lam
-            if abs(step) < self.settings.newton_tol:
-                break
-        st = self.state(y[0] * self.scale[0], y[1] * self.scale[1], lam)
-        if st is not None and st.tangent @ inside.tangent < 0:
-            st.tangent = -st.tangent
-        return st
-
-    def l1(self, st: _HopfState) -> float:
-        return first_lyapunov_coefficient(self.model, st.u, st.V, st.p, st.q, st.w, st.lam.imag, st.J)
-
-    def locate(self, a: _HopfState, fa: float, b_ds: float, fb: float, fn) -> _HopfState | None:
-        """Secant on the arclength from ``a`` for a zero of ``fn(state)`` between 0 and ``b_ds``."""
-        s0, f0, s1, f1 = 0.0, fa, b_ds, fb
-        best = None
-        for _ in range(40):
-            s = s1 - f1 * (s1 - s0) / (f1 - f0) if f1 != f0 else 0.5 * (s0 + s1)
-            out = self.correct(a, a.tangent, s)
-            if out is None:
-                return best
-            best = out[0]
-            f = fn(best)
-            if abs(s - s1) < 1e-13 or f == 0.0:
-                break
-            s0, f0, s1, f1 = s1, f1, s, f
-        return best
-
-    def trace(self, start: _HopfState, sign: float, on_step=None):
-        """Points of the curve from ``start`` in direction ``sign * tangent`` until it ends."""
-        s = self.settings
-        cur = _HopfState(**{**start.__dict__, "tangent": sign * start.tangent})
-        points, l1s, turning, bautin = [cur], [self.l1(cur)], [], []
-        ds = s.ds_initial
-        y_start = self.scaled(start)
-        reason = "maximum number of steps"
-        for _ in range(s.max_steps):
-            out = self.correct(cur, cur.tangent, ds)
-            ok = out is not None and out[0].tangent @ cur.tangent > np.cos(s.max_turn)
-            if ok:
-                new = out[0]
-                ok = abs(new.lam.imag - cur.lam.imag) < 0.1 * abs(cur.lam.imag)  # same mode
-            if not ok:
-                ds *= 0.5
-                if ds < s.ds_min:
-                    reason = "step size underflow (no nearby Hopf point: the pair became real?)"
-                    break
-                continue
-            y = self.scaled(new)
-            lo = np.array([self.speed_box[0], self.value_box[0]]) / self.scale
-            hi = np.array([self.speed_box[1], self.value_box[1]]) / self.scale
-            if np.any(y < lo) or np.any(y > hi):
-                edge = self.on_edge(cur, y)
-                if edge is not None:
-                    points.append(edge)
-                    l1s.append(self.l1(edge))
-                reason = "left the range"
-                break
-            l1_new = self.l1(new)
-            if np.sign(new.tangent[1]) != np.sign(cur.tangent[1]):
-                tp = self.locate(cur, cur.tangent[1], ds, new.tangent[1], lambda st: st.tangent[1])
-                if tp is not None:
-                    turning.append((tp.theta, ms_to_kmh(tp.V)))
-            if np.sign(l1_new) != np.sign(l1s[-1]):
-                l1_cur = l1s[-1]
-                gh = self.locate(cur, l1_cur, ds, l1_new, self.l1)
-                if gh is not None:
-                    bautin.append((gh.theta, ms_to_kmh(gh.V)))
-            points.append(new)
-            l1s.append(l1_new)
-            if on_step is not None:
-                on_step()
-            if len(points) > 10 and np.linalg.norm(y - y_start) < 0.5 * ds:
-                reason = "closed curve"
-                break
-            cur = new
-            ds = min(s.ds_max, ds * (1.3 if out[1] <= 3 else 1.0))
-        return points, l1s, turning, bautin, reason
+    return at
 
 
-def _hopf_curve(tracer: _HopfTracer, start: _HopfState, on_step) -> HopfCurve:
-    fwd = tracer.trace(start, 1.0, on_step)
-    closed = fwd[4] == "closed curve"
-    back = ([start], fwd[1][:1], [], [], "closed curve") if closed else tracer.trace(start, -1.0, on_step)
-    points = back[0][::-1] + fwd[0][1:]
-    l1s = back[1][::-1] + fwd[1][1:]
-    tangents = [-p.tangent for p in back[0][::-1]] + [p.tangent for p in fwd[0][1:]]
+def _hopf_curve(tracer: HopfCurveTracer, start: HopfState, on_step) -> HopfCurve:
+    c = trace_hopf_curve(tracer, start, on_step)
     return HopfCurve(
-        speed_kmh=np.array([ms_to_kmh(p.V) for p in points]),
-        value=np.array([p.theta for p in points]),
-        frequency_hz=np.array([p.lam.imag / (2 * np.pi) for p in points]),
-        l1=np.array(l1s),
-        tangent=np.array(tangents),
-        turning_points=[SpecialPoint(PointKind.HOPF_TURN, s, value=v) for v, s in back[2] + fwd[2]],
-        bautin_points=[SpecialPoint(PointKind.GH, s, value=v) for v, s in back[3] + fwd[3]],
-        end_reasons=(back[4], fwd[4]),
+        speed_kmh=np.array([ms_to_kmh(p.V) for p in c.points]),
+        value=np.array([p.theta for p in c.points]),
+        frequency_hz=np.array([p.lam.imag / (2 * np.pi) for p in c.points]),
+        l1=np.array(c.tests),
+        tangent=c.tangents,
+        turning_points=[SpecialPoint(PointKind.HOPF_TURN, ms_to_kmh(st.V), value=st.theta) for st in c.turning_points],
+        bautin_points=[SpecialPoint(PointKind.GH, ms_to_kmh(st.V), value=st.theta) for st in c.test_zeros],
+        end_reasons=c.end_reasons,
     )
 
 
@@ -361,69 +211,11 @@ def _near_curve(curves, value, speed_kmh, scale_value, scale_speed, tol=5e-3) ->
 
 
 # -- fold curves ---------------------------------------------------------------------------------
-def _relocate_fold(model, p, guess: BranchPoint, V_pred, scales, settings: MapSettings):
-    """The fold of cycles at parameter vector ``p`` near ``guess`` (an orbit and tangent at a nearby p)."""
-    return fold_near(model, p, guess, V_pred, scales, settings.continuation)
-
-
-def _adapt(model, p, fold: BranchPoint, settings: MapSettings) -> BranchPoint:
-    """The fold's orbit and tangent moved onto a mesh adapted to the orbit."""
-    from ..solvers.collocation import Collocation
-
-    c = Collocation(model, p, fold.orbit.mesh, fold.orbit.m)
-    mesh = c.adapted_mesh(fold.orbit)
-    new = Collocation(model, p, mesh, fold.orbit.m)
-    tangent = new.pack(c.unpack(fold.tangent).with_mesh(mesh))
-    return BranchPoint(fold.orbit.with_mesh(mesh), fold.multipliers, tangent, fold.newton_iterations, "LP")
-
-
 def _fold_curve(model, p_of, direction, seed: BranchPoint, scales, theta0, value_box, speed_box,
                 settings: MapSettings, on_step) -> FoldCurve:
-    ix = model.index("x")
-    width = value_box[1] - value_box[0]
-    amp0 = float(seed.orbit.amplitude()[ix])
-    sides = []
-    for sign in (-1.0, 1.0):
-        fold, theta = seed, theta0
-        h = settings.fold_step * width
-        rows, reason = [], "maximum number of steps"
-        for step in range(settings.continuation.max_steps):
-            p = p_of(theta)
-            dVdth = fold_speed_derivative(model, p, fold, direction)
-            rows.append((theta, fold.orbit.speed, dVdth, float(fold.orbit.amplitude()[ix]), 1.0 / fold.orbit.period))
-            if on_step is not None:
-                on_step()
-            if rows[-1][3] < settings.fold_min_amplitude * amp0:
-                reason = "amplitude vanishing (towards a Bautin point)"
-                break
-            if not (speed_box[0] <= fold.orbit.speed <= FOLD_SPEED_MARGIN * speed_box[1]):
-                reason = "left the speed range"
-                break
-            if (sign < 0 and theta <= value_box[0]) or (sign > 0 and theta >= value_box[1]):
-                reason = "left the range"
-                break
-            if step % 3 == 2:
-                fold = _adapt(model, p, fold, settings)
-            while True:
-                nxt = float(np.clip(theta + sign * h, *value_box))
-                V_pred = fold.orbit.speed + (nxt - theta) * dVdth
-                new = _relocate_fold(model, p_of(nxt), fold, V_pred, scales, settings)
-                bad = new is None or abs(new.orbit.speed - V_pred) > 0.2 * abs(V_pred - fold.orbit.speed) + 1e-6 * V_pred
-                if not bad:
-                    break
-                h *= 0.5
-                if h < settings.fold_min_step * width:
-                    new = None
-                    break
-            if new is None:
-                reason = "corrector failed (turning point of the fold curve?)"
-                break
-            if abs(new.orbit.speed - V_pred) < 0.02 * abs(V_pred - fold.orbit.speed):
-                h = min(h * 1.5, settings.fold_step * width)
-            fold, theta = new, nxt
-        sides.append((rows, reason))
-    (back, r_back), (fwd, r_fwd) = sides
-    rows = back[::-1] + fwd[1:]
+    rows, reasons = follow_fold_curve(
+        model, p_of, seed, scales, theta0, value_box, (speed_box[0], FOLD_SPEED_MARGIN * speed_box[1]), settings,
+        lambda p, fold: fold_speed_derivative(model, p, fold, direction), on_step)
     arr = np.array(rows)
     return FoldCurve(
         value=arr[:, 0],
@@ -431,7 +223,7 @@ def _fold_curve(model, p_of, direction, seed: BranchPoint, scales, theta0, value
         derivative=ms_to_kmh(arr[:, 2]),
         amplitude_x=arr[:, 3],
         frequency_hz=arr[:, 4],
-        end_reasons=(r_back, r_fwd),
+        end_reasons=reasons,
     )
 
 
@@ -687,7 +479,9 @@ def stability_map(
         return p0 + (theta - theta0) * direction
 
     speed_box = (kmh_to_ms(s_lo), kmh_to_ms(s_hi))
-    tracer = _HopfTracer(model, p_of, direction, speed_box, (lo, hi), settings)
+    tracer = HopfCurveTracer(_eigen_at(model, p_of, direction),
+                             lambda st: first_lyapunov_coefficient(model, st.u, st.V, st.p, st.q, st.w, st.lam.imag, st.J),
+                             speed_box, (lo, hi), settings)
     seeds = set(np.linspace(lo, hi, settings.n_seeds).tolist())
     if lo <= theta0 <= hi:
         seeds.add(theta0)

@@ -11,7 +11,7 @@ there ends in ``_ms``) and into ``PointKind`` members (``polywear.analysis.point
 
 from __future__ import annotations
 
-_SUBMODULES = ("bordered", "collocation", "continuation", "integrate")
+_SUBMODULES = ("arclength", "bordered", "collocation", "continuation", "curve_continuation", "integrate")
 
 
 def __getattr__(name: str) -> object:

@@ -27,7 +27,8 @@ __all__ = ["solve_bordered"]
 
 
 @njit(cache=True)
-def _eliminate(rows, n_rows, col0, n_cols, used, border, pivots_out):
+def _eliminate(rows: np.ndarray, n_rows: int, col0: int, n_cols: int, used: np.ndarray, border: np.ndarray,
+               pivots_out: np.ndarray) -> bool:
     """Partial-pivot elimination of columns col0 .. col0+n_cols-1 of ``rows`` (in place).
 
     Pivot rows are chosen among ``rows[:n_rows]`` not ``used``; each pivot row index is
@@ -64,7 +65,8 @@ def _eliminate(rows, n_rows, col0, n_cols, used, border, pivots_out):
 
 
 @njit(cache=True)
-def solve_bordered(blocks, tcol, vcol, border, rhs, m, CL, CR):
+def solve_bordered(blocks: np.ndarray, tcol: np.ndarray, vcol: np.ndarray, border: np.ndarray, rhs: np.ndarray,
+                   m: int, CL: np.ndarray, CR: np.ndarray) -> np.ndarray:
     """Solve the bordered cyclic collocation system for several right-hand sides.
 
     Parameters

@@ -17,6 +17,7 @@ from jumps of the piecewise constant ``m``-th derivative.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from functools import lru_cache
 from typing import TYPE_CHECKING
@@ -169,7 +170,9 @@ def _refined_peak(y: np.ndarray) -> float:
 
 
 @njit(cache=True)
-def _assemble(rhs, jac, dfdv, nodes, period, speed, p, h, basis, dbasis, res, blocks, tcol, vcol):
+def _assemble(rhs: Callable[..., None], jac: Callable[..., None], dfdv: Callable[..., None], nodes: np.ndarray,
+              period: float, speed: float, p: np.ndarray, h: np.ndarray, basis: np.ndarray, dbasis: np.ndarray,
+              res: np.ndarray, blocks: np.ndarray, tcol: np.ndarray, vcol: np.ndarray) -> None:
     """Collocation residual and Jacobian blocks.
 
     res (N m n,): u'(c) - T f(u(c)) at every Gauss point c. blocks (N, m n, (m+1) n):

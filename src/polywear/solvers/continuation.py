@@ -17,16 +17,29 @@ up the numerics are rescued as a specialist would: a step whose monodromy fails 
 trivial-multiplier check, or whose Newton iteration fails at the smallest step, is
 re-solved on a finer, kink-aligned, adapted mesh. What cannot be rescued ends the
 branch as failed, with the speed and the reason.
+
+:func:`locate_fold` finds the fold of cycles at a parameter vector near a fold known at
+nearby parameters (the stability maps' fold curves, the fleet's fast band path). The
+predictor/corrector step, tangent orientation and step-length control are
+:mod:`polywear.solvers.arclength`, shared with the Hopf curves of
+:mod:`polywear.solvers.curve_continuation`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import Enum
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 from ..settings import check_count, check_order, check_positive
+from .arclength import correct, next_step, oriented
 from .collocation import Collocation, PeriodicOrbit, monodromy
+
+if TYPE_CHECKING:
+    from ..analysis.stability import HopfPoint
+    from ..models.base import Model
 
 __all__ = [
     "BranchEnd",
@@ -36,7 +49,9 @@ __all__ = [
     "continue_from_hopf",
     "solve_at_speed",
     "switching_times",
-    "fold_near",
+    "fold_curvature",
+    "locate_fold",
+    "on_adapted_mesh",
     "certainly_unstable",
     "same_special_point",
     "stability_decided",
@@ -192,11 +207,19 @@ class Branch:
 
 
 class _Stepper:
-    """Newton corrector and tangent for one mesh; rebuilt when the mesh changes."""
+    """Newton corrector and tangent of the cycle continuation on one mesh.
 
-    def __init__(self, model, p, mesh, settings: ContinuationSettings, scales, speed_scale, period_scale):
+    Owns the model, the parameter vector ``p``, the settings and the scales of the norm:
+    ``scales`` (one per state), ``speed_scale`` [m/s] and ``period_scale`` [s] (the
+    period at the Hopf point). :meth:`remesh` makes the stepper of a new mesh (or new
+    state scales) with the last point mapped onto it.
+    """
+
+    def __init__(self, model: Model, p: np.ndarray, mesh: np.ndarray, settings: ContinuationSettings,
+                 scales: np.ndarray, speed_scale: float, period_scale: float) -> None:
+        self.model, self.p, self.settings = model, p, settings
+        self.scales, self.speed_scale, self.period_scale = scales, speed_scale, period_scale
         self.coll = Collocation(model, p, mesh, settings.degree)
-        self.settings = settings
         c = self.coll
         node_w = np.repeat(c.node_weights, c.n) / np.tile(scales, c.N * c.m) ** 2
         self.weights = np.concatenate([node_w, [1.0 / period_scale**2, 1.0 / speed_scale**2]])
@@ -204,33 +227,60 @@ class _Stepper:
             [np.tile(1.0 / scales, c.N * c.m), [1.0 / period_scale, 1.0 / speed_scale]]
         )
 
+    @classmethod
+    def near(cls, model: Model, p: np.ndarray, orbit: PeriodicOrbit, speed: float, scales: np.ndarray,
+             settings: ContinuationSettings) -> _Stepper:
+        """The stepper on ``orbit``'s mesh with the norm the branches use (0.1 ``speed`` [m/s], its period)."""
+        return cls(model, p, orbit.mesh, settings, scales, 0.1 * speed, orbit.period)
+
     def norm(self, dX: np.ndarray) -> float:
         return float(np.sqrt(np.sum(self.weights * dX * dX)))
 
     def unit(self, t: np.ndarray) -> np.ndarray:
         return t / self.norm(t)
 
-    def correct(self, X0, t0, ds, phase_ref: PeriodicOrbit):
+    def correct(self, X0: np.ndarray, t0: np.ndarray, ds: float, phase_ref: PeriodicOrbit) -> _Out | None:
         """Newton from the predictor X0 + ds t0.
 
         Returns ``(X, tangent, iterations, multipliers)`` or None when Newton fails.
         """
         c = self.coll
-        X = X0 + ds * t0
         border = np.vstack([c.phase_row(phase_ref), self.weights * t0])
-        for it in range(1, self.settings.max_newton + 1):
-            values = np.array([border[0] @ X, border[1] @ (X - X0) - ds])
-            out = c.solve(X, border, values)
-            if out is None:
-                return None
-            dX, t, CL, CR = out
-            X = X + dX
-            if np.max(np.abs(dX * self.inv_scale)) < self.settings.newton_tol:
-                t = self.unit(t)
-                if t @ (self.weights * t0) < 0:  # keep the direction of travel
-                    t = -t
-                return X, t, it, np.linalg.eigvals(monodromy(CL, CR))
-        return None
+
+        def newton_step(X: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray]] | None:
+            out = c.solve(X, border, np.array([border[0] @ X, border[1] @ (X - X0) - ds]))
+            return None if out is None else (out[0], out[1:])
+
+        done = correct(newton_step, X0, t0, ds, self.settings.max_newton,
+                       lambda dX: bool(np.max(np.abs(dX * self.inv_scale)) < self.settings.newton_tol))
+        if done is None:
+            return None
+        X, (t, CL, CR), iterations = done
+        return X, oriented(self.unit(t), t0, self.weights), iterations, np.linalg.eigvals(monodromy(CL, CR))
+
+    def remesh(self, mesh: np.ndarray, X0: np.ndarray, t0: np.ndarray,
+               scales: np.ndarray | None = None) -> _Step:
+        """The stepper on a new mesh (and new state ``scales`` if given), with the previous
+        point ``X0``, tangent ``t0`` and phase reference mapped to it."""
+        c = self.coll
+        previous = c.unpack(X0)
+        tangent = c.unpack(t0)
+        new = _Stepper(self.model, self.p, mesh, self.settings, self.scales if scales is None else scales,
+                       self.speed_scale, self.period_scale)
+        phase_ref = previous.with_mesh(mesh)
+        return new, new.coll.pack(phase_ref), new.unit(new.coll.pack(tangent.with_mesh(mesh))), phase_ref
+
+    def adapted_mesh(self, orbit: PeriodicOrbit, n_intervals: int) -> np.ndarray:
+        """``n_intervals`` intervals equidistributed for ``orbit`` (AUTO's rule), kinks on mesh
+        points (with ``settings.align_kinks``)."""
+        mesh = self.coll.adapted_mesh(orbit, n_intervals)
+        return _with_kinks(mesh, switching_times(self.model, self.p, orbit)) if self.settings.align_kinks else mesh
+
+
+_Out = tuple[np.ndarray, np.ndarray, int, np.ndarray]
+"""A converged corrector: point X, unit tangent, Newton iterations, Floquet multipliers."""
+_Step = tuple[_Stepper, np.ndarray, np.ndarray, PeriodicOrbit]
+"""Where a step starts from: stepper, point X0, tangent t0, phase reference."""
 
 
 def _first_harmonic(orbit: PeriodicOrbit, scales: np.ndarray) -> np.ndarray:
@@ -247,13 +297,13 @@ def _scaled_amplitude(orbit: PeriodicOrbit, scales: np.ndarray) -> float:
 
 
 def continue_from_hopf(
-    model,
-    p,
-    hopf,
+    model: Model,
+    p: np.ndarray,
+    hopf: HopfPoint,
     speed_bounds: tuple[float, float],
     settings: ContinuationSettings = ContinuationSettings(),
     amplitude_ref: float = 1e-4,
-    on_step=None,
+    on_step: Callable[[Branch], None] | None = None,
 ) -> Branch:
     """Continue the cycles born at ``hopf`` (a stability.HopfPoint) within ``speed_bounds`` [m/s].
 
@@ -297,14 +347,9 @@ def continue_from_hopf(
         resolved = True
         out = stepper.correct(X0, t0, ds, phase_ref)
         if out is not None and settings.align_kinks:
-            stepper, X0, t0, phase_ref, out = _align_to_kinks(
-                model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale
-            )
+            stepper, X0, t0, phase_ref, out = _align_to_kinks((stepper, X0, t0, phase_ref), ds, out)
         if out is not None and not stability_decided(out[3], settings.multiplier_tol):
-            stepper, X0, t0, phase_ref, out = _refine_step(
-                model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale,
-                branch.recoveries,
-            )
+            stepper, X0, t0, phase_ref, out = _refine_step((stepper, X0, t0, phase_ref), ds, out, branch.recoveries)
             if out is not None and certainly_unstable(out[3], settings.multiplier_tol):
                 resolved = False  # keep going: unstable for sure, only the count is unknown
             elif out is not None and not stability_decided(out[3], settings.multiplier_tol):
@@ -313,7 +358,7 @@ def continue_from_hopf(
                        f"beyond {last_kmh():.3f} km/h |mu - 1| of the trivial multiplier is "
                        f"{trivial_error(mu):.1e} with {stepper.coll.N} mesh intervals (largest multiplier "
                        f"{np.abs(mu).max():.1e}); stability there is unknown; "
-                       + _period_detail(model, p, stepper.coll.unpack(out[0]), period_scale))
+                       + _period_detail(stepper, stepper.coll.unpack(out[0])))
                 break
         c = stepper.coll
         if out is None:
@@ -321,10 +366,7 @@ def continue_from_hopf(
             if ds < settings.ds_min:
                 if 2 * c.N <= settings.max_intervals:
                     # rescue: the previous point on a finer adapted, kink-aligned mesh, steps anew
-                    finer = _adapted_mesh(model, p, c, c.unpack(X0), settings, 2 * c.N)
-                    stepper, X0, t0, phase_ref = _remesh(
-                        model, p, stepper, finer, X0, t0, settings, scales, speed_scale, period_scale
-                    )
+                    stepper, X0, t0, phase_ref = stepper.remesh(stepper.adapted_mesh(c.unpack(X0), 2 * c.N), X0, t0)
                     branch.recoveries.append(
                         f"Newton failed beyond {last_kmh():.3f} km/h: mesh refined to {stepper.coll.N} intervals")
                     ds = settings.ds_initial
@@ -345,12 +387,12 @@ def continue_from_hopf(
             break
         point = BranchPoint(orbit, multipliers, t, iterations, resolved=resolved)
         if prev is not None and np.sign(point.tangent_speed) != np.sign(prev.tangent_speed):
-            fold = _locate_fold(stepper, X0, t0, ds, phase_ref, prev, point, settings)
+            fold = _locate_fold((stepper, X0, t0, phase_ref), ds, prev, point)
             if fold is not None:
                 _add_special(branch, "LP", fold)
         if prev is not None and prev.resolved and resolved:  # counts of unresolved cycles are unknown
             for label in _multiplier_events(prev, point):
-                _add_special(branch, label, _locate_crossing(stepper, X0, t0, ds, phase_ref, prev, point, label))
+                _add_special(branch, label, _locate_crossing((stepper, X0, t0, phase_ref), ds, prev, point, label))
         branch.points.append(point)
         if on_step is not None:
             on_step(branch)
@@ -365,11 +407,11 @@ def continue_from_hopf(
             finish(BranchEnd.AMPLITUDE_LIMIT, f"at {3.6 * orbit.speed:.3f} km/h")
             break
         if orbit.period > settings.max_period_factor * period_scale:
-            finish(BranchEnd.PERIOD_LIMIT, _period_detail(model, p, orbit, period_scale))
+            finish(BranchEnd.PERIOD_LIMIT, _period_detail(stepper, orbit))
             break
         prev, prev_harmonic = point, harmonic
         X0, t0, phase_ref = X, t, orbit
-        ds = min(settings.ds_max, ds * (1.5 if iterations <= 3 else 1.0 if iterations <= 5 else 0.5))
+        ds = next_step(ds, iterations, settings.ds_max, grow=1.5, shrink_after=5)
         steps_since_adapt += 1
         if settings.adapt_every and steps_since_adapt >= settings.adapt_every:
             steps_since_adapt = 0
@@ -381,10 +423,7 @@ def continue_from_hopf(
             coarser = c.N > settings.n_intervals and all(
                 pt.resolved and pt.trivial_multiplier_error < 1e-2 * settings.multiplier_tol for pt in recent)
             n_new = max(settings.n_intervals, c.N // 2) if coarser else c.N
-            stepper, X0, t0, phase_ref = _remesh(
-                model, p, stepper, _adapted_mesh(model, p, c, orbit, settings, n_new), X0, t0, settings, scales,
-                speed_scale, period_scale
-            )
+            stepper, X0, t0, phase_ref = stepper.remesh(stepper.adapted_mesh(orbit, n_new), X0, t0, scales)
     else:
         finish(BranchEnd.MAX_STEPS, f"{settings.max_steps} steps, the last at {last_kmh():.3f} km/h")
     return branch
@@ -445,61 +484,54 @@ def trivial_error(multipliers: np.ndarray, cluster: float = 1e-2) -> float:
     return float(d[i])
 
 
-def _adapted_mesh(model, p, coll: Collocation, orbit: PeriodicOrbit, settings: ContinuationSettings,
-                  n_intervals: int) -> np.ndarray:
-    """``n_intervals`` intervals equidistributed for ``orbit`` (AUTO's rule), kinks on mesh points
-    (with ``settings.align_kinks``)."""
-    mesh = coll.adapted_mesh(orbit, n_intervals)
-    return _with_kinks(mesh, switching_times(model, p, orbit)) if settings.align_kinks else mesh
-
-
-def _refine_step(model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale,
-                 notes: list[str]):
+def _refine_step(start: _Step, ds: float, out: _Out, notes: list[str]) -> tuple[
+        _Stepper, np.ndarray, np.ndarray, PeriodicOrbit, _Out]:
     """Re-solve a converged step whose trivial multiplier is off, until it is resolved: first
     on a mesh adapted afresh to the new orbit (the periodic adaptation lags behind, and
     aligning kinks moves mesh points), then on meshes with twice the intervals up to
     ``settings.max_intervals``. Stops when doubling does not halve the error (then it is
     not the mesh: a strongly unstable cycle), or Newton fails on the finer mesh. Returns
     the attempt with the smallest error, as ``(stepper, X0, t0, phase_ref, out)``."""
-    best = (stepper, X0, t0, phase_ref, out)
+    settings = start[0].settings
+    best: tuple[_Stepper, np.ndarray, np.ndarray, PeriodicOrbit, _Out] = (*start, out)
     factor = 1
     while (not stability_decided(best[4][3], settings.multiplier_tol)
            and factor * best[0].coll.N <= settings.max_intervals):
-        stepper, X0, t0, phase_ref, out = best
-        error = trivial_error(out[3])
-        mesh = _adapted_mesh(model, p, stepper.coll, stepper.coll.unpack(out[0]), settings, factor * stepper.coll.N)
-        stepper, X0, t0, phase_ref = _remesh(model, p, stepper, mesh, X0, t0, settings, scales, speed_scale,
-                                             period_scale)
-        out = stepper.correct(X0, t0, ds, phase_ref)
-        if out is not None and settings.align_kinks:
-            stepper, X0, t0, phase_ref, out = _align_to_kinks(
-                model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale
-            )
-        new_error = np.inf if out is None else trivial_error(out[3])
+        stepper, X0, t0, phase_ref, good = best
+        error = trivial_error(good[3])
+        mesh = stepper.adapted_mesh(stepper.coll.unpack(good[0]), factor * stepper.coll.N)
+        stepper, X0, t0, phase_ref = stepper.remesh(mesh, X0, t0)
+        new = stepper.correct(X0, t0, ds, phase_ref)
+        if new is not None and settings.align_kinks:
+            stepper, X0, t0, phase_ref, new = _align_to_kinks((stepper, X0, t0, phase_ref), ds, new)
+        new_error = np.inf if new is None else trivial_error(new[3])
         notes.append(f"trivial multiplier error {error:.1e} near {3.6 * X0[-1]:.3f} km/h: mesh adapted anew with "
                      f"{stepper.coll.N} intervals, error {new_error:.1e}")
-        if new_error < error:
-            best = (stepper, X0, t0, phase_ref, out)
+        if new is not None and new_error < error:
+            best = (stepper, X0, t0, phase_ref, new)
         if factor == 2 and not new_error < 0.5 * error:
             break
         factor = 2
     return best
 
 
-def _period_detail(model, p, orbit: PeriodicOrbit, hopf_period: float) -> str:
-    """The orbit's period against the Hopf period, and how close it comes to the steady state
-    (in units of its own range, max over states): near 0 for an orbit close to a homoclinic one."""
+def _period_detail(stepper: _Stepper, orbit: PeriodicOrbit) -> str:
+    """The orbit's period against the Hopf period (``stepper.period_scale``), and how close it
+    comes to the steady state (in units of its own range, max over states): near 0 for an
+    orbit close to a homoclinic one."""
+    hopf_period = stepper.period_scale
     _, u = orbit.dense(16)
     span = np.ptp(u, axis=0)
     moving = span > 0.0
-    u_eq = model.equilibrium(orbit.speed, p)
+    u_eq = stepper.model.equilibrium(orbit.speed, stepper.p)
     closest = float(np.min(np.max(np.abs(u - u_eq)[:, moving] / span[moving], axis=1)))
     return (f"period {orbit.period:.4g} s = {orbit.period / hopf_period:.1f} x the Hopf period at "
             f"{3.6 * orbit.speed:.3f} km/h; the orbit comes within {closest:.1%} of its range to the steady "
             f"state (a homoclinic orbit when this goes to 0)")
 
 
-def solve_at_speed(model, p, guess: PeriodicOrbit, speed: float, settings: ContinuationSettings = ContinuationSettings()):
+def solve_at_speed(model: Model, p: np.ndarray, guess: PeriodicOrbit, speed: float,
+                   settings: ContinuationSettings = ContinuationSettings()) -> BranchPoint | None:
     """The periodic orbit at a fixed speed [m/s] by Newton from ``guess``; a BranchPoint or None.
 
     The border rows are the phase condition (relative to the guess) and ``V = speed``.
@@ -535,7 +567,8 @@ KINK_SIGNALS = (("sliding_velocity", 0.0), ("contact_lost", 0.5))
 """Auxiliary outputs whose crossing of the given level is a kink of the vector field."""
 
 
-def switching_times(model, p, orbit: PeriodicOrbit, per_interval: int = 8, tol: float = 1e-13) -> np.ndarray:
+def switching_times(model: Model, p: np.ndarray, orbit: PeriodicOrbit, per_interval: int = 8,
+                    tol: float = 1e-13) -> np.ndarray:
     """Normalized times where the orbit crosses a kink of the vector field (bisection-refined).
 
     The vector field is continuous there (|v_r| and the clamp max(N, 0) are Lipschitz),
@@ -581,31 +614,23 @@ def _with_kinks(mesh: np.ndarray, times: np.ndarray) -> np.ndarray:
     return mesh
 
 
-def _remesh(model, p, stepper, mesh, X0, t0, settings, scales, speed_scale, period_scale):
-    """A stepper on a new mesh with the previous point, tangent and phase reference mapped to it."""
-    c = stepper.coll
-    previous = c.unpack(X0)
-    tangent = c.unpack(t0)
-    new = _Stepper(model, p, mesh, settings, scales, speed_scale, period_scale)
-    phase_ref = previous.with_mesh(mesh)
-    return new, new.coll.pack(phase_ref), new.unit(new.coll.pack(tangent.with_mesh(mesh))), phase_ref
-
-
-def _align_to_kinks(model, p, stepper, X0, t0, ds, phase_ref, out, settings, scales, speed_scale, period_scale):
-    """Re-solve the step on a mesh with points at the orbit's kinks until they stay there."""
+def _align_to_kinks(start: _Step, ds: float, out: _Out) -> tuple[
+        _Stepper, np.ndarray, np.ndarray, PeriodicOrbit, _Out | None]:
+    """Re-solve the step from ``start`` on a mesh with points at the orbit's kinks until they
+    stay there; returns the new start and corrector output (None if Newton failed)."""
+    stepper, X0, t0, phase_ref = start
+    new: _Out | None = out
     for _ in range(4):
-        orbit = stepper.coll.unpack(out[0])
-        times = switching_times(model, p, orbit)
+        if new is None:
+            break
+        orbit = stepper.coll.unpack(new[0])
+        times = switching_times(stepper.model, stepper.p, orbit)
         mesh = stepper.coll.mesh
         if times.size == 0 or np.max(np.min(np.abs(times[:, None] - mesh[None, :]), axis=1)) < 1e-9:
             break
-        stepper, X0, t0, phase_ref = _remesh(
-            model, p, stepper, _with_kinks(mesh, times), X0, t0, settings, scales, speed_scale, period_scale
-        )
-        out = stepper.correct(X0, t0, ds, phase_ref)
-        if out is None:
-            break
-    return stepper, X0, t0, phase_ref, out
+        stepper, X0, t0, phase_ref = stepper.remesh(_with_kinks(mesh, times), X0, t0)
+        new = stepper.correct(X0, t0, ds, phase_ref)
+    return stepper, X0, t0, phase_ref, new
 
 
 def _event_counts(point: BranchPoint) -> dict[str, int]:
@@ -625,12 +650,13 @@ def _multiplier_events(a: BranchPoint, b: BranchPoint) -> list[str]:
     return [label for label in ("PD", "NS") if ca[label] != cb[label]]
 
 
-def _locate_crossing(stepper, X0, t0, ds, phase_ref, prev: BranchPoint, point: BranchPoint, label: str,
+def _locate_crossing(start: _Step, ds: float, prev: BranchPoint, point: BranchPoint, label: str,
                      rtol: float = 1e-3) -> BranchPoint:
-    """The PD or NS point between ``prev`` (arclength 0 from X0) and ``point`` (arclength ds):
+    """The PD or NS point between ``prev`` (arclength 0 from the start X0) and ``point`` (arclength ds):
     bisection in the arclength on the count of such multipliers outside the unit circle, to
     ``rtol * ds``. Returns the first point past the crossing, labelled; ``point`` if a
     corrector fails."""
+    stepper, X0, t0, phase_ref = start
     before = _event_counts(prev)[label]
     s_a, s_b, best = 0.0, ds, point
     while abs(s_b - s_a) > rtol * abs(ds):
@@ -647,25 +673,35 @@ def _locate_crossing(stepper, X0, t0, ds, phase_ref, prev: BranchPoint, point: B
     return BranchPoint(best.orbit, best.multipliers, best.tangent, best.newton_iterations, label)
 
 
-def _locate_fold(stepper, X0, t0, ds, phase_ref, prev, point, settings):
+def _locate_fold(start: _Step, ds: float, prev: BranchPoint, point: BranchPoint) -> BranchPoint | None:
     """The fold between two branch points: zero of the tangent's speed component in the arclength."""
-    return _fold_by_secant(stepper, X0, t0, phase_ref, 0.0, prev.tangent_speed, ds, point.tangent_speed,
-                           settings.fold_tol, bracketed=True)
+    stepper, X0, t0, phase_ref = start
+    return _fold_in_bracket(stepper, X0, t0, phase_ref, (0.0, prev.tangent_speed), (ds, point.tangent_speed),
+                            regula_falsi=True)
 
 
-def _fold_by_secant(stepper, X0, t0, phase_ref, s_a, g_a, s_b, g_b, tol, bracketed):
-    """Secant iteration on the arclength s from X0 (along t0) for dV/ds = 0.
+def _fold_in_bracket(stepper: _Stepper, X0: np.ndarray, t0: np.ndarray, phase_ref: PeriodicOrbit,
+                     a: tuple[float, float], b: tuple[float, float], max_iter: int = 30,
+                     regula_falsi: bool = False) -> BranchPoint | None:
+    """Secant iteration on the arclength s from X0 (along t0) for dV/ds = 0 inside a bracket.
 
-    ``g_a``, ``g_b`` are dV/ds at arclengths ``s_a``, ``s_b``; with ``bracketed`` they
-    have opposite signs and the iteration keeps the bracket (regula falsi with bisection
-    fallback), otherwise plain secant steps. Returns the fold BranchPoint or None.
+    ``a`` and ``b`` are ``(s, dV/ds)`` with dV/ds of opposite signs. Secant steps through
+    the last two points, or with ``regula_falsi`` through the two ends of the bracket (the
+    branch's rule between two of its points: its folds stay as they were); a step that
+    leaves the bracket (kept up to date) is replaced by bisection. Returns the last point
+    (within ``settings.fold_tol`` of the fold unless ``max_iter`` ran out or a corrector
+    failed), or None if the first corrector fails. Regula falsi converges only linearly
+    where ``dV/ds`` is curved over the bracket (measured on a map: about 3 more correctors
+    per fold relocation than the secant through the last two points).
     """
+    (s_a, g_a), (s_b, g_b) = a, b
+    (s_prev, g_prev), (s_cur, g_cur) = a, b
     best = None
-    for _ in range(30):
-        if g_b == g_a:
-            break
-        s = s_b - g_b * (s_b - s_a) / (g_b - g_a)
-        if bracketed and not min(s_a, s_b) < s < max(s_a, s_b):
+    for _ in range(max_iter):
+        if regula_falsi:
+            (s_prev, g_prev), (s_cur, g_cur) = (s_a, g_a), (s_b, g_b)
+        s = s_cur - g_cur * (s_cur - s_prev) / (g_cur - g_prev) if g_cur != g_prev else 0.5 * (s_a + s_b)
+        if not min(s_a, s_b) < s < max(s_a, s_b):
             s = 0.5 * (s_a + s_b)
         out = stepper.correct(X0, t0, s, phase_ref)
         if out is None:
@@ -673,38 +709,97 @@ def _fold_by_secant(stepper, X0, t0, phase_ref, s_a, g_a, s_b, g_b, tol, bracket
         X, t, iterations, multipliers = out
         g = float(t[-1])
         best = BranchPoint(stepper.coll.unpack(X), multipliers, t, iterations, "LP")
-        if abs(g) < tol:
+        if abs(g) < stepper.settings.fold_tol:
             return best
-        if not bracketed:
-            s_a, g_a, s_b, g_b = s_b, g_b, s, g
-        elif np.sign(g) == np.sign(g_a):
+        if np.sign(g) == np.sign(g_a):
             s_a, g_a = s, g
         else:
             s_b, g_b = s, g
-    # a bracketed search keeps its best point; an unbracketed one that did not converge failed
-    return best if bracketed else None
+        s_prev, g_prev, s_cur, g_cur = s_cur, g_cur, s, g
+    return best
 
 
-def fold_near(model, p, guess: BranchPoint, speed: float, scales: np.ndarray,
-              settings: ContinuationSettings = ContinuationSettings()) -> BranchPoint | None:
-    """The fold of cycles near a guess (an orbit and tangent from a nearby parameter set),
-    with the guess's speed replaced by ``speed`` [m/s]: correct onto the branch, then
-    secant steps along it to dV/ds = 0. ``scales`` are the state scales of the norm."""
+# -- a fold of cycles near a fold at nearby parameters ------------------------------------------
+MAX_MARCH = 40
+"""Largest number of arclength steps (march and bracketed secant) of one :func:`locate_fold`."""
+MAX_STEP = 0.5
+"""Largest arclength step [scaled] of the march towards the fold."""
+
+
+def fold_curvature(model: Model, p: np.ndarray, fold: BranchPoint, scales: np.ndarray,
+                   settings: ContinuationSettings, h: float = 1e-3) -> float:
+    """d(dV/ds)/ds at a fold [m/s per scaled arclength^2], by central difference along its branch
+    (``scales``: the branch's state scales; NaN if a corrector fails)."""
+    stepper = _Stepper.near(model, p, fold.orbit, fold.orbit.speed, scales, settings)
+    X, t = stepper.coll.pack(fold.orbit), stepper.unit(fold.tangent)
+    g = []
+    for s in (-h, h):
+        out = stepper.correct(X, t, s, fold.orbit)
+        if out is None:
+            return np.nan
+        g.append(float(out[1][-1]))
+    return (g[1] - g[0]) / (2.0 * h)
+
+
+def locate_fold(model: Model, p: np.ndarray, guess: BranchPoint, speed: float, scales: np.ndarray,
+                settings: ContinuationSettings, curvature: float = np.nan) -> BranchPoint | None:
+    """The fold of cycles at ``p`` near ``guess`` (a fold at a nearby parameter vector).
+
+    Newton onto the cycle branch at ``p`` from the guess with its speed replaced by
+    ``speed`` [m/s] (the border row is the guess's tangent, so this lands on the branch
+    near the fold, not on it). The speed component ``g = dV/ds`` of the branch tangent
+    vanishes at the fold and is nearly linear in the arclength ``s`` there, so: steps of
+    ``-1.2 g / (dg/ds)`` (``curvature``, e.g. the guess's :func:`fold_curvature`, first;
+    without it a probe of 0.01 downhill; then the secant slope of the last two points,
+    at most :data:`MAX_STEP`) until ``g`` changes sign, then secant iteration inside that
+    bracket (:func:`_fold_in_bracket`, as for a fold between two points of a branch) to
+    ``|g| < settings.fold_tol``. ``scales`` are the state scales of the norm.
+    None if Newton fails or the fold is not found within :data:`MAX_MARCH` steps.
+    """
     orbit = guess.orbit
-    stepper = _Stepper(model, p, orbit.mesh, settings, scales, 0.1 * speed, orbit.period)
+    stepper = _Stepper.near(model, p, orbit, speed, scales, settings)
     c = stepper.coll
     X0 = c.pack(orbit)
     X0[-1] = speed
     out = stepper.correct(X0, stepper.unit(guess.tangent), 0.0, orbit)
     if out is None:
         return None
-    Xa, ta = out[0], out[1]
-    g0 = float(ta[-1])
-    s1 = 1e-2 * (1.0 if g0 == 0.0 else -np.sign(g0))
-    out = stepper.correct(Xa, ta, s1, c.unpack(Xa))
-    if out is None:
-        return None
-    if abs(out[1][-1]) < settings.fold_tol:
-        return BranchPoint(c.unpack(out[0]), out[3], out[1], out[2], "LP")
-    return _fold_by_secant(stepper, Xa, ta, c.unpack(Xa), 0.0, g0, s1, float(out[1][-1]), settings.fold_tol,
-                           bracketed=False)
+    X, t, g = out[0], out[1], float(out[1][-1])
+    if abs(g) < settings.fold_tol:
+        return BranchPoint(c.unpack(X), out[3], t, out[2], "LP")
+    slope = curvature if np.isfinite(curvature) and curvature != 0.0 else -np.sign(g) / 1e-2
+    limit = MAX_STEP  # halved at every failed step, grown by half at every good one
+    step = float(np.clip(-1.2 * g / slope, -limit, limit))
+    start = c.unpack(X)  # phase reference of the steps from X (X moves only while marching)
+    for used in range(1, MAX_MARCH + 1):
+        nxt = stepper.correct(X, t, step, start)
+        if nxt is None:
+            step *= 0.5
+            limit = abs(step)
+            if limit < settings.ds_min:
+                return None
+            continue
+        limit = min(1.5 * limit, MAX_STEP)
+        g_new = float(nxt[1][-1])
+        if abs(g_new) < settings.fold_tol:
+            return BranchPoint(c.unpack(nxt[0]), nxt[3], nxt[1], nxt[2], "LP")
+        if np.sign(g_new) != np.sign(g):  # bracketed in [0, step] from X
+            fold = _fold_in_bracket(stepper, X, t, start, (0.0, g), (step, g_new), MAX_MARCH - used)
+            return fold if fold is not None and abs(fold.tangent_speed) < settings.fold_tol else None
+        slope = (g_new - g) / step
+        X, t, g = nxt[0], nxt[1], g_new
+        start = c.unpack(X)
+        if slope == 0.0 or -g / slope * np.sign(step) < 0:  # moving away from the fold: turn round
+            step = -float(np.clip(2.0 * step, -limit, limit))
+        else:
+            step = float(np.clip(-1.2 * g / slope, -limit, limit))
+    return None
+
+
+def on_adapted_mesh(model: Model, p: np.ndarray, fold: BranchPoint) -> BranchPoint:
+    """The fold's orbit and tangent moved onto a mesh adapted to its orbit (same number of intervals)."""
+    c = Collocation(model, p, fold.orbit.mesh, fold.orbit.m)
+    mesh = c.adapted_mesh(fold.orbit)
+    new = Collocation(model, p, mesh, fold.orbit.m)
+    tangent = new.pack(c.unpack(fold.tangent).with_mesh(mesh))
+    return BranchPoint(fold.orbit.with_mesh(mesh), fold.multipliers, tangent, fold.newton_iterations, "LP")

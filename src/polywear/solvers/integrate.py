@@ -19,6 +19,7 @@ The models are autonomous (speed ``V`` is a parameter), so time starts at 0.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -138,7 +139,7 @@ class DenseOutput:
 
 
 @njit(cache=True)
-def _dense_eval(t_start, h, coef, times, out):
+def _dense_eval(t_start: np.ndarray, h: np.ndarray, coef: np.ndarray, times: np.ndarray, out: np.ndarray) -> bool:
     """Fill ``out[i]`` with the dense output at ``times[i]``; False if a time is outside."""
     m = h.size
     slack = 1e-12 * max(1.0, abs(t_start[m - 1] + h[m - 1]))
@@ -192,7 +193,7 @@ class Trajectory:
 
 # -- compiled Rodas4 ---------------------------------------------------------------------
 @njit(cache=True)
-def _lu_factor(a, piv):
+def _lu_factor(a: np.ndarray, piv: np.ndarray) -> bool:
     """In-place LU with partial pivoting of a small dense matrix; False if singular.
 
     Written out because numba offers ``np.linalg.solve`` but no factor/solve pair, and
@@ -225,7 +226,7 @@ def _lu_factor(a, piv):
 
 
 @njit(cache=True)
-def _lu_solve(lu, piv, b):
+def _lu_solve(lu: np.ndarray, piv: np.ndarray, b: np.ndarray) -> None:
     """Solve in place: ``b`` <- A^-1 b for A factored by :func:`_lu_factor`."""
     n = lu.shape[0]
     for k in range(n):
@@ -247,7 +248,7 @@ def _lu_solve(lu, piv, b):
 
 
 @njit(cache=True)
-def _grow_rows(a, used):
+def _grow_rows(a: np.ndarray, used: int) -> np.ndarray:
     """``a`` with twice the rows, the first ``used`` copied."""
     out = np.empty((2 * a.shape[0], a.shape[1]))
     out[:used] = a[:used]
@@ -255,7 +256,10 @@ def _grow_rows(a, used):
 
 
 @njit(cache=True)
-def _rodas4(rhs, jac, u0, V, p, t_end, rtol, atol, h0, t_out, record_steps, dense_from, max_steps):
+def _rodas4(rhs: Callable[..., None], jac: Callable[..., None], u0: np.ndarray, V: float, p: np.ndarray,
+            t_end: float, rtol: float, atol: np.ndarray, h0: float, t_out: np.ndarray, record_steps: bool,
+            dense_from: float, max_steps: int) -> tuple[int, float, np.ndarray, float, np.ndarray, np.ndarray,
+                                                         np.ndarray, np.ndarray]:
     """The Rodas4 step loop. Returns status, final t, y, h, stats and the recorded output."""
     n = u0.size
     y = u0.copy()
@@ -425,7 +429,8 @@ def _rodas4(rhs, jac, u0, V, p, t_end, rtol, atol, h0, t_out, record_steps, dens
 
 
 # -- the interface -----------------------------------------------------------------------
-def _check_inputs(model, u0, V, p, t_end, rtol, atol, dt_out):
+def _check_inputs(model: Model, u0: ArrayLike, V: float, p: np.ndarray, t_end: float, rtol: float,
+                  atol: float | np.ndarray, dt_out: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     u0 = np.ascontiguousarray(u0, dtype=float)
     if u0.shape != (model.n,):
         raise ValueError(f"initial state: expected shape ({model.n},) for {model.name}, got {u0.shape}")
@@ -521,8 +526,9 @@ def integrate(
                             dt_out is None, dense_from, method, h0)
 
 
-def _integrate_rodas(model, u0, V, p, t_end, rtol, atol, t_out, record_steps, dense_from, h0,
-                     max_steps) -> Trajectory:
+def _integrate_rodas(model: Model, u0: np.ndarray, V: float, p: np.ndarray, t_end: float, rtol: float,
+                     atol: np.ndarray, t_out: np.ndarray, record_steps: bool, dense_from: float | None,
+                     h0: float | None, max_steps: int) -> Trajectory:
     rhs, jac = model.compiled[:2]
     status, t, y, h, stats, u_out, steps, dense = _rodas4(
         rhs, jac, u0, V, p, t_end, rtol, atol, 0.0 if h0 is None else float(h0), t_out,
@@ -562,7 +568,9 @@ def _integrate_rodas(model, u0, V, p, t_end, rtol, atol, t_out, record_steps, de
     )
 
 
-def _integrate_scipy(model, u0, V, p, t_end, rtol, atol, t_out, record_steps, dense_from, method, h0):
+def _integrate_scipy(model: Model, u0: np.ndarray, V: float, p: np.ndarray, t_end: float, rtol: float,
+                     atol: np.ndarray, t_out: np.ndarray, record_steps: bool, dense_from: float | None,
+                     method: str, h0: float | None) -> Trajectory:
     from scipy.integrate import solve_ivp
 
     options: dict[str, Any] = {} if h0 is None else {"first_step": float(h0)}
