@@ -29,7 +29,7 @@ from polywear.analysis.bifurcation import bifurcation_diagram
 from polywear.analysis.fast_band import _FIXED_RANGE, FastBand, band_reference, pilot_references
 from polywear.analysis.fleet import FleetSpec, fleet_risk
 from polywear.analysis.global_sensitivity import DEFAULT_KEYS, sample_params
-from polywear.params import Params, get_value, with_updates
+from polywear.params import Params, StudySpec, get_value, with_updates
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from tests.test_fast_band import _edges  # the test's flattening of the bands
@@ -118,11 +118,11 @@ def sobol(n_base: int, modes=("fast", "full")) -> None:
     from polywear.analysis.global_sensitivity import global_sensitivity
 
     for mode in modes:
-        params = with_updates(Params(), {"model": "axle4dof", "study.method": "sobol", "study.outputs": "bifurcation",
-                                         "study.n_base": n_base, "study.second_order": False,
-                                         "study.bootstrap": 100})
+        params = with_updates(Params(), {"model": "axle4dof"})
+        study = StudySpec().with_updates({"method": "sobol", "outputs": "bifurcation", "n_base": n_base,
+                                          "second_order": False, "bootstrap": 100})
         c, t = _cpu(), time.perf_counter()
-        result = global_sensitivity(params, backend="processes", workers=2, fast_band=mode == "fast")
+        result = global_sensitivity(params, study, backend="processes", workers=2, fast_band=mode == "fast")
         dt, dc = time.perf_counter() - t, _cpu() - c
         runs = len(result.status)
         pilot = pilot_size(runs) if mode == "fast" else 0

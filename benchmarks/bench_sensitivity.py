@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from polywear.params import Params, with_updates
+from polywear.params import Params, StudySpec, with_updates
 
 
 def _timed(fn, *args, **kwargs):
@@ -58,7 +58,7 @@ def bench_local() -> None:
     print(f"   largest relative difference forward (step 1e-4) vs exact: {worst:.1e} (first order in the step)")
 
 
-def _study(run, params, **kwargs):
+def _study(run, params, study, **kwargs):
     """(result, whole time, time until the last evaluation came back) of a global study."""
     done, finished = [0], [0.0]
     t0 = time.perf_counter()
@@ -67,13 +67,13 @@ def _study(run, params, **kwargs):
         done[0] = k
         finished[0] = time.perf_counter() - t0
 
-    result = run(params, progress=progress, **kwargs)
+    result = run(params, study, progress=progress, **kwargs)
     return result, time.perf_counter() - t0, finished[0]
 
 
-def _study_params(model: str, n_base: int) -> Params:
-    return with_updates(Params(), {"model": model, "study.method": "sobol", "study.outputs": "hopf",
-                                   "study.n_base": n_base, "study.second_order": True})
+def _study_params(model: str, n_base: int) -> tuple[Params, StudySpec]:
+    study = StudySpec().with_updates({"method": "sobol", "outputs": "hopf", "n_base": n_base, "second_order": True})
+    return with_updates(Params(), {"model": model}), study
 
 
 def bench_sobol(model: str, n_base: int) -> None:
@@ -81,7 +81,7 @@ def bench_sobol(model: str, n_base: int) -> None:
     from polywear.analysis.stability import fast_linear_band
     from polywear.analysis.stability import stability_analysis
 
-    params = _study_params(model, n_base)
+    params, study = _study_params(model, n_base)
     base = with_updates(Params(), {"model": model})
     fast_linear_band(base)
     stability_analysis(base)
@@ -90,11 +90,11 @@ def bench_sobol(model: str, n_base: int) -> None:
     print(f"\n2. Sobol study of {model}: N = {n_base}, 7 parameters, second order, Hopf speeds")
     print(f"   one evaluation: fast linear band {t_fast / 50 * 1e3:6.2f} ms, stability_analysis (400 speeds) "
           f"{t_full / 10 * 1e3:6.2f} ms ({t_full / 10 / (t_fast / 50):.0f}x)")
-    result, t_proc, t_proc_eval = _study(global_sensitivity, params, backend="processes", workers=2)
+    result, t_proc, t_proc_eval = _study(global_sensitivity, params, study, backend="processes", workers=2)
     n = len(result.status)
     print(f"   processes, 2 workers: {n} evaluations in {t_proc_eval:6.2f} s, whole study (sampling, pool start, "
           f"SALib with bootstrap) {t_proc:6.2f} s (goal < 60 s); failures: {result.failures() or 'none'}")
-    serial, t_serial, t_serial_eval = _study(global_sensitivity, params, backend="serial")
+    serial, t_serial, t_serial_eval = _study(global_sensitivity, params, study, backend="serial")
     assert np.array_equal(serial.values, result.values, equal_nan=True)
     print(f"   baseline serial:      {n} evaluations in {t_serial_eval:6.2f} s ({t_serial_eval / n * 1e3:.2f} ms each), "
           f"whole study {t_serial:6.2f} s -> processes {t_serial / t_proc:.2f}x")
@@ -125,7 +125,7 @@ def bench_dask(model: str, n_base: int) -> None:
 
     from polywear.analysis.global_sensitivity import global_sensitivity
 
-    params = _study_params(model, n_base)
+    params, study = _study_params(model, n_base)
     times, ideal = {}, {}
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         with Client(cluster) as client:
@@ -134,7 +134,7 @@ def bench_dask(model: str, n_base: int) -> None:
                 client.wait_for_workers(n_workers)
                 client.run(_warm)
                 _, ideal[n_workers] = _timed(lambda: client.gather(client.map(_burn, range(8), pure=False)))
-                result, _, times[n_workers] = _study(global_sensitivity, params, backend="dask",
+                result, _, times[n_workers] = _study(global_sensitivity, params, study, backend="dask",
                                                      scheduler=cluster.scheduler_address)
     n = len(result.status)
     print(f"\n3. the same study on a local Dask cluster (1 thread per worker process), time of the {n} evaluations")

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from polywear.params import Params, load_params, to_toml
+from polywear.params import Params, StudySpec, load_params, load_study, to_toml
 
 from .cli_runner import run_main
 
@@ -18,7 +18,7 @@ from .cli_runner import run_main
 def test_show_prints_the_defaults_as_toml():
     code, out, err = run_main(["params", "show"])
     assert code == 0 and err == ""
-    assert out == to_toml(Params())
+    assert out == to_toml(Params(), study=StudySpec())  # the parameters and the [study] table
     assert tomllib.loads(out)["friction"]["mu_static"] == 0.9
 
 
@@ -36,9 +36,10 @@ def test_show_with_set_and_config(tmp_path):
 
 
 def test_show_json_is_the_full_parameter_set():
-    code, out, _ = run_main(["params", "show", "--json", "-s", "friction.mu_coulomb=0.4"])
+    code, out, _ = run_main(["params", "show", "--json", "-s", "friction.mu_coulomb=0.4", "-s", "study.n_base=64"])
     assert code == 0
     data = json.loads(out)
+    assert StudySpec.model_validate(data.pop("study")) == load_study(None, ["study.n_base=64"])
     assert Params.model_validate(data) == load_params(None, ["friction.mu_coulomb=0.4"])
 
 
@@ -46,7 +47,7 @@ def test_init_writes_a_file_that_loads_to_the_defaults(tmp_path):
     path = tmp_path / "params.toml"
     code, out, err = run_main(["params", "init", str(path)])
     assert code == 0 and out == "" and str(path) in err
-    assert load_params(path) == Params()
+    assert load_params(path) == Params() and load_study(path) == StudySpec()
     assert "# " in path.read_text()  # commented
     code, _, err = run_main(["params", "init", str(path)])
     assert code == 2 and err.startswith("error: ") and "exists" in err and err.count("\n") == 1

@@ -26,7 +26,7 @@ from polywear.analysis.global_sensitivity import (
 from polywear.analysis.sensitivity import local_sensitivity
 from polywear.analysis.stability import fast_linear_band, stability_analysis
 from polywear.models import get_model
-from polywear.params import ParameterError, Params, load_params, with_updates
+from polywear.params import ParameterError, Params, StudySpec, load_params, load_study, with_updates
 
 from .cli_runner import run_main
 from .oracles import characteristic_polynomial, routh_hurwitz_hopf_speeds
@@ -160,19 +160,19 @@ def derivatives():
     return {(r["quantity"], r["param"]): r["derivative"] for r in result.rows}
 
 
-def _small_study(method: str, n_base: int) -> Params:
-    return with_updates(Params(), {
-        "study.method": method,
-        "study.n_base": n_base,
-        "study.second_order": False,
-        "study.bootstrap": 200,
-        "study.parameters": [{"key": k, "low": 0.99 * v, "high": 1.01 * v} for k, v in SMALL],
+def _small_study(method: str, n_base: int) -> StudySpec:
+    return StudySpec().with_updates({
+        "method": method,
+        "n_base": n_base,
+        "second_order": False,
+        "bootstrap": 200,
+        "parameters": [{"key": k, "low": 0.99 * v, "high": 1.01 * v} for k, v in SMALL],
     })
 
 
 def test_sobol_indices_of_a_nearly_linear_output_are_its_squared_derivatives(derivatives):
     """For Y = sum a_i x_i with independent uniform x_i: S1_i = ST_i = a_i^2 var_i / sum_j a_j^2 var_j."""
-    result = global_sensitivity(_small_study("sobol", 512), backend="serial")
+    result = global_sensitivity(Params(), _small_study("sobol", 512), backend="serial")
     assert result.failures() == {}
     for out, q in (("hopf_1_kmh", "hopf_1"), ("hopf_2_kmh", "hopf_2")):
         weights = np.array([(derivatives[(q, k)] * 0.02 * v) ** 2 for k, v in SMALL])
@@ -187,7 +187,7 @@ def test_sobol_indices_of_a_nearly_linear_output_are_its_squared_derivatives(der
 
 
 def test_morris_elementary_effects_are_derivative_times_range(derivatives):
-    result = global_sensitivity(_small_study("morris", 20), backend="serial")
+    result = global_sensitivity(Params(), _small_study("morris", 20), backend="serial")
     assert len(result.status) == 20 * 4
     for out, q in (("hopf_1_kmh", "hopf_1"), ("hopf_2_kmh", "hopf_2")):
         ind = result.indices[out]
@@ -198,12 +198,12 @@ def test_morris_elementary_effects_are_derivative_times_range(derivatives):
 
 
 def test_a_parameter_outside_the_model_has_zero_total_index():
-    params = with_updates(Params(), {
-        "study.n_base": 64, "study.bootstrap": 50,
-        "study.parameters": [{"key": "operating.toe_deg", "low": 0.4, "high": 0.6},
+    study = StudySpec().with_updates({
+        "n_base": 64, "bootstrap": 50,
+        "parameters": [{"key": "operating.toe_deg", "low": 0.4, "high": 0.6},
                              {"key": "operating.camber_deg", "low": -2.0, "high": 0.0}],
     })
-    result = global_sensitivity(params, backend="serial")
+    result = global_sensitivity(Params(), study, backend="serial")
     for out in result.outputs:
         ind = result.indices[out]
         assert ind["ST"][1] == 0.0 and ind["S1"][1] == 0.0  # camber does not enter tread1dof
@@ -213,12 +213,12 @@ def test_a_parameter_outside_the_model_has_zero_total_index():
 
 def test_failed_samples_are_recorded_counted_and_their_blocks_dropped():
     """Damping above ~520 N s/m or mu_s below ~0.6 close the band; mu_s below mu_c = 0.5 is invalid."""
-    params = with_updates(Params(), {
-        "study.n_base": 64, "study.second_order": False, "study.bootstrap": 50,
-        "study.parameters": [{"key": "tread.lateral_damping_ns_per_m", "low": 50.0, "high": 560.0},
+    study = StudySpec().with_updates({
+        "n_base": 64, "second_order": False, "bootstrap": 50,
+        "parameters": [{"key": "tread.lateral_damping_ns_per_m", "low": 50.0, "high": 560.0},
                              {"key": "friction.mu_static", "low": 0.49, "high": 1.2}],
     })
-    result = global_sensitivity(params, backend="serial")
+    result = global_sensitivity(Params(), study, backend="serial")
     status = np.array([s.status for s in result.status])
     failures = result.failures()
     n_invalid = int(np.sum(status == SampleStatus.INVALID))
@@ -241,7 +241,7 @@ def test_failed_samples_are_recorded_counted_and_their_blocks_dropped():
 
 # -- saving, the command ------------------------------------------------------------------------
 def test_save_netcdf_csv_json(tmp_path):
-    result = global_sensitivity(with_updates(Params(), {"study.n_base": 16, "study.bootstrap": 20}), backend="serial")
+    result = global_sensitivity(Params(), StudySpec().with_updates({"n_base": 16, "bootstrap": 20}), backend="serial")
     result.save(tmp_path / "s.nc")
     ds = xr.open_dataset(tmp_path / "s.nc", engine="h5netcdf")
     np.testing.assert_array_equal(ds["value"].values, result.values)
@@ -249,6 +249,7 @@ def test_save_netcdf_csv_json(tmp_path):
     assert list(ds["param"].values) == result.names and len(result.names) == 7
     (tmp_path / "p.toml").write_text(ds.attrs["params_toml"])
     assert load_params(tmp_path / "p.toml") == result.params  # the stored TOML is the parameter set
+    assert load_study(tmp_path / "p.toml") == result.study  # and the [study] table
     ds.close()
     result.save(tmp_path / "s.csv")
     assert (tmp_path / "s.csv").read_text().startswith("output,param,S1,S1_conf,ST,ST_conf")
@@ -288,12 +289,12 @@ def test_cli_bad_input(args, fragment):
 
 @pytest.mark.slow
 def test_bifurcation_outputs_on_the_continuation_path():
-    params = with_updates(Params(), {
-        "study.outputs": "bifurcation", "study.n_base": 8, "study.second_order": False, "study.bootstrap": 20,
-        "study.parameters": [{"key": "friction.mu_static", "low": 0.85, "high": 0.95},
+    study = StudySpec().with_updates({
+        "outputs": "bifurcation", "n_base": 8, "second_order": False, "bootstrap": 20,
+        "parameters": [{"key": "friction.mu_static", "low": 0.85, "high": 0.95},
                              {"key": "operating.camber_deg", "low": -1.5, "high": -0.5}],
     })
-    result = global_sensitivity(params, backend="processes", workers=2)
+    result = global_sensitivity(Params(), study, backend="processes", workers=2)
     assert result.outputs == ("first_bifurcation_kmh", "second_bifurcation_kmh", "sev_band_width_kmh",
                               "max_amplitude_mm")
     assert result.failures() == {}
@@ -329,15 +330,17 @@ STUDY_PARAMETERS = [
 def test_study_table_round_trips_through_toml(tmp_path):
     from polywear.params import to_toml
 
-    params = with_updates(Params(), {"study.method": "morris", "study.n_base": 12, "study.seed": 7,
-                                     "study.operating_range_kmh": [90, 120], "study.parameters": STUDY_PARAMETERS})
-    assert params.study.parameters[2].low == 60.0 and isinstance(params.study.parameters[2].low, float)
-    assert params.study.operating_range_kmh == (90.0, 120.0)
+    study = StudySpec().with_updates({"method": "morris", "n_base": 12, "seed": 7,
+                                     "operating_range_kmh": [90, 120], "parameters": STUDY_PARAMETERS})
+    assert study.parameters[2].low == 60.0 and isinstance(study.parameters[2].low, float)
+    assert study.operating_range_kmh == (90.0, 120.0)
+    params = with_updates(Params(), {"tread.mass_kg": 1.5})
     for comments in (False, True):
         path = tmp_path / f"s{comments}.toml"
-        path.write_text(to_toml(params, comments=comments))
-        assert load_params(path) == params
-    assert to_toml(params).count("[[study.parameters]]") == 4
+        path.write_text(to_toml(params, comments=comments, study=study))
+        assert load_params(path) == params and load_study(path) == study
+    assert to_toml(params, study=study).count("[[study.parameters]]") == 4
+    assert "[study]" not in to_toml(params)  # the study is not part of the parameters
 
 
 @pytest.mark.parametrize("update, fragment", [
@@ -369,18 +372,37 @@ def test_study_table_round_trips_through_toml(tmp_path):
 ])
 def test_study_table_validation(update, fragment):
     with pytest.raises(ParameterError) as exc:
-        with_updates(Params(), update)
+        StudySpec().with_updates({key.removeprefix("study."): value for key, value in update.items()})
     assert fragment in str(exc.value) and "\n" not in str(exc.value), str(exc.value)
+    assert str(exc.value).startswith("study.")  # errors name the key as in the file
+
+
+def test_the_study_is_not_a_parameter(tmp_path):
+    """[study] stays in the parameter file (validated by every loader) but is no field of Params."""
+    assert "study" not in Params.model_fields
+    path = tmp_path / "p.toml"
+    path.write_text('[tread]\nmass_kg = 2.0\n[study]\nn_base = 64\n')
+    assert load_params(path) == with_updates(Params(), {"tread.mass_kg": 2.0})
+    assert load_study(path) == StudySpec().with_updates({"n_base": 64})
+    assert load_study(path, ["study.seed=7"]).seed == 7
+    for bad in (lambda: with_updates(Params(), {"study.n_base": 64}), lambda: load_params(None, ["study.n_base=64"])):
+        with pytest.raises(ParameterError, match="study.n_base: a study setting, not a parameter"):
+            bad()
+    with pytest.raises(ParameterError, match="tread.mass_kg: not a study setting"):
+        load_study(None, ["tread.mass_kg=2"])
+    path.write_text("[study]\nn_base = 100\n")
+    with pytest.raises(ParameterError, match="study.n_base = 100: sobol needs a power of 2"):
+        load_params(path)  # a bad [study] table fails for every command, as before
 
 
 def test_salib_problem_follows_the_distributions():
     """Samples honour the declared distributions (bounds, modes, means)."""
-    params = with_updates(Params(), {"study.n_base": 256, "study.second_order": False, "study.bootstrap": 10,
-                                     "study.parameters": STUDY_PARAMETERS})
+    study = StudySpec().with_updates({"n_base": 256, "second_order": False, "bootstrap": 10,
+                                     "parameters": STUDY_PARAMETERS})
     from polywear.analysis.global_sensitivity import _salib_problem, study_parameters
     from SALib.sample import sobol as sobol_sample
 
-    X = sobol_sample.sample(_salib_problem(study_parameters(params)), 256, calc_second_order=False, seed=1)
+    X = sobol_sample.sample(_salib_problem(study_parameters(Params(), study)), 256, calc_second_order=False, seed=1)
     for j, q in enumerate(STUDY_PARAMETERS):
         assert X[:, j].min() >= q["low"] and X[:, j].max() <= q["high"]
     assert abs(np.median(X[:, 1]) - 1.0) < 0.02  # truncated normal about 1.0
@@ -389,7 +411,7 @@ def test_salib_problem_follows_the_distributions():
 
 
 def test_a_tiny_study_is_not_called_converged():
-    params = with_updates(Params(), {"study.n_base": 8, "study.second_order": False, "study.bootstrap": 50})
-    result = global_sensitivity(params, backend="serial")
+    study = StudySpec().with_updates({"n_base": 8, "second_order": False, "bootstrap": 50})
+    result = global_sensitivity(Params(), study, backend="serial")
     assert not any(c["converged"] for c in result.convergence.values())
     assert all(result.indices[out]["n_used"] == 8 for out in result.outputs)

@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 from polywear.analysis.global_sensitivity import global_sensitivity
 from polywear.parallel import default_batch_size, map_batched
-from polywear.params import Params, with_updates
+from polywear.params import Params, StudySpec
 
 DASK = Path(sys.executable).parent / "dask"
 
@@ -152,15 +152,15 @@ def cluster(request, tmp_path):
     return c
 
 
-def _study_params(seed: int = 12345) -> Params:
+def _study(seed: int = 12345) -> StudySpec:
     """A small Sobol study on the Hopf path: 3 parameters, N = 64, 512 runs of ~1 ms."""
-    return with_updates(Params(), {
-        "study.method": "sobol",
-        "study.outputs": "hopf",
-        "study.n_base": 64,
-        "study.bootstrap": 50,
-        "study.seed": seed,
-        "study.parameters": [
+    return StudySpec().with_updates({
+        "method": "sobol",
+        "outputs": "hopf",
+        "n_base": 64,
+        "bootstrap": 50,
+        "seed": seed,
+        "parameters": [
             {"key": "operating.toe_deg", "low": 0.4, "high": 0.6},
             {"key": "adhesion_scale", "low": 0.95, "high": 1.05, "distribution": "normal", "std": 0.03},
             {"key": "tread.lateral_damping_ns_per_m", "low": 60.0, "high": 100.0, "distribution": "triangular"},
@@ -179,16 +179,16 @@ def _same(a, b) -> None:
 
 @pytest.fixture(scope="module")
 def reference():
-    result = global_sensitivity(_study_params(), backend="serial")
+    result = global_sensitivity(Params(), _study(), backend="serial")
     assert result.failures() == {} and len(result.status) == 64 * 8
     return result
 
 
 @pytest.mark.slow
 def test_same_seed_same_numbers_on_serial_processes_and_dask(cluster, reference):
-    _same(reference, global_sensitivity(_study_params(), backend="processes", workers=2))
-    _same(reference, global_sensitivity(_study_params(), backend="dask", scheduler=cluster.address))
-    assert not np.array_equal(global_sensitivity(_study_params(seed=7), backend="serial").samples, reference.samples)
+    _same(reference, global_sensitivity(Params(), _study(), backend="processes", workers=2))
+    _same(reference, global_sensitivity(Params(), _study(), backend="dask", scheduler=cluster.address))
+    assert not np.array_equal(global_sensitivity(Params(), _study(seed=7), backend="serial").samples, reference.samples)
 
 
 @pytest.mark.slow
@@ -202,7 +202,7 @@ def test_dask_study_survives_a_killed_worker(cluster, reference):
             victim.kill()  # SIGKILL: tasks held or running there are recomputed elsewhere
             victim.wait(10)
 
-    result = global_sensitivity(_study_params(), backend="dask", scheduler=cluster.address, batch_size=4,
+    result = global_sensitivity(Params(), _study(), backend="dask", scheduler=cluster.address, batch_size=4,
                                 progress=kill_after_first_batch)
     assert victim.poll() is not None and len(done) == 128 and done[-1] == 512 and done == sorted(done)
     assert cluster.n_workers() == 1

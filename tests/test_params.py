@@ -13,10 +13,12 @@ from hypothesis import strategies as st
 from polywear.params import (
     ParameterError,
     Params,
+    StudySpec,
     default_toml,
     flat_items,
     get_value,
     load_params,
+    load_study,
     parse_override,
     to_toml,
     with_updates,
@@ -61,7 +63,8 @@ SPEC_DEFAULTS = {
     "tire.contact_length_m": 0.11,
     "tire.tread_width_m": 0.16,
 }
-# The [study] table: settings of `polywear study` (docs/sensitivity.md), not model parameters.
+# The [study] table: settings of `polywear study` (docs/sensitivity.md), not model parameters
+# (params.StudySpec, not a field of Params).
 STUDY_DEFAULTS = {
     "study.method": "sobol",
     "study.outputs": "hopf",
@@ -98,14 +101,16 @@ def test_no_key_outside_the_spec_table():
     """A key that docs/model.md section 6 does not list must be added there (and here) first."""
     items = {key: value for key, value, _ in flat_items(Params())}
     assert len(items) == len(flat_items(Params()))
-    expected = set(SPEC_DEFAULTS) | set(STUDY_DEFAULTS) | set(WEAR_DEFAULTS) | {"wear.cycle"}
+    expected = set(SPEC_DEFAULTS) | set(WEAR_DEFAULTS) | {"wear.cycle"}
     assert set(items) == expected, set(items) ^ expected
-    assert {k: items[k] for k in STUDY_DEFAULTS} == STUDY_DEFAULTS
+    with_study = {key: value for key, value, _ in flat_items(Params(), StudySpec())}
+    assert set(with_study) == expected | set(STUDY_DEFAULTS), set(with_study) ^ (expected | set(STUDY_DEFAULTS))
+    assert {k: with_study[k] for k in STUDY_DEFAULTS} == STUDY_DEFAULTS
     assert {k: items[k] for k in WEAR_DEFAULTS} == WEAR_DEFAULTS
 
 
 def test_every_key_has_a_description_with_a_unit_or_choice():
-    for key, _, description in flat_items(Params()):
+    for key, _, description in flat_items(Params(), StudySpec()):
         assert description, key
         if key in NUMERIC_KEYS:
             assert "[" in description and "]" in description, f"{key}: no [unit] in {description!r}"
@@ -163,6 +168,7 @@ def test_default_file_loads_to_the_defaults(tmp_path):
     path = tmp_path / "d.toml"
     path.write_text(default_toml())
     assert load_params(path) == Params()
+    assert load_study(path) == StudySpec()  # the default file holds the [study] table too
     assert tomllib.loads(default_toml())["friction"]["mu_static"] == 0.9
 
 

@@ -67,8 +67,10 @@ def _sensitivity(d):
 def _study(d):
     from polywear.analysis.global_sensitivity import global_sensitivity
 
-    p = with_updates(Params(), {"study.n_base": 8, "study.bootstrap": 10, "study.outputs": "hopf"})
-    return global_sensitivity(p, backend="serial")
+    from polywear.params import StudySpec
+
+    study = StudySpec().with_updates({"n_base": 8, "bootstrap": 10, "outputs": "hopf"})
+    return global_sensitivity(Params(), study, backend="serial")
 
 
 def _design(d):

@@ -4,6 +4,10 @@ Every configuration key of docs/model.md section 6 lives here as a field of a fr
 pydantic model, with its unit in the name and the docstring. Parameters are changed
 only through :func:`with_updates`, which validates the result again.
 
+The ``[study]`` table of the same file is no vehicle parameter: it specifies a global
+sensitivity study (:class:`StudySpec`, read by :func:`load_study`), is not a field of
+:class:`Params` and is changed through :meth:`StudySpec.with_updates`.
+
 Errors are reported as :class:`ParameterError` whose message is one line naming the
 key, the value and the rule that was broken.
 """
@@ -12,8 +16,9 @@ from __future__ import annotations
 
 import math
 import tomllib
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, TypeVar
 
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, field_validator, model_validator
 
@@ -29,9 +34,11 @@ __all__ = [
     "Tire",
     "Wear",
     "WearCycleEntry",
-    "Study",
+    "StudySpec",
     "StudyParameter",
     "study_keys",
+    "load_study",
+    "STUDY_TABLE",
     "ADHESION_SCALE",
     "PAPER_KEYS",
     "load_params",
@@ -50,6 +57,9 @@ MAX_STUDY_BASE = 65536
 """Largest study.n_base (sobol: N (2D + 2) runs, already about a million for D = 7)."""
 MAX_BOOTSTRAP = 100_000
 """Most bootstrap resamples of a study."""
+
+
+_T = TypeVar("_T", bound=BaseModel)
 
 
 class ParameterError(ValueError):
@@ -164,7 +174,7 @@ def _float_fields() -> dict[str, Any]:
     """"table.key" -> pydantic FieldInfo of every float key of the model tables."""
     out = {}
     for table, cls in _TABLES.items():
-        if table in ("study", "wear"):
+        if table == "wear":
             continue
         for name, info in cls.model_fields.items():
             if info.annotation is float:
@@ -312,8 +322,12 @@ class StudyParameter(_Table):
         return self
 
 
-class Study(_Table):
-    """Global sensitivity study (polywear study): method, sample size, outputs, parameters."""
+class StudySpec(_Table):
+    """Global sensitivity study (polywear study): method, sample size, outputs, parameters.
+
+    The ``[study]`` table of the parameter file (:func:`load_study`); not a field of
+    :class:`Params`. Validated on construction, frozen.
+    """
 
     method: Literal["sobol", "morris"] = Field("sobol", description="sobol (Saltelli sampling) or morris")
     outputs: Literal["hopf", "bifurcation"] = Field(
@@ -349,7 +363,7 @@ class Study(_Table):
         return tuple(value) if isinstance(value, list) else value
 
     @model_validator(mode="after")
-    def _consistent(self) -> Study:
+    def _consistent(self) -> StudySpec:
         n = self.n_base
         if self.method == "sobol" and (n < 8 or n & (n - 1)):
             raise ParameterError(f"study.n_base = {n!r}: sobol needs a power of 2, at least 8")
@@ -373,6 +387,12 @@ class Study(_Table):
             raise ParameterError(f"study.parameters: {', '.join(duplicates)} given more than once")
         return self
 
+    def with_updates(self, updates: dict[str, Any]) -> StudySpec:
+        """A new study with ``{"key": value}`` updates (keys of the ``[study]`` table, e.g.
+        ``"n_base"``), validated again; raises :class:`ParameterError` naming ``study.key``."""
+        data = {**self.model_dump(), **updates}
+        return _validate(_StudyFile, _coerce_numbers({"study": data})).study
+
 
 class Params(_Table):
     """A complete, validated parameter set (every key: docs/model.md, "Configuration keys")."""
@@ -385,7 +405,6 @@ class Params(_Table):
     friction: Friction = Friction()
     axle: Axle = Axle()
     tire: Tire = Tire()
-    study: Study = Study()
     wear: Wear = Wear()
 
     def with_updates(self, updates: dict[str, Any]) -> Params:
@@ -396,16 +415,24 @@ class Params(_Table):
         return with_updates(self, updates)
 
 
+class _StudyFile(_Table):
+    """The ``[study]`` table alone: validation errors are located at ``study.key``."""
+
+    study: StudySpec = StudySpec()
+
+
 _TABLES: dict[str, type[_Table]] = {
     name: field.annotation  # type: ignore[misc]
     for name, field in Params.model_fields.items()
     if name != "model"
 }
+STUDY_TABLE = "study"
+"""Name of the parameter file's table read by :func:`load_study`."""
 
 
-def _table_at(loc: tuple) -> type[BaseModel]:
+def _table_at(root: type[BaseModel], loc: tuple) -> type[BaseModel]:
     """The model class at a validation-error location (array indices skipped)."""
-    cls: type[BaseModel] = Params
+    cls = root
     for part in loc:
         if isinstance(part, str):
             annotation = cls.model_fields[part].annotation
@@ -413,14 +440,14 @@ def _table_at(loc: tuple) -> type[BaseModel]:
     return cls
 
 
-def _describe_error(exc: ValidationError, data: dict[str, Any]) -> str:
+def _describe_error(root: type[BaseModel], exc: ValidationError) -> str:
     """One line for the first problem pydantic found: key, value, rule."""
     err = exc.errors(include_url=False)[0]
     loc = ".".join(str(part) for part in err["loc"])
     value = err.get("input")
     kind = err["type"]
     if kind == "extra_forbidden":
-        known = sorted(_table_at(err["loc"][:-1]).model_fields)
+        known = sorted(_table_at(root, err["loc"][:-1]).model_fields)
         return f"{loc}: unknown key (known keys: {', '.join(known)})"
     if kind == "missing":
         return f"{loc}: required key missing"
@@ -438,13 +465,21 @@ def _describe_error(exc: ValidationError, data: dict[str, Any]) -> str:
     return f"{loc} = {value!r}: {rule}"
 
 
-def _validate(data: dict[str, Any]) -> Params:
+def _validate(root: type[_T], data: dict[str, Any]) -> _T:
     try:
-        return Params.model_validate(data)
+        return root.model_validate(data)
     except ValidationError as exc:
-        raise ParameterError(_describe_error(exc, data)) from None
-    except ParameterError:
-        raise
+        raise ParameterError(_describe_error(root, exc)) from None
+
+
+def _no_study_keys(keys: Iterable[str]) -> None:
+    """``study.*`` keys set the study (:func:`load_study`), not the parameters."""
+    for key in keys:
+        if key.split(".", 1)[0] == STUDY_TABLE:
+            raise ParameterError(
+                f"{key}: a study setting, not a parameter (polywear study --set {key}=..., "
+                "StudySpec.with_updates or load_study)"
+            )
 
 
 def _nested(flat: dict[str, Any]) -> dict[str, Any]:
@@ -489,8 +524,9 @@ def _coerce_numbers(data: dict[str, Any]) -> dict[str, Any]:
 
 def with_updates(params: Params, updates: dict[str, Any]) -> Params:
     """A new validated parameter set with ``{"table.key": value}`` updates applied."""
+    _no_study_keys(updates)
     data = _merge(params.model_dump(), _nested(updates))
-    return _validate(_coerce_numbers(data))
+    return _validate(Params, _coerce_numbers(data))
 
 
 def get_value(params: Params, key: str) -> Any:
@@ -520,36 +556,72 @@ def parse_override(text: str) -> tuple[str, Any]:
     return key, value
 
 
+def _read_toml(path: str | Path | None) -> dict[str, Any]:
+    """The parameter file at ``path`` as a dict ({} without a path)."""
+    if path is None:
+        return {}
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ParameterError(f"{path}: cannot read parameter file ({exc.strerror})") from None
+    except UnicodeDecodeError:
+        raise ParameterError(f"{path}: not a text (UTF-8 TOML) file") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ParameterError(f"{path}: not valid TOML ({exc})") from None
+
+
+def _study_file(data: dict[str, Any], flat: dict[str, Any]) -> StudySpec:
+    """The study of a file's ``data`` and ``{"study.key": value}`` overrides, validated."""
+    merged = _merge({STUDY_TABLE: data.get(STUDY_TABLE, {})}, _nested(flat))
+    return _validate(_StudyFile, _coerce_numbers(merged)).study
+
+
 def load_params(
     path: str | Path | None = None,
     overrides: list[str] | tuple[str, ...] = (),
     base: dict[str, Any] | None = None,
 ) -> Params:
     """Defaults, then ``base`` (``{"table.key": value}``, e.g. from a .tir file), then the
-    TOML file at ``path`` (if any), then ``table.key=value`` overrides."""
-    data: dict[str, Any] = {}
-    if path is not None:
-        path = Path(path)
-        try:
-            text = path.read_text(encoding="utf-8")
-        except OSError as exc:
-            raise ParameterError(f"{path}: cannot read parameter file ({exc.strerror})") from None
-        except UnicodeDecodeError:
-            raise ParameterError(f"{path}: not a text (UTF-8 TOML) file") from None
-        try:
-            data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise ParameterError(f"{path}: not valid TOML ({exc})") from None
+    TOML file at ``path`` (if any), then ``table.key=value`` overrides.
+
+    The file's ``[study]`` table is validated too (a bad one fails here as well) but is not
+    part of the parameters: :func:`load_study` reads it; ``study.*`` overrides are refused.
+    """
+    data = _read_toml(path)
     flat = dict(parse_override(item) for item in overrides)
+    _no_study_keys(flat)
+    _study_file(data, {})
+    data = {k: v for k, v in data.items() if k != STUDY_TABLE}
     data = _merge(_merge(_nested(dict(base or {})), data), _nested(flat))
-    return _validate(_coerce_numbers(data))
+    return _validate(Params, _coerce_numbers(data))
 
 
-def flat_items(params: Params) -> list[tuple[str, Any, str]]:
-    """(key, value, description) for every key, in declaration order."""
+def load_study(path: str | Path | None = None, overrides: list[str] | tuple[str, ...] = ()) -> StudySpec:
+    """The study specification: defaults, then the ``[study]`` table of the TOML file at
+    ``path`` (if any), then ``study.key=value`` overrides (e.g. ``"study.n_base=256"``)."""
+    flat = dict(parse_override(item) for item in overrides)
+    for key in flat:
+        if key.split(".", 1)[0] != STUDY_TABLE:
+            raise ParameterError(f"{key}: not a study setting (study.key)")
+    return _study_file(_read_toml(path), flat)
+
+
+def _tables(params: Params, study: StudySpec | None) -> dict[str, BaseModel]:
+    """Table name -> table of the parameters, then ``[study]`` if a study is given."""
+    tables: dict[str, BaseModel] = {table: getattr(params, table) for table in _TABLES}
+    if study is not None:
+        tables[STUDY_TABLE] = study
+    return tables
+
+
+def flat_items(params: Params, study: StudySpec | None = None) -> list[tuple[str, Any, str]]:
+    """(key, value, description) for every key, in declaration order; the ``study.*`` keys
+    last if a study is given."""
     rows: list[tuple[str, Any, str]] = [("model", params.model, Params.model_fields["model"].description or "")]
-    for table in _TABLES:
-        sub = getattr(params, table)
+    for table, sub in _tables(params, study).items():
         for name, field in type(sub).model_fields.items():
             rows.append((f"{table}.{name}", getattr(sub, name), field.description or ""))
     return rows
@@ -593,12 +665,14 @@ def _array_of_tables(name: str, entries: tuple[BaseModel, ...], comments: bool) 
     return lines
 
 
-def to_toml(params: Params, comments: bool = False) -> str:
-    """The parameter set as TOML text, optionally with a comment per key."""
+def to_toml(params: Params, comments: bool = False, study: StudySpec | None = None) -> str:
+    """The parameter set (and the ``[study]`` table if a study is given) as TOML text,
+    optionally with a comment per key."""
     lines: list[str] = []
     arrays: list[str] = []
     current = None
-    for key, value, description in flat_items(params):
+    tables = _tables(params, study)
+    for key, value, description in flat_items(params, study):
         table, _, name = key.rpartition(".")
         if isinstance(value, tuple) and all(isinstance(v, BaseModel) for v in value):
             arrays += _array_of_tables(key, value, comments)
@@ -609,7 +683,7 @@ def to_toml(params: Params, comments: bool = False) -> str:
             if table:
                 lines.append("")
                 if comments:
-                    doc = (_TABLES[table].__doc__ or "").strip().splitlines()[0]
+                    doc = (type(tables[table]).__doc__ or "").strip().splitlines()[0]
                     lines.append(f"# {doc}")
                 lines.append(f"[{table}]")
             current = table
@@ -627,4 +701,4 @@ def default_toml() -> str:
         "# Units are in the key names. Override any key on the command line with\n"
         "#   --set table.key=value\n"
     )
-    return header + to_toml(Params(), comments=True)
+    return header + to_toml(Params(), comments=True, study=StudySpec())

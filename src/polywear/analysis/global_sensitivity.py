@@ -1,6 +1,7 @@
 """Global sensitivity of the SEV band over user-given parameter ranges (SALib).
 
-The ``[study]`` table of the parameter file (:class:`polywear.params.Study`) names the
+The ``[study]`` table of the parameter file (:class:`polywear.params.StudySpec`, read by
+:func:`polywear.params.load_study`; not part of the parameters) names the
 uncertain parameters with their ranges and distributions, the method (Sobol indices
 from Saltelli sampling, or Morris elementary effects), the sample size and the seed.
 Samples are drawn here, in the calling process, from ``numpy.random.SeedSequence(seed)``;
@@ -51,6 +52,7 @@ from ..params import (
     Params,
     ParameterError,
     StudyParameter,
+    StudySpec,
     get_value,
     with_updates,
 )
@@ -128,9 +130,9 @@ def default_study_parameters(params: Params) -> tuple[StudyParameter, ...]:
     return tuple(out)
 
 
-def study_parameters(params: Params) -> tuple[StudyParameter, ...]:
-    """``[[study.parameters]]``, or the default seven when none are given."""
-    return params.study.parameters or default_study_parameters(params)
+def study_parameters(params: Params, study: StudySpec) -> tuple[StudyParameter, ...]:
+    """``[[study.parameters]]`` of ``study``, or the default seven (around ``params``) when none are given."""
+    return study.parameters or default_study_parameters(params)
 
 
 def _salib_problem(parameters) -> dict:
@@ -333,6 +335,7 @@ class GlobalSensitivityResult(Result):
     """Samples, outputs, statuses and sensitivity indices of a global study."""
 
     params: Params
+    study: StudySpec
     parameters: tuple[StudyParameter, ...]
     outputs: tuple[str, ...]
     samples: np.ndarray  # (n_runs, D) parameter values [key units]
@@ -344,7 +347,7 @@ class GlobalSensitivityResult(Result):
 
     @property
     def method(self) -> str:
-        return self.params.study.method
+        return self.study.method
 
     @property
     def names(self) -> list[str]:
@@ -376,7 +379,7 @@ class GlobalSensitivityResult(Result):
             "method": self.method,
             "outputs": list(self.outputs),
             "parameters": [q.model_dump(exclude_none=True) for q in self.parameters],
-            "n_base": self.params.study.n_base,
+            "n_base": self.study.n_base,
             "n_runs": len(self.status),
             "failures": self.failures(),
             "failure_examples": examples,
@@ -414,10 +417,12 @@ class GlobalSensitivityResult(Result):
             if any(key in ind for ind in self.indices.values()):
                 data[key] = (("output", "param"), np.array(
                     [ind.get(key, np.full(len(self.names), np.nan)) for ind in self.indices.values()]))
+        from ..params import to_toml
+
         return xr.Dataset(
             data,
             coords={"param": self.names, "output": list(self.outputs)},
-            attrs={"method": self.method},
+            attrs={"method": self.method, "params_toml": to_toml(self.params, study=self.study)},
         )
 
     def plot(self, ax=None, output: str | None = None):
@@ -469,6 +474,7 @@ class GlobalSensitivityResult(Result):
 
 def global_sensitivity(
     params: Params,
+    study: StudySpec | None = None,
     *,
     backend: str = "processes",
     workers: int | None = None,
@@ -477,15 +483,18 @@ def global_sensitivity(
     progress: Progress | None = None,
     fast_band: bool = True,
 ) -> GlobalSensitivityResult:
-    """Run the study of ``params.study`` on the given backend (see :func:`polywear.parallel.map_batched`).
+    """Run ``study`` around ``params`` on the given backend (see :func:`polywear.parallel.map_batched`).
 
     This is ``polywear study`` and ``pw.study``.
 
     Parameters
     ----------
     params : Params
-        The nominal parameter set; its ``[study]`` table gives the method (Sobol or
-        Morris), sample size, outputs, seed and the uncertain parameters.
+        The nominal parameter set.
+    study : StudySpec, optional
+        The ``[study]`` table (:func:`polywear.params.load_study`): method (Sobol or
+        Morris), sample size, outputs, seed and the uncertain parameters; default
+        ``StudySpec()``.
     backend : {"serial", "processes", "dask"}
         Where the samples are evaluated.
     workers : int, optional
@@ -514,8 +523,8 @@ def global_sensitivity(
 
     from ..parallel import map_batched
 
-    study = params.study
-    parameters = study_parameters(params)
+    study = StudySpec() if study is None else study
+    parameters = study_parameters(params, study)
     problem = _salib_problem(parameters)
     sample_seed, boot_seed = _seeds(study.seed)
     rng = np.random.default_rng(sample_seed)
@@ -567,6 +576,7 @@ def global_sensitivity(
         }
     return GlobalSensitivityResult(
         params=params,
+        study=study,
         parameters=parameters,
         outputs=evaluator.names,
         samples=X,

@@ -92,6 +92,16 @@ def load(config: Path | None, sets: list[str] | None):
     return load_params(config, sets or ())
 
 
+def load_with_study(config: Path | None, sets: list[str] | None):
+    """(parameters, study specification): ``--set study.key=value`` overrides go to the
+    study (the ``[study]`` table of the TOML file), the others to :func:`load`."""
+    from ..params import STUDY_TABLE, load_study
+
+    study_sets = [item for item in sets or () if item.split("=", 1)[0].strip().split(".", 1)[0] == STUDY_TABLE]
+    params = load(config, [item for item in sets or () if item not in study_sets])
+    return params, load_study(config, study_sets)
+
+
 def with_tir_option(command: Callable) -> Callable:
     """``command`` with a ``--tir FILE`` option that :func:`load` applies.
 

@@ -7,21 +7,21 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, QuietOpt, SetOpt, emit_json, info, load, output_file, write_output
+from .common import ConfigOpt, JsonOpt, QuietOpt, SetOpt, emit_json, info, load_with_study, output_file, write_output
 
 app = typer.Typer(help="Show or write parameter sets (TOML).", no_args_is_help=True, rich_markup_mode=None)
 
 
 @app.command("show")
 def show(config: ConfigOpt = None, set_: SetOpt = None, json_: JsonOpt = False, quiet: QuietOpt = False) -> None:
-    """Print the resolved parameter set (defaults, file, --set) as TOML."""
-    from ..params import to_toml
+    """Print the resolved parameter set and study table (defaults, file, --set) as TOML."""
+    from ..params import STUDY_TABLE, to_toml
 
-    params = load(config, set_)
+    params, study = load_with_study(config, set_)
     if json_:
-        emit_json(params.model_dump())
+        emit_json({**params.model_dump(), STUDY_TABLE: study.model_dump()})
     else:
-        typer.echo(to_toml(params), nl=False)
+        typer.echo(to_toml(params, study=study), nl=False)
 
 
 @app.command("init")
@@ -66,7 +66,7 @@ def from_tir(
     in_file = user_keys(config)
     rows = []
     for key, value, _ in flat_items(params):
-        if isinstance(value, tuple) or key.startswith("study."):
+        if isinstance(value, tuple):
             continue
         user = "--set" if key in in_sets else "--config" if key in in_file else None
         tir_source = mapping.sources.get(key)

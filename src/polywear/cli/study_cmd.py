@@ -22,7 +22,7 @@ from .common import (
     dask_connect_timeout,
     emit_json,
     info,
-    load,
+    load_with_study,
     output_file,
     progress,
     write_figure,
@@ -55,12 +55,11 @@ def study(
     output_file(plot, "--plot", PLOT_SUFFIXES)
     if not 0.0 < connect_timeout <= 3600.0:
         raise UserError(f"--connect-timeout {connect_timeout}: must be in (0, 3600] [s]")
-    params = load(config, set_)
+    params, study_ = load_with_study(config, set_)
     chosen = chosen_backend(backend, scheduler, connect_timeout)
     from ..analysis.global_sensitivity import global_sensitivity, study_parameters
 
-    study_ = params.study
-    D = len(study_parameters(params))
+    D = len(study_parameters(params, study_))
     if study_.method == "sobol":
         n_runs = study_.n_base * (2 * D + 2 if study_.second_order else D + 2)
     else:
@@ -71,7 +70,7 @@ def study(
         connect_timeout if chosen == "dask" else None
     ):
         try:
-            result = global_sensitivity(params, backend=chosen, workers=workers, scheduler=scheduler,
+            result = global_sensitivity(params, study_, backend=chosen, workers=workers, scheduler=scheduler,
                                         batch_size=batch_size, progress=update)
         except OSError as exc:  # includes connection failures and timeouts of the Dask client
             raise UserError(f"cannot reach the Dask scheduler {scheduler} within {connect_timeout:g} s: {exc}") from None
