@@ -31,6 +31,8 @@ EXPECTED = {
     "sensitivity": "polywear.analysis.sensitivity:local_sensitivity",
     "stability_map": "polywear.analysis.stability_map:stability_map",
     "study": "polywear.analysis.global_sensitivity:global_sensitivity",
+    "StudySpec": "polywear.params:StudySpec",
+    "load_study": "polywear.params:load_study",
     "design": "polywear.analysis.design:clear_operating_range",
     "excitation": "polywear.analysis.excitation:excitation_portraits",
     "report": "polywear.report:run_report",

@@ -18,7 +18,8 @@ Entry points (each is the function or class named in brackets):
 - ``simulate`` [analysis.simulation.simulate]
 - ``sensitivity`` [analysis.sensitivity.local_sensitivity]
 - ``stability_map`` [analysis.stability_map.stability_map]
-- ``study`` [analysis.global_sensitivity.global_sensitivity]
+- ``study`` [analysis.global_sensitivity.global_sensitivity], ``StudySpec``, ``load_study``
+  [polywear.params]: the study specification (the ``[study]`` table), not a parameter
 - ``design`` [analysis.design.clear_operating_range]
 - ``excitation`` [analysis.excitation.excitation_portraits]
 - ``report`` [report.run_report]
@@ -57,6 +58,8 @@ _ENTRY_POINTS: dict[str, tuple[str, str | None]] = {
     "sensitivity": ("polywear.analysis.sensitivity", "local_sensitivity"),
     "stability_map": ("polywear.analysis.stability_map", "stability_map"),
     "study": ("polywear.analysis.global_sensitivity", "global_sensitivity"),
+    "StudySpec": ("polywear.params", "StudySpec"),
+    "load_study": ("polywear.params", "load_study"),
     "design": ("polywear.analysis.design", "clear_operating_range"),
     "excitation": ("polywear.analysis.excitation", "excitation_portraits"),
     "report": ("polywear.report", "run_report"),
