@@ -14,6 +14,7 @@ import pytest
 
 from polywear.analysis.bifurcation import bifurcation_diagram
 from polywear.analysis.points import PointKind
+from polywear.analysis.stability import StabilitySettings
 from polywear.cli.bifurcation_cmd import _print_summary
 from polywear.models import get_model
 from polywear.params import load_params
@@ -49,7 +50,8 @@ def diagram(request):
     model, case = request.param
     speed_range, max_steps = COSTLY.get((model, case), (RANGE_KMH, SETTINGS.max_steps))
     settings = replace(SETTINGS, max_steps=max_steps)
-    return bifurcation_diagram(params_of(model, case), speed_range, settings, n_speeds=200, extend=False)
+    return bifurcation_diagram(params_of(model, case), speed_range, settings, StabilitySettings(n_speeds=200),
+                               extend=False)
 
 
 def test_special_points_are_located_once(diagram):
@@ -103,7 +105,8 @@ def test_every_branch_ends_with_a_reason_and_failures_are_flagged(diagram):
 def test_failed_branch_in_the_text_output(capsys):
     """A branch cut by the step limit is printed as FAILED, with where and why."""
     params = params_of("tread1dof", "stick-slip")
-    d = bifurcation_diagram(params, RANGE_KMH, ContinuationSettings(max_steps=15), n_speeds=100, extend=False)
+    d = bifurcation_diagram(params, RANGE_KMH, ContinuationSettings(max_steps=15), StabilitySettings(n_speeds=100),
+                            extend=False)
     (branch,) = d.branches
     assert branch.end is BranchEnd.MAX_STEPS and branch.failed
     _print_summary(d.summary())
@@ -148,7 +151,8 @@ def test_stable_window_of_the_heavy_axle_is_what_long_integration_reaches():
     stable cycle in the middle stays on it (every coordinate to 1e-4 of its range)."""
     model = get_model("axle4dof")
     params = params_of("axle4dof", "heavy load")
-    d = bifurcation_diagram(params, (20.0, 45.0), replace(SETTINGS, max_steps=30), n_speeds=200, extend=False)
+    d = bifurcation_diagram(params, (20.0, 45.0), replace(SETTINGS, max_steps=30), StabilitySettings(n_speeds=200),
+                            extend=False)
     fold = min(f.speed_kmh for f in d.folds)
     pd = min(pt.speed_kmh for pt in d.special if pt.kind is PointKind.PD)
     assert 40.0 < fold < pd < 40.2

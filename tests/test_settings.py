@@ -118,3 +118,21 @@ def test_defaults_are_unchanged():
 def test_infinite_multiplier_tolerance_switches_the_check_off():
     assert ContinuationSettings(multiplier_tol=math.inf).multiplier_tol == math.inf
     assert ContinuationSettings(adapt_every=0).adapt_every == 0
+
+
+def test_bifurcation_takes_its_stability_grid_as_settings():
+    """bifurcation_diagram(stability_settings=...) is the grid of the Hopf bracketing (was n_speeds=);
+    a widened range keeps the grid spacing (at most four times the points) and the other fields."""
+    from polywear.analysis.bifurcation import bifurcation_diagram
+    from polywear.params import Params
+
+    fixed = bifurcation_diagram(Params(), (20.0, 300.0), stability_settings=StabilitySettings(n_speeds=50), extend=False)
+    assert fixed.stability.settings == {"n_speeds": 50, "xtol_ms": 1e-10}
+    assert fixed.speed_range_kmh == (20.0, 300.0)
+    grid = StabilitySettings(n_speeds=20, xtol_ms=1e-9)
+    widened = bifurcation_diagram(Params(), (150.0, 200.0), stability_settings=grid)  # operating speed 110 km/h
+    lo, hi = widened.speed_range_kmh
+    assert lo < 110.0 < hi and (lo, hi) != (150.0, 200.0)
+    n = widened.stability.settings["n_speeds"]
+    assert n == min(max(20, math.ceil((hi - lo) / (50.0 / 19)) + 1), 80)
+    assert widened.stability.settings["xtol_ms"] == 1e-9

@@ -545,7 +545,7 @@ def bifurcation_diagram(
     params: Params,
     speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
     settings: ContinuationSettings = ContinuationSettings(),
-    n_speeds: int = 400,
+    stability_settings: StabilitySettings = StabilitySettings(),
     progress: Progress | None = None,
     extend: bool = True,
 ) -> BifurcationDiagram:
@@ -570,8 +570,10 @@ def bifurcation_diagram(
         Speeds analysed [km/h], ``0 < low < high`` (widened as above with ``extend``).
     settings : ContinuationSettings
         Collocation mesh and step control of the cycle continuation.
-    n_speeds : int
-        Grid of the stability analysis that brackets the Hopf points.
+    stability_settings : StabilitySettings
+        The stability analysis that brackets the Hopf points: its grid ``n_speeds`` on the
+        requested range (a widened range keeps that grid spacing, with at most four times
+        the points) and ``xtol_ms`` [m/s].
     progress : callable, optional
         Progress callback (:mod:`polywear.progress`), called after every continuation step.
     extend : bool
@@ -585,9 +587,9 @@ def bifurcation_diagram(
         ``summary()`` is what ``polywear bifurcation --json`` prints.
     """
     if extend:
-        return _extended_diagram(params, speed_range_kmh, settings, n_speeds, progress)
+        return _extended_diagram(params, speed_range_kmh, settings, stability_settings, progress)
     lo, hi = (float(v) for v in speed_range_kmh)
-    stab = stability_analysis(params, (lo, hi), StabilitySettings(n_speeds=n_speeds))
+    stab = stability_analysis(params, (lo, hi), stability_settings)
     model = get_model(params.model)
     p = model.pack(params)
     bounds = (kmh_to_ms(lo), kmh_to_ms(hi))
@@ -648,7 +650,7 @@ def bifurcation_diagram(
     )
 
 
-def _extended_diagram(params, speed_range_kmh, settings, n_speeds, progress) -> BifurcationDiagram:
+def _extended_diagram(params, speed_range_kmh, settings, stability_settings, progress) -> BifurcationDiagram:
     """The diagram on the requested range widened until the range no longer cuts the answer."""
     step = StepCounter(progress)  # counts on across the widened ranges
     requested = tuple(float(v) for v in speed_range_kmh)
@@ -659,12 +661,14 @@ def _extended_diagram(params, speed_range_kmh, settings, n_speeds, progress) -> 
     hi = max(hi, min(round(op * OPERATING_MARGIN, 6), SPEED_CEILING_KMH))
     if (lo, hi) != requested:
         notes.append(f"range widened to {lo:g}-{hi:g} km/h to hold the operating speed {op:g} km/h")
+    n_speeds = stability_settings.n_speeds
     spacing = (requested[1] - requested[0]) / max(n_speeds - 1, 1)
     diagram = None
     while True:
         n = min(max(n_speeds, int(np.ceil((hi - lo) / spacing)) + 1), 4 * n_speeds)
         try:
-            wider = bifurcation_diagram(params, (lo, hi), settings, n, step.relay if progress else None, extend=False)
+            wider = bifurcation_diagram(params, (lo, hi), settings, replace(stability_settings, n_speeds=n),
+                                        step.relay if progress else None, extend=False)
         except (RuntimeError, ValueError, ArithmeticError) as exc:
             if diagram is None:
                 raise

@@ -78,6 +78,7 @@ def bifurcation(
         summary = {**sweep_bands(result), **result.summary()}
     else:
         from ..analysis.bifurcation import bifurcation_diagram
+        from ..analysis.stability import StabilitySettings
         from ..solvers.continuation import ContinuationSettings
 
         with progress("continuation steps", enabled=not quiet) as update:
@@ -85,7 +86,7 @@ def bifurcation(
                 params,
                 (lo, hi),
                 ContinuationSettings(n_intervals=n_intervals),
-                n_speeds=n_speeds or 400,
+                StabilitySettings() if n_speeds is None else StabilitySettings(n_speeds=n_speeds),
                 progress=update,
             )
         summary = result.summary()
