@@ -81,9 +81,9 @@ def _design(d):
 
 
 def _excitation(d):
-    from polywear.analysis.excitation import default_speeds, excitation_portraits
+    from polywear.analysis.excitation import ExcitationSettings, default_speeds, excitation_portraits
 
-    return excitation_portraits(d, default_speeds(d, 120.0)[:1], duration_s=0.2)[0]
+    return excitation_portraits(d, default_speeds(d, 120.0)[:1], ExcitationSettings(duration_s=0.2))[0]
 
 
 def _attractor(d):

@@ -11,6 +11,8 @@ import pytest
 
 from polywear.analysis.calibration import CalibrationSettings
 from polywear.analysis.campbell import CampbellSettings
+from polywear.analysis.design import DesignSettings
+from polywear.analysis.excitation import ExcitationSettings
 from polywear.analysis.sensitivity import SensitivitySettings
 from polywear.analysis.simulation import SimulationSettings
 from polywear.analysis.stability import StabilitySettings
@@ -77,10 +79,19 @@ BAD = [
     (SensitivitySettings, "step", 0.0),
     (CalibrationSettings, "n_speeds", 2),
     (CalibrationSettings, "undetermined_above", 0.0),
+    (DesignSettings, "margin_kmh", -1.0),
+    (DesignSettings, "margin_kmh", math.inf),
+    (DesignSettings, "search_factor", 1.0),
+    (DesignSettings, "search_factor", math.nan),
+    (ExcitationSettings, "duration_s", 0.0),
+    (ExcitationSettings, "duration_s", math.inf),
+    (ExcitationSettings, "settling_efoldings", -8.0),
+    (ExcitationSettings, "settling_min_s", 0.0),
+    (ExcitationSettings, "settling_max_s", 0.5),  # below settling_min_s
 ]
 
 CLASSES = [ContinuationSettings, MapSettings, StabilitySettings, SimulationSettings, AutoSettings, SweepSettings,
-           CampbellSettings, SensitivitySettings, CalibrationSettings]
+           CampbellSettings, SensitivitySettings, CalibrationSettings, DesignSettings, ExcitationSettings]
 
 
 @pytest.mark.parametrize(("cls", "name", "value"), BAD, ids=[f"{c.__name__}.{n}={v!r}" for c, n, v in BAD])
@@ -110,6 +121,11 @@ def test_defaults_are_unchanged():
         0.01, 0.03, 1e-7, 3, 81, ContinuationSettings())
     s = SweepSettings()
     assert (s.small, s.large, s.chunk_s, s.max_duration_s, s.simulation) == (1e-5, 1e-3, 0.25, 4.0, SimulationSettings())
+    d = DesignSettings()
+    assert (d.margin_kmh, d.search_factor) == (2.0, 3.0)
+    e = ExcitationSettings()
+    assert (e.duration_s, e.settling_efoldings, e.settling_min_s, e.settling_max_s) == (None, 8.0, 0.6, 8.0)
+    assert DesignSettings(margin_kmh=0.0).margin_kmh == 0.0  # no margin is allowed
     c = CampbellSettings()
     assert (c.window_s, c.overlap, c.f_range_hz, c.peak_db, c.sev_db, c.disturbance_m) == (0.5, 0.75, None, 15.0, 20.0,
                                                                                           1e-6)
@@ -136,3 +152,25 @@ def test_bifurcation_takes_its_stability_grid_as_settings():
     n = widened.stability.settings["n_speeds"]
     assert n == min(max(20, math.ceil((hi - lo) / (50.0 / 19)) + 1), 80)
     assert widened.stability.settings["xtol_ms"] == 1e-9
+
+
+def test_design_and_excitation_follow_their_settings():
+    """DesignSettings.margin_kmh is the margin the design keeps and reports; the default
+    simulated time of a portrait lies within ExcitationSettings' settling bounds."""
+    from polywear.analysis.bifurcation import bifurcation_diagram
+    from polywear.analysis.design import clear_operating_range
+    from polywear.analysis.excitation import settling_time
+    from polywear.params import Params
+
+    d = bifurcation_diagram(Params())
+    (band_lo, _), *_ = d.sev_band_kmh
+    below = (band_lo - 12.0, band_lo - 8.0)  # clear of the band by 8 km/h
+    clear = clear_operating_range(Params(), below, diagram=d, settings=DesignSettings(margin_kmh=5.0))
+    assert clear.margin_kmh == 5.0 and clear.options == [] and "5 km/h margin" in clear.reason
+    blocked = clear_operating_range(Params(), below, keys=(), diagram=d, settings=DesignSettings(margin_kmh=10.0))
+    assert blocked.margin_kmh == 10.0 and "outside the operating range" not in blocked.reason  # 10 km/h reach the band
+    speed = 0.5 * sum(d.sev_band_kmh[0])
+    cycles = d.cycles_at(speed)
+    assert settling_time(d, speed, cycles, ExcitationSettings(settling_min_s=1.25, settling_max_s=1.25)) == 1.25
+    free = settling_time(d, speed, cycles, ExcitationSettings(settling_max_s=1e3))
+    assert 0.6 <= free and settling_time(d, speed, cycles) == min(max(free, 0.6), 8.0)

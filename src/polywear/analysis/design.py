@@ -19,7 +19,8 @@ edge. Every reported option is a computed diagram. Combined changes move along
 Options are ranked: the parameters an engineer sets (alignment, axle bushings, tread)
 first, then road/compound options (friction), then the rest; within a group the ones
 that clear within the allowed change first, then the least change. A change larger than
-the bound is still searched (up to ``search_factor``) and flagged ``within_bound = False``.
+the bound is still searched (up to ``DesignSettings.search_factor``) and flagged
+``within_bound = False``.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ from ..results import Result
 from ..models.base import ms_to_kmh
 from ..params import ADHESION_SCALE, Params
 from ..progress import Progress, StepCounter
+from ..settings import check_positive
 from ..units import DEFAULT_SPEED_RANGE_KMH
 from .bifurcation import BifurcationDiagram, bifurcation_diagram
 from .sensitivity import (
@@ -49,6 +51,7 @@ __all__ = [
     "DEFAULT_KEYS",
     "DesignOption",
     "DesignResult",
+    "DesignSettings",
     "clear_operating_range",
     "default_operating_range",
     "parameter_category",
@@ -504,16 +507,36 @@ def _best_option(search: _Search, grad_first, grad_second, original_band) -> Des
     return closest
 
 
+@dataclass(frozen=True)
+class DesignSettings:
+    """Numerical settings of :func:`clear_operating_range` (``polywear design --margin,
+    --search-factor``)."""
+
+    margin_kmh: float = 2.0
+    """A change must also clear this much on each side of the operating range [km/h] (>= 0)."""
+    search_factor: float = 3.0
+    """Values are searched between ``nominal / search_factor`` and ``nominal * search_factor``
+    [-] (> 1; at least ``1 + max_relative_change``); a direction whose first estimate lies
+    beyond twice that (in ln p) is not computed."""
+
+    def __post_init__(self) -> None:
+        m = self.margin_kmh
+        if not (isinstance(m, (int, float)) and not isinstance(m, bool) and math.isfinite(m) and m >= 0.0):
+            raise ValueError(f"DesignSettings: margin_kmh = {m!r}: must be >= 0 and finite [km/h]")
+        check_positive(self, "search_factor")
+        if not self.search_factor > 1.0:
+            raise ValueError(f"DesignSettings: search_factor = {self.search_factor!r}: must be above 1")
+
+
 def clear_operating_range(
     params: Params,
     operating_range_kmh: tuple[float, float],
     keys=DEFAULT_KEYS,
     combine: tuple[str, ...] = (),
     max_relative_change: float = 0.5,
-    margin_kmh: float = 2.0,
     speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
     diagram: BifurcationDiagram | None = None,
-    search_factor: float = 3.0,
+    settings: DesignSettings = DesignSettings(),
     progress: Progress | None = None,
 ) -> DesignResult:
     """Least change of each key (and of the ``combine`` keys together) that clears the range.
@@ -521,16 +544,15 @@ def clear_operating_range(
     Parameters
     ----------
     operating_range_kmh
-        Speeds [km/h] to keep free of SEV; a change must also clear ``margin_kmh`` on each side.
+        Speeds [km/h] to keep free of SEV; a change must also clear ``settings.margin_kmh``
+        on each side.
     keys, combine
         Configuration keys (or ``adhesion_scale``) changed alone, and changed together.
         Keys that do not enter the model are skipped (listed in ``result.skipped``).
     max_relative_change
         The allowed change (relative to the nominal value); larger ones are flagged.
-    search_factor
-        Values are searched between ``nominal / search_factor`` and ``nominal * search_factor``
-        (at least ``1 + max_relative_change``); a direction whose first estimate lies beyond
-        twice that (in ln p) is not computed.
+    settings
+        The margin [km/h] and the search factor [-] (:class:`DesignSettings`).
     diagram
         The nominal diagram, if already computed.
     progress
@@ -542,6 +564,7 @@ def clear_operating_range(
         raise ValueError(f"operating range {lo} {hi}: need low < high [km/h]")
     if not max_relative_change > 0.0:
         raise ValueError(f"max_relative_change = {max_relative_change!r}: must be positive")
+    margin_kmh = settings.margin_kmh
     step = StepCounter(progress)
     # every diagram covers the operating range and its margin: a band starting just above
     # the speed range but inside the operating range must not be missed
@@ -579,7 +602,8 @@ def clear_operating_range(
     options = []
     for group in [(k,) for k in keys] + ([combine] if len(combine) > 1 else []):
         search = _Search(params, group, np.array([nominal_value(params, k) for k in group]), low, high,
-                         max_relative_change, max(search_factor, 1.0 + max_relative_change), tuple(speed_range_kmh),
+                         max_relative_change, max(settings.search_factor, 1.0 + max_relative_change),
+                         tuple(speed_range_kmh),
                          step)
         g1 = np.array([grad.get(("first_bifurcation", k), 0.0) for k in group])
         g2 = np.array([grad.get(("second_bifurcation", k), 0.0) for k in group])

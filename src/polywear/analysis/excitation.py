@@ -17,10 +17,12 @@ from ..models import get_model
 from ..models.base import kmh_to_ms
 from ..results import Result
 from ..progress import Progress, StepCounter
+from ..settings import check_order, check_positive
 from .bifurcation import BifurcationDiagram, CyclePoint
 from .simulation import SimulationResult, simulate
 
-__all__ = ["ExcitationPortrait", "excitation_portraits", "default_speeds", "portraits_figure", "settling_time"]
+__all__ = ["ExcitationPortrait", "ExcitationSettings", "excitation_portraits", "default_speeds", "portraits_figure",
+           "settling_time"]
 
 
 @dataclass
@@ -118,11 +120,34 @@ def default_speeds(diagram: BifurcationDiagram, operating_kmh: float) -> list[fl
     return speeds
 
 
-def settling_time(diagram: BifurcationDiagram, speed_kmh: float, cycles, factor: float = 8.0,
-                  bounds: tuple[float, float] = (0.6, 8.0)) -> float:
-    """Simulated time [s] for ``factor`` e-foldings of the slowest attractor at a speed:
-    the equilibrium's decay rate and each stable cycle's (from its largest nontrivial
-    Floquet multiplier), clipped to ``bounds``."""
+@dataclass(frozen=True)
+class ExcitationSettings:
+    """Numerical settings of :func:`excitation_portraits` (``polywear excitation --duration``)."""
+
+    duration_s: float | None = None
+    """Simulated time per start [s]; None: long enough for the slowest attractor at the
+    speed to settle (:func:`settling_time` with the two fields below)."""
+    settling_efoldings: float = 8.0
+    """e-foldings of the slowest attractor simulated by default [-]."""
+    settling_min_s: float = 0.6
+    """Shortest default simulated time [s]."""
+    settling_max_s: float = 8.0
+    """Longest default simulated time [s]."""
+
+    def __post_init__(self) -> None:
+        if self.duration_s is not None:
+            check_positive(self, "duration_s")
+        check_positive(self, "settling_efoldings", "settling_min_s", "settling_max_s")
+        check_order(self, "settling_min_s", "settling_max_s")
+
+
+def settling_time(diagram: BifurcationDiagram, speed_kmh: float, cycles,
+                  settings: ExcitationSettings = ExcitationSettings()) -> float:
+    """Simulated time [s] for ``settings.settling_efoldings`` e-foldings of the slowest
+    attractor at a speed: the equilibrium's decay rate and each stable cycle's (from its
+    largest nontrivial Floquet multiplier), clipped to [``settling_min_s``, ``settling_max_s``]."""
+    bounds = (settings.settling_min_s, settings.settling_max_s)
+    factor = settings.settling_efoldings
     rates = []
     model = get_model(diagram.params.model)
     p = model.pack(diagram.params)
@@ -138,12 +163,12 @@ def settling_time(diagram: BifurcationDiagram, speed_kmh: float, cycles, factor:
     return float(np.clip(factor / min(rates), *bounds))
 
 
-def excitation_portraits(diagram: BifurcationDiagram, speeds_kmh, duration_s: float | None = None,
+def excitation_portraits(diagram: BifurcationDiagram, speeds_kmh, settings: ExcitationSettings = ExcitationSettings(),
                          progress: Progress | None = None) -> list[ExcitationPortrait]:
     """Cycles from the diagram and trajectories from inside/outside each cycle at every speed.
 
-    ``duration_s`` [s] per start; by default long enough for the slowest attractor there
-    to settle (:func:`settling_time`). ``progress(runs done, None, "speed, start")`` is
+    ``settings.duration_s`` [s] per start; by default long enough for the slowest attractor
+    there to settle (:func:`settling_time`). ``progress(runs done, None, "speed, start")`` is
     called after each simulation (:mod:`polywear.progress`)."""
     params = diagram.params
     model = get_model(params.model)
@@ -170,7 +195,8 @@ def excitation_portraits(diagram: BifurcationDiagram, speeds_kmh, duration_s: fl
             starts[f"outside cycle {k}"] = u_eq + 1.25 * (tip - u_eq)
         if not cycles:
             starts["small"] = u_eq + np.eye(model.n)[x] * 1e-5
-        duration = duration_s or settling_time(diagram, speed, cycles)
+        duration = settings.duration_s if settings.duration_s is not None else settling_time(
+            diagram, speed, cycles, settings)
         runs = []
         for label, initial in starts.items():
             runs.append(replace(simulate(params, speed, duration, initial=initial), label=label))

@@ -55,7 +55,7 @@ def excitation(
         raise UserError(f"--duration {duration}: must be at most {MAX_DURATION_S:g} [s]")
     params = load(config, set_)
     from ..analysis.bifurcation import bifurcation_diagram
-    from ..analysis.excitation import default_speeds, excitation_portraits, portraits_figure
+    from ..analysis.excitation import ExcitationSettings, default_speeds, excitation_portraits, portraits_figure
 
     info("excitation: bifurcation diagram ...", quiet)
     with progress("continuation steps", enabled=not quiet) as update:
@@ -72,7 +72,7 @@ def excitation(
         return
     info(f"excitation: simulating at {', '.join(f'{v:.1f}' for v in speeds)} km/h ...", quiet)
     with progress("excitation: simulations", enabled=not quiet) as update:
-        portraits = excitation_portraits(diagram, speeds, duration, progress=update)
+        portraits = excitation_portraits(diagram, speeds, ExcitationSettings(duration_s=duration), progress=update)
     if plot:
         write_figure(plot, lambda: portraits_figure(portraits), quiet)
     summary = {"model": params.model, "portraits": [p.summary() for p in portraits]}
