@@ -589,7 +589,7 @@ def bifurcation_diagram(
     if extend:
         return _extended_diagram(params, speed_range_kmh, settings, stability_settings, progress)
     lo, hi = (float(v) for v in speed_range_kmh)
-    stab = stability_analysis(params, (lo, hi), stability_settings)
+    stab = stability_analysis(params, (lo, hi), settings=stability_settings)
     model = get_model(params.model)
     p = model.pack(params)
     bounds = (kmh_to_ms(lo), kmh_to_ms(hi))
