@@ -1,6 +1,6 @@
 """Timing of the wear analysis: the linear map and the nonlinear evolution.
 
-    .venv/bin/python benchmarks/bench_wear.py [--repeat 3] [--skip-evolution] [--axle] [--workers 2]
+    .venv/bin/python benchmarks/bench_wear.py [--repeat 3] [--skip-evolution] [--axle] [--workers 2] [--critical-path]
 
 Measured in one process, warm (compiled kernels cached), as CPU time (``time.process_time``:
 the machine may be shared, and wall time then measures the load), best of N:
@@ -14,7 +14,10 @@ the machine may be shared, and wall time then measures the load), best of N:
   axle4dof with ``--axle``), in one process (the baseline) and with the windows of the
   cycle's speeds in ``--workers`` processes at once (default 2): wall time, and CPU time
   of this process plus its finished worker processes (on a machine shared with other jobs
-  the wall time is the CPU time stretched by the load, so both are printed, with the load).
+  the wall time is the CPU time stretched by the load, so both are printed, with the load);
+* with ``--critical-path``, the one-process evolution with every window timed: the CPU
+  time per step of the longest window plus everything outside the windows, i.e. what
+  the evolution costs in wall time when the cycle's speeds run side by side on idle cores.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ import time
 
 import numpy as np
 
+import polywear.analysis.wear_evolution as wear_evolution
 from polywear.analysis.wear_evolution import evolve, initial_roughness, window_wear
 from polywear.analysis.wear_map import load_to_power, wear_map
 from polywear.models import get_model
@@ -65,6 +69,7 @@ def main() -> None:
     parser.add_argument("--skip-evolution", action="store_true", help="no 60 000 km evolutions")
     parser.add_argument("--axle", action="store_true", help="also the 60 000 km axle4dof evolution (minutes)")
     parser.add_argument("--workers", type=int, default=2, help="worker processes of the parallel evolution")
+    parser.add_argument("--critical-path", action="store_true", help="time every window of the one-process evolution")
     args = parser.parse_args()
     speeds = np.linspace(20.0, 300.0, 300)
     for name in ("tread1dof", "axle4dof"):
@@ -103,6 +108,36 @@ def main() -> None:
                   f"{load:.1f} on {os.cpu_count()} CPUs); depth {s['final_depth_mm']:.4f} mm, order "
                   f"{s['dominant_order']}, visible {s['visible_km']}")
         print(f"  wall time 1 process / {args.workers}: x{walls[1] / walls[args.workers]:.2f}")
+        if args.critical_path:
+            critical_path(p_m)
+
+
+def critical_path(params) -> None:
+    """One-process evolution with every window timed (CPU): total, windows, and the
+    critical path (per step the longest window, plus all the time outside windows)."""
+    calls, steps, depth = [], [], [0]
+    original = wear_evolution.window_wear
+
+    def timed(*args, **kwargs):
+        start = time.process_time()
+        depth[0] += 1  # a lengthened window calls itself again: count the outermost call only
+        try:
+            return original(*args, **kwargs)
+        finally:
+            depth[0] -= 1
+            if depth[0] == 0:
+                calls.append(time.process_time() - start)
+
+    wear_evolution.window_wear = timed
+    try:
+        start = time.process_time()
+        evolve(params, 60000.0, progress=lambda done, total, message="": steps.append(len(calls)))
+        total = time.process_time() - start
+    finally:
+        wear_evolution.window_wear = original
+    longest = sum(max(calls[a:b], default=0.0) for a, b in zip([0] + steps[:-1], steps))
+    print(f"  critical path {params.model}: {total - sum(calls) + longest:.1f} s CPU of {total:.1f} s "
+          f"({len(calls)} windows in {len(steps)} steps, {sum(calls):.1f} s in windows)")
 
 
 def cpu_seconds() -> float:
