@@ -52,7 +52,7 @@ from ..solvers.integrate import integrate
 from .wear_law import energetic_rate, friction_power, profile_samples
 
 __all__ = ["WindowWear", "window_wear", "EvolutionResult", "evolve", "initial_roughness", "coherence",
-           "LOCK_TOLERANCE"]
+           "LOCK_TOLERANCE", "SETTLED_PHASE"]
 
 LOCK_TOLERANCE = 1e-6
 """A vibration whose order is this close to an integer is locked [-]."""
