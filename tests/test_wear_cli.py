@@ -70,6 +70,16 @@ def test_wear_evolve_json_and_files(tmp_path):
     assert png.stat().st_size > 0
 
 
+def test_wear_evolve_workers_give_the_same_result():
+    """--workers 2 simulates the cycle's two speeds in two processes: the same JSON as one process."""
+    args = ["wear", "evolve", "--cycle", "40:0.5,50:0.5", "--distance-km", "2000", "--step-km", "1000", "--json", "-q"]
+    code, serial, err = run_main(args)
+    assert code == 0, err
+    code, parallel, err = run_main([*args, "--workers", "2"])
+    assert code == 0, err
+    assert json.loads(parallel) == json.loads(serial)
+
+
 @pytest.mark.parametrize("args, fragment", [
     (["--cycle", "120:0.5,80:0.4"], "sum to 1"),
     (["--cycle", "120"], "speed:share"),
@@ -81,6 +91,7 @@ def test_wear_evolve_json_and_files(tmp_path):
     (["--revolutions", "2"], "--revolutions"),
     (["--polar", "x.gif"], "--polar"),
     (["--distance-km", "1000", "--polar-km", "500,2000"], "--polar-km"),
+    (["--workers", "0"], "--workers"),
 ])
 def test_wear_evolve_bad_input(args, fragment):
     code, out, err = run_main(["wear", "evolve", *args])

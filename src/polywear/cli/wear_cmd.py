@@ -190,6 +190,10 @@ def evolve_(
     ] = None,
     waterfall: Annotated[Optional[Path], typer.Option("--waterfall", help="Order amplitudes over distance (png, pdf, svg).")] = None,
     out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write w(distance, angle) and the harmonics (.nc).")] = None,
+    workers: Annotated[
+        int, typer.Option("--workers", "-w", min=1, max=64,
+                          help="Processes that simulate the cycle's speeds side by side (same result; worth it on long multi-speed cycles).")
+    ] = 1,
     quiet: QuietOpt = False,
 ) -> None:
     """Worn profile over distance from seeded roughness: depth, polygon order, visible distance."""
@@ -222,7 +226,7 @@ def evolve_(
 
     with progress("wear evolve [km]", enabled=not quiet) as update:
         try:
-            result = evolve(params, distance_km, pairs, step_km, revolutions, progress=update)
+            result = evolve(params, distance_km, pairs, step_km, revolutions, progress=update, workers=workers)
         except (ValueError, RuntimeError, ArithmeticError) as exc:
             raise UserError(f"wear evolve: {exc}") from None
     if out:
