@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from polywear.params import Params, load_params
+from polywear.params import Params, StudySpec, load_params, load_study
 from polywear.tir import TirError, load_with_tir, read_tir, tir_parameters
 
 from .cli_runner import run_main
@@ -289,6 +289,12 @@ def test_cli_from_tir_and_tir_option_agree(tmp_path):
     from_file = load_params(out)
     via_option, _ = load_with_tir(EXAMPLE)
     assert from_file == via_option
+    assert load_study(out) == StudySpec()  # the [study] table is written too (here: --config has none)
+    config = tmp_path / "car.toml"
+    config.write_text("[study]\nn_base = 64\n")
+    kept = tmp_path / "tire_study.toml"
+    assert run_main(["params", "from-tir", str(EXAMPLE), "-c", str(config), "--out", str(kept), "-q"])[0] == 0
+    assert load_study(kept) == StudySpec().with_updates({"n_base": 64}) and load_params(kept) == from_file
     code, a, _ = run_main(["params", "show", "--json", "--tir", str(EXAMPLE)])
     code2, b, _ = run_main(["params", "show", "--json", "-c", str(out)])
     assert code == code2 == 0 and json.loads(a) == json.loads(b)

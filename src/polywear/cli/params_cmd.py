@@ -57,7 +57,7 @@ def from_tir(
 ) -> None:
     """Read a .tir file and say, for every key, whether it came from the file (which tir
     keys, which formula), from --config/--set, or stays a default."""
-    from ..params import flat_items, to_toml
+    from ..params import flat_items, load_study, to_toml
     from ..tir import load_with_tir, user_keys
 
     output_file(out, "--out", (".toml",))
@@ -86,7 +86,7 @@ def from_tir(
     if out is not None:
         header = [f"# polywear parameters from {tir} ({mapping.tir.family}); sources:"]
         header += [f"#   {r['key']} <- {r['source']}" for r in rows if r["source"] != "default"]
-        text = "\n".join(header) + "\n" + to_toml(params)
+        text = "\n".join(header) + "\n" + to_toml(params, study=load_study(config))  # --config's [study] kept
         write_output(out, lambda tmp: tmp.write_text(text, encoding="utf-8"), quiet)
     if json_:
         emit_json(summary)
