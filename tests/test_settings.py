@@ -174,3 +174,17 @@ def test_design_and_excitation_follow_their_settings():
     assert settling_time(d, speed, cycles, ExcitationSettings(settling_min_s=1.25, settling_max_s=1.25)) == 1.25
     free = settling_time(d, speed, cycles, ExcitationSettings(settling_max_s=1e3))
     assert 0.6 <= free and settling_time(d, speed, cycles) == min(max(free, 0.6), 8.0)
+
+
+def test_study_spec_is_frozen_hashable_and_picklable():
+    """The study specification (the [study] table, not part of Params) travels like a settings object."""
+    import pydantic
+
+    from polywear.params import Params, StudySpec
+
+    study = StudySpec().with_updates({"n_base": 64, "parameters": [{"key": "operating.toe_deg", "low": 0.4, "high": 0.6}]})
+    with pytest.raises(pydantic.ValidationError):
+        study.n_base = 128
+    assert pickle.loads(pickle.dumps(study)) == study and hash(study) == hash(pickle.loads(pickle.dumps(study)))
+    assert study.with_updates({}) == study and StudySpec().n_base == 1024
+    assert "study" not in Params.model_fields
