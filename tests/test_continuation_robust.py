@@ -136,6 +136,23 @@ def test_a_fold_just_before_a_hopf_point_is_not_stepped_over(overrides, fold_kmh
     assert branch.end is BranchEnd.HOPF_REACHED
 
 
+def test_a_branch_does_not_jump_past_its_hopf_point_onto_the_same_branch():
+    """Sample 111 of the tread1dof fleet agreement run (docs/fleet.md): the branch from the
+    soft Hopf point went over the fold down to the hard Hopf point, jumped from there onto
+    its own stable part and ran back to where it started; the branch from the hard Hopf
+    point then listed the same fold a second time."""
+    overrides = ["tread.lateral_stiffness_n_per_m=962635.8086", "tread.lateral_damping_ns_per_m=75.46908231",
+                 "operating.toe_deg=0.5233344255", "operating.camber_deg=-0.9361915259",
+                 "friction.mu_static=0.8551040372", "tread.mass_kg=1.038338801",
+                 "operating.vertical_load_n=3756.49334"]
+    d = bifurcation_diagram(load_params(overrides=overrides), extend=False)
+    soft, hard = d.hopf_points
+    (fold,) = d.folds
+    (info,) = d.branch_info
+    assert info["ended"] == "hopf_reached" and info["to_hopf_kmh"] == hard.speed_kmh
+    assert d.hard_regions_kmh == [(hard.speed_kmh, fold.speed_kmh)]
+
+
 def test_defaults_do_not_need_rescue():
     """On the default tire the multipliers are resolved on the first mesh: no refinement, no failure."""
     d = bifurcation_diagram(load_params(overrides=[]), (20.0, 300.0), extend=False)

@@ -92,6 +92,10 @@ class ContinuationSettings:
     """A step that passes through zero amplitude (onto another Hopf point) is retried with
     half the step until the step is this short, so that a fold just before the Hopf point
     is not stepped over; then the branch ends there (``BranchEnd.HOPF_REACHED``)."""
+    max_correction: float = 5.0
+    """A corrector that ends more than this many step lengths from its predictor (scaled
+    norm) has left the branch, e.g. past a Hopf point onto another branch of cycles: it
+    counts as failed, and the step is retried shorter. Steps on a branch stay below 1."""
     max_period_factor: float = 10.0
     """The branch ends (``BranchEnd.PERIOD_LIMIT``) when the period exceeds this multiple
     of the period at its Hopf point: the cycles approach an orbit of infinite period
@@ -101,7 +105,7 @@ class ContinuationSettings:
         check_count(self, "n_intervals", "degree", "max_steps", "max_newton")
         check_count(self, "adapt_every", minimum=0)  # 0: never adapt the mesh
         check_positive(self, "ds_initial", "ds_min", "ds_max", "newton_tol", "fold_tol", "min_amplitude",
-                       "hopf_approach_step")
+                       "hopf_approach_step", "max_correction")
         check_positive(self, "max_amplitude", "multiplier_tol", "max_period_factor", finite=False)
         check_order(self, "ds_min", "ds_initial", "ds_max")
         check_order(self, "min_amplitude", "max_amplitude")
@@ -242,7 +246,8 @@ class _Stepper:
     def correct(self, X0: np.ndarray, t0: np.ndarray, ds: float, phase_ref: PeriodicOrbit) -> _Out | None:
         """Newton from the predictor X0 + ds t0.
 
-        Returns ``(X, tangent, iterations, multipliers)`` or None when Newton fails.
+        Returns ``(X, tangent, iterations, multipliers)`` or None when Newton fails or ends
+        farther than ``settings.max_correction`` steps from the predictor.
         """
         c = self.coll
         border = np.vstack([c.phase_row(phase_ref), self.weights * t0])
@@ -256,6 +261,8 @@ class _Stepper:
         if done is None:
             return None
         X, (t, CL, CR), iterations = done
+        if self.norm(X - X0 - ds * t0) > self.settings.max_correction * abs(ds):
+            return None  # jumped off the branch
         return X, oriented(self.unit(t), t0, self.weights), iterations, np.linalg.eigvals(monodromy(CL, CR))
 
     def remesh(self, mesh: np.ndarray, X0: np.ndarray, t0: np.ndarray,
