@@ -59,8 +59,8 @@ from ..params import (
 from ..progress import Progress
 from ..results import Result
 from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH
-
 from .stability import fast_linear_band
+
 __all__ = [
     "HOPF_OUTPUTS",
     "BIFURCATION_OUTPUTS",

@@ -36,9 +36,9 @@ from ..progress import Progress, StepCounter
 from ..settings import check_order, check_positive
 from ..solvers.integrate import integrate
 from ..units import plot_scale
-from .simulation import SimulationSettings, classify_window, initial_state
 from .bifurcation import _open_at, _open_warning
 from .intervals import runs_of
+from .simulation import SimulationSettings, classify_window, initial_state
 
 __all__ = ["START_TYPES", "SteadyRun", "SweepResult", "SweepSettings", "settle", "sweep", "sweep_bands"]
 
