@@ -93,10 +93,10 @@ class ContinuationSettings:
     half the step until the step is this short, so that a fold just before the Hopf point
     is not stepped over; then the branch ends there (``BranchEnd.HOPF_REACHED``)."""
     max_correction: float = 5.0
-    """A corrector that ends more than this many step lengths from its predictor (scaled
-    norm) has left the branch, e.g. past a Hopf point onto other cycles far away: it
-    counts as failed, and the step is retried shorter (on the default diagrams they end
-    within 0.7 step lengths)."""
+    """A step of a branch whose corrector ends more than this many step lengths from its
+    predictor (scaled norm) has left the branch, e.g. past a Hopf point onto other cycles
+    far away: it counts as failed, and is retried shorter (on the default diagrams the
+    correctors end within 0.7 step lengths)."""
     max_period_factor: float = 10.0
     """The branch ends (``BranchEnd.PERIOD_LIMIT``) when the period exceeds this multiple
     of the period at its Hopf point: the cycles approach an orbit of infinite period
@@ -247,8 +247,7 @@ class _Stepper:
     def correct(self, X0: np.ndarray, t0: np.ndarray, ds: float, phase_ref: PeriodicOrbit) -> _Out | None:
         """Newton from the predictor X0 + ds t0.
 
-        Returns ``(X, tangent, iterations, multipliers)`` or None when Newton fails or ends
-        farther than ``settings.max_correction`` steps from the predictor.
+        Returns ``(X, tangent, iterations, multipliers)`` or None when Newton fails.
         """
         c = self.coll
         border = np.vstack([c.phase_row(phase_ref), self.weights * t0])
@@ -262,8 +261,6 @@ class _Stepper:
         if done is None:
             return None
         X, (t, CL, CR), iterations = done
-        if self.norm(X - X0 - ds * t0) > self.settings.max_correction * abs(ds):
-            return None  # jumped off the branch
         return X, oriented(self.unit(t), t0, self.weights), iterations, np.linalg.eigvals(monodromy(CL, CR))
 
     def remesh(self, mesh: np.ndarray, X0: np.ndarray, t0: np.ndarray,
@@ -354,6 +351,8 @@ def continue_from_hopf(
     for _ in range(settings.max_steps):
         resolved = True
         out = stepper.correct(X0, t0, ds, phase_ref)
+        if out is not None and stepper.norm(out[0] - X0 - ds * t0) > settings.max_correction * ds:
+            out = None  # Newton left the branch (e.g. past a Hopf point): the step is retried shorter
         if out is not None and settings.align_kinks:
             stepper, X0, t0, phase_ref, out = _align_to_kinks((stepper, X0, t0, phase_ref), ds, out)
         if out is not None and not stability_decided(out[3], settings.multiplier_tol):
