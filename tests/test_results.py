@@ -111,9 +111,9 @@ def _wear_design(d):
 
 
 def _wear_evolution(d):
-    from polywear.analysis.wear_evolution import evolve
+    from polywear.analysis.wear_evolution import EvolutionSettings, evolve
 
-    return evolve(Params(), 2000.0, cycle=((60.0, 1.0),), step_km=1000.0)
+    return evolve(Params(), 2000.0, cycle=((60.0, 1.0),), settings=EvolutionSettings(step_km=1000.0))
 
 
 def _band(d):

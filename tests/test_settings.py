@@ -18,6 +18,7 @@ from polywear.analysis.simulation import SimulationSettings
 from polywear.analysis.stability import StabilitySettings
 from polywear.analysis.stability_map import MapSettings
 from polywear.analysis.sweep import SweepSettings
+from polywear.analysis.wear_evolution import EvolutionSettings
 from polywear.solvers.continuation import ContinuationSettings
 from polywear.validation.auto07p import AutoSettings
 
@@ -88,10 +89,15 @@ BAD = [
     (ExcitationSettings, "settling_efoldings", -8.0),
     (ExcitationSettings, "settling_min_s", 0.0),
     (ExcitationSettings, "settling_max_s", 0.5),  # below settling_min_s
+    (EvolutionSettings, "step_km", 0.0),
+    (EvolutionSettings, "step_km", math.inf),
+    (EvolutionSettings, "revolutions", 5),  # the CLI's least --revolutions
+    (EvolutionSettings, "revolutions", 16.0),
 ]
 
 CLASSES = [ContinuationSettings, MapSettings, StabilitySettings, SimulationSettings, AutoSettings, SweepSettings,
-           CampbellSettings, SensitivitySettings, CalibrationSettings, DesignSettings, ExcitationSettings]
+           CampbellSettings, SensitivitySettings, CalibrationSettings, DesignSettings, ExcitationSettings,
+           EvolutionSettings]
 
 
 @pytest.mark.parametrize(("cls", "name", "value"), BAD, ids=[f"{c.__name__}.{n}={v!r}" for c, n, v in BAD])
@@ -126,6 +132,7 @@ def test_defaults_are_unchanged():
     e = ExcitationSettings()
     assert (e.duration_s, e.settling_efoldings, e.settling_min_s, e.settling_max_s) == (None, 8.0, 0.6, 8.0)
     assert DesignSettings(margin_kmh=0.0).margin_kmh == 0.0  # no margin is allowed
+    assert (EvolutionSettings().step_km, EvolutionSettings().revolutions) == (1000.0, 16)
     c = CampbellSettings()
     assert (c.window_s, c.overlap, c.f_range_hz, c.peak_db, c.sev_db, c.disturbance_m) == (0.5, 0.75, None, 15.0, 20.0,
                                                                                           1e-6)

@@ -6,7 +6,7 @@ import pytest
 
 from polywear.analysis.sensitivity import perturbed
 from polywear.analysis.wear_design import verify_option, wear_design
-from polywear.analysis.wear_evolution import initial_roughness, peak_to_valley
+from polywear.analysis.wear_evolution import EvolutionSettings, initial_roughness, peak_to_valley
 from polywear.analysis.wear_map import wear_map
 from polywear.params import Params
 
@@ -55,6 +55,6 @@ def test_no_change_needed_when_the_nominal_tire_meets_the_target():
 @pytest.mark.slow
 def test_best_option_is_verified_by_evolution(result):
     option = next(o for o in result.options if o.key == "friction.mu_static")
-    check = verify_option(Params(), option, TARGET, CYCLE, step_km=25000.0)  # exact steps while rolling is stable
+    check = verify_option(Params(), option, TARGET, CYCLE, EvolutionSettings(step_km=25000.0))  # exact steps while rolling is stable
     assert check["visible_km"] is None and check["nominal_visible_km"] is not None
     assert check["depth_mm"] < Params().wear.visible_depth_mm < check["nominal_depth_mm"]

@@ -12,6 +12,7 @@ from polywear.analysis.wear_evolution import (
     MAX_WINDOW,
     SEPARATED_BEATS,
     SETTLED_PHASE,
+    EvolutionSettings,
     _per_revolution,
     _remaining_drift,
     _settle_times,
@@ -101,7 +102,7 @@ def test_coherence_of_a_drifting_vibration(eps):
 
 def test_evolution_follows_the_linear_map_at_small_amplitude():
     params = Params()
-    result = evolve(params, 4000.0, cycle=SLOW, step_km=2000.0)
+    result = evolve(params, 4000.0, cycle=SLOW, settings=EvolutionSettings(step_km=2000.0))
     m = wear_map(params, [40.0])
     k = int(m.most_unstable()[0])
     factor = result.harmonics[-1, k] / result.harmonics[0, k]
@@ -115,12 +116,13 @@ def test_evolution_follows_the_linear_map_at_small_amplitude():
 
 def test_distances_scale_as_one_over_k_e_and_seed_changes_phase_only():
     params = Params()
-    base = evolve(params, 4000.0, cycle=SLOW, step_km=2000.0)
+    base = evolve(params, 4000.0, cycle=SLOW, settings=EvolutionSettings(step_km=2000.0))
     fast = evolve(with_updates(params, {"wear.energetic_rate_mm3_per_j": 2e-3}), 2000.0, cycle=SLOW,
-                  step_km=1000.0)
+                  settings=EvolutionSettings(step_km=1000.0))
     np.testing.assert_allclose(fast.harmonics, base.harmonics, rtol=1e-6, atol=1e-6 * np.abs(base.harmonics).max())
     np.testing.assert_allclose(2 * fast.distance_km, base.distance_km)
-    other = evolve(with_updates(params, {"wear.seed": 7}), 4000.0, cycle=SLOW, step_km=2000.0)
+    other = evolve(with_updates(params, {"wear.seed": 7}), 4000.0, cycle=SLOW,
+                   settings=EvolutionSettings(step_km=2000.0))
     g_base = np.abs(base.harmonics[-1] / base.harmonics[0])
     g_other = np.abs(other.harmonics[-1] / other.harmonics[0])
     growing = g_base > 1.0  # the orders that make the polygon
@@ -132,8 +134,8 @@ def test_distances_scale_as_one_over_k_e_and_seed_changes_phase_only():
 
 def test_halving_the_distance_step_changes_the_depth_by_less_than_2_percent():
     params = Params()
-    coarse = evolve(params, 6000.0, cycle=SLOW, step_km=2000.0)
-    fine = evolve(params, 6000.0, cycle=SLOW, step_km=1000.0)
+    coarse = evolve(params, 6000.0, cycle=SLOW, settings=EvolutionSettings(step_km=2000.0))
+    fine = evolve(params, 6000.0, cycle=SLOW, settings=EvolutionSettings(step_km=1000.0))
     assert fine.depth_mm[-1] == pytest.approx(coarse.depth_mm[-1], rel=0.02)
 
 
@@ -174,11 +176,11 @@ def halved_vibrating_runs():
     import polywear.analysis.wear_evolution as we
 
     params = Params()
-    coarse = evolve(params, 6000.0, cycle=((120.0, 1.0),), step_km=1000.0)
+    coarse = evolve(params, 6000.0, cycle=((120.0, 1.0),), settings=EvolutionSettings(step_km=1000.0))
     default = we.MAX_CHANGE
     try:
         we.MAX_CHANGE = 0.5 * default
-        fine = evolve(params, 6000.0, cycle=((120.0, 1.0),), step_km=500.0)
+        fine = evolve(params, 6000.0, cycle=((120.0, 1.0),), settings=EvolutionSettings(step_km=500.0))
     finally:
         we.MAX_CHANGE = default
     return coarse, fine
@@ -236,8 +238,8 @@ def test_windows_in_worker_processes_give_the_same_evolution():
     the same profile, bit for bit, as one process."""
     params = Params()
     cycle = ((50.0, 0.5), (120.0, 0.5))
-    serial = evolve(params, 2000.0, cycle=cycle, step_km=1000.0)
-    parallel = evolve(params, 2000.0, cycle=cycle, step_km=1000.0, workers=2)
+    serial = evolve(params, 2000.0, cycle=cycle, settings=EvolutionSettings(step_km=1000.0))
+    parallel = evolve(params, 2000.0, cycle=cycle, settings=EvolutionSettings(step_km=1000.0), workers=2)
     np.testing.assert_array_equal(parallel.harmonics, serial.harmonics)
     np.testing.assert_array_equal(parallel.distance_km, serial.distance_km)
     assert np.isfinite(serial.vibration_order[:, 1]).all()  # the 120 km/h windows vibrate

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from polywear.analysis.wear_evolution import EvolutionSettings
 from polywear.params import Params, with_updates
 from polywear.report_wear import wear_html, wear_section, wear_sentences
 
@@ -51,7 +52,7 @@ def test_section_with_map_and_a_short_evolution(tmp_path):
         saved[name] = caption
         plt.close(fig)
 
-    result = wear_section(params, (20.0, 120.0), save, tmp_path, evolution_km=2000.0, step_km=2000.0)
+    result = wear_section(params, (20.0, 120.0), save, tmp_path, evolution_km=2000.0, evolution=EvolutionSettings(step_km=2000.0))
     assert [label for label, _ in result.evolutions] == ["operating speed", "drive cycle"]
     section = result.summary()
     assert {"wear_map.png", "wear_evolution_operating.png", "wear_evolution_cycle_polar.png"} <= set(saved)

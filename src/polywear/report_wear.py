@@ -10,10 +10,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .analysis.wear_evolution import EvolutionResult, EvolutionSettings, evolve
 from .params import Params
 
 if TYPE_CHECKING:
-    from .analysis.wear_evolution import EvolutionResult
     from .analysis.wear_map import WearMap
 from .progress import Progress, StepCounter
 
@@ -40,17 +40,18 @@ class WearSection:
 
 
 def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: float | None = None,
-                 step_km: float = 2000.0, sev_band_kmh=None, progress: Progress | None = None) -> dict:
+                 evolution: EvolutionSettings = EvolutionSettings(step_km=2000.0), sev_band_kmh=None,
+                 progress: Progress | None = None) -> dict:
     """Compute the wear section; figures through ``save(fig, name, caption)``.
 
-    The map over ``speed_range_kmh`` (300 speeds) is always computed (about a second);
-    with ``evolution_km`` the evolution at the operating speed and on the drive cycle too
-    (minutes). ``progress`` (:mod:`polywear.progress`) counts these stages. Returns the
+    The map over ``speed_range_kmh`` [km/h] (300 speeds) is always computed (about a second);
+    with ``evolution_km`` [km] the evolution at the operating speed and on the drive cycle too
+    (minutes), with ``evolution`` (:class:`~.analysis.wear_evolution.EvolutionSettings`, here
+    2000 km steps). ``progress`` (:mod:`polywear.progress`) counts these stages. Returns the
     wear results (:class:`WearSection`).
     """
     import matplotlib.pyplot as plt
 
-    from .analysis.wear_evolution import evolve
     from .io import atomic_path
 
     def save_result(result, name):
@@ -75,7 +76,7 @@ def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: f
         runs = [("operating speed", ((op, 1.0),)), ("drive cycle", params.wear.cycle_shares())]
         for label, cycle in runs:
             say(f"polygonal wear: evolution over {evolution_km:,.0f} km, {label}")
-            result = evolve(params, evolution_km, cycle, step_km=step_km)
+            result = evolve(params, evolution_km, cycle, evolution)
             stem = "wear_evolution_operating" if label == "operating speed" else "wear_evolution_cycle"
             save_result(result, f"{stem}.nc")
             fig, ax = plt.subplots(figsize=(8, 4.5))

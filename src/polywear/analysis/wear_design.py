@@ -32,6 +32,7 @@ from ..results import Result
 from ..params import ADHESION_SCALE, Params
 from .design import DEFAULT_KEYS, ENGINEERING, parameter_category, parameter_label
 from .sensitivity import nominal_value, parameter_direction, perturbed
+from .wear_evolution import EvolutionSettings, evolve
 from .wear_map import wear_map
 
 __all__ = ["WearDesignOption", "WearDesignResult", "cycle_rates", "cycle_growth", "linear_depth_mm", "wear_design",
@@ -232,15 +233,14 @@ def wear_design(params: Params, keys=None, target_km: float | None = None, cycle
 
 
 def verify_option(params: Params, option: WearDesignOption, distance_km: float, cycle=None,
-                  step_km: float = 5000.0) -> dict:
-    """Evolve the profile with the option (and without) over ``distance_km``; stores and
+                  settings: EvolutionSettings = EvolutionSettings(step_km=5000.0)) -> dict:
+    """Evolve the profile with the option (and without) over ``distance_km`` [km] with
+    ``settings`` (:class:`~.wear_evolution.EvolutionSettings`, here 5000 km steps); stores and
     returns ``{"depth_mm", "visible_km", "nominal_depth_mm", "nominal_visible_km", "verified"}``."""
-    from .wear_evolution import evolve
-
     cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
     changed = perturbed(params, option.key, option.value)
-    with_option = evolve(changed, distance_km, cycle, step_km=step_km)
-    nominal = evolve(params, distance_km, cycle, step_km=step_km)
+    with_option = evolve(changed, distance_km, cycle, settings)
+    nominal = evolve(params, distance_km, cycle, settings)
     out = {
         "distance_km": distance_km,
         "depth_mm": float(with_option.depth_mm[-1]),

@@ -48,10 +48,12 @@ from ..models.profile import coupled_model, patch_sinc, profile_vector
 from ..params import Params, to_toml
 from ..progress import Progress
 from ..results import Result
+from ..settings import check_count, check_positive
 from ..solvers.integrate import integrate
 from .wear_law import energetic_rate, friction_power, profile_samples
 
-__all__ = ["WindowWear", "window_wear", "EvolutionResult", "evolve", "initial_roughness", "coherence",
+__all__ = ["WindowWear", "window_wear", "EvolutionResult", "EvolutionSettings", "evolve", "initial_roughness",
+           "coherence",
            "LOCK_TOLERANCE", "SETTLED_PHASE"]
 
 LOCK_TOLERANCE = 1e-6
@@ -539,23 +541,39 @@ class EvolutionResult(Result):
         return mesh
 
 
-def evolve(params: Params, distance_km: float, cycle=None, step_km: float = 1000.0, revolutions: int = 16,
+@dataclass(frozen=True)
+class EvolutionSettings:
+    """Numerical settings of :func:`evolve` (``polywear wear evolve --step-km, --revolutions``)."""
+
+    step_km: float = 1000.0
+    """Distance step between simulated windows [km] (> 0; shortened where the profile
+    would change by more than ``MAX_CHANGE`` in one step)."""
+    revolutions: int = 16
+    """Simulated revolutions per window where the tread vibrates [-] (integer >= 6; 3 where
+    steady rolling is stable: nothing drifts there; lengthened up to ``MAX_WINDOW`` to
+    separate the vibration from its nearest integer order)."""
+
+    def __post_init__(self) -> None:
+        check_positive(self, "step_km")
+        check_count(self, "revolutions", minimum=6)
+
+
+def evolve(params: Params, distance_km: float, cycle=None, settings: EvolutionSettings = EvolutionSettings(),
            progress: Progress | None = None, workers: int = 1) -> EvolutionResult:
     """Worn profile from seeded roughness over ``distance_km`` [km] on a drive cycle.
 
     ``cycle``: ((speed [km/h], share), ...), default ``params.wear.cycle_shares()``;
-    ``step_km``: distance step; ``revolutions``: simulated revolutions per window where
-    the tread vibrates (3 where steady rolling is stable: nothing drifts there);
+    ``settings``: the distance step [km] and the revolutions per window
+    (:class:`EvolutionSettings`);
     ``progress(km done, distance_km)`` after every step (:mod:`polywear.progress`);
     ``workers``: processes that simulate the windows of the cycle's speeds at the same
     time (1: all in this process; the result is the same).
     """
     if not (math.isfinite(distance_km) and distance_km > 0):
         raise ValueError(f"distance {distance_km!r} km: must be positive")
-    if not (math.isfinite(step_km) and step_km > 0):
-        raise ValueError(f"step {step_km!r} km: must be positive")
     if workers < 1:
         raise ValueError(f"workers = {workers!r}: must be at least 1")
+    step_km, revolutions = settings.step_km, settings.revolutions
     cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
     if workers == 1 or len(cycle) == 1:
         return _evolve(params, distance_km, cycle, step_km, revolutions, progress, None)

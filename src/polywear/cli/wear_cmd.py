@@ -221,12 +221,13 @@ def evolve_(
             raise UserError(f"--polar-km {polar_km!r}: distances must lie in [0, --distance-km]")
     params = load(config, set_)
     pairs = ((float(speed), 1.0),) if speed is not None else (parse_cycle(cycle) if cycle else None)
-    from ..analysis.wear_evolution import evolve
+    from ..analysis.wear_evolution import EvolutionSettings, evolve
     from .common import progress
 
     with progress("wear evolve [km]", enabled=not quiet) as update:
         try:
-            result = evolve(params, distance_km, pairs, step_km, revolutions, progress=update, workers=workers)
+            result = evolve(params, distance_km, pairs, EvolutionSettings(step_km=step_km, revolutions=revolutions),
+                            progress=update, workers=workers)
         except (ValueError, RuntimeError, ArithmeticError) as exc:
             raise UserError(f"wear evolve: {exc}") from None
     if out:
