@@ -2,14 +2,17 @@
 
 from __future__ import annotations
 
+import inspect
 import json
 import subprocess
 import sys
 import types
+from enum import Enum
 from importlib import import_module
 
 import numpy as np
 import pytest
+from pydantic import BaseModel
 
 import polywear as pw
 from polywear.params import ParameterError
@@ -60,6 +63,30 @@ def test_entry_point_is_the_library_object(name):
     module = import_module(module_name)
     assert getattr(pw, name) is (getattr(module, attribute) if attribute else module)
     assert name in pw.__all__ and name in dir(pw)
+
+
+def _own_signature(obj):
+    """The signature polywear writes for an entry point: a function's, or the constructor of a
+    class whose ``__init__`` is polywear's (a dataclass's generated one counts); None for a
+    class whose constructor pydantic, Enum or Exception write (and type) themselves."""
+    if inspect.isfunction(obj):
+        return inspect.signature(obj)
+    init = obj.__init__
+    if inspect.isfunction(init) and init.__module__.startswith("polywear"):
+        return inspect.signature(init)
+    assert issubclass(obj, (BaseModel, Enum, Exception)), f"{obj!r}: constructor written outside polywear"
+    return None
+
+
+@pytest.mark.parametrize("name", sorted(n for n in EXPECTED if callable(getattr(pw, n))))
+def test_entry_point_has_type_hints(name):
+    signature = _own_signature(getattr(pw, name))
+    if signature is None:
+        return
+    unannotated = [p.name for p in signature.parameters.values()
+                   if p.name != "self" and p.annotation is inspect.Parameter.empty]
+    assert not unannotated, f"{name}: parameters without a type hint: {unannotated}"
+    assert signature.return_annotation is not inspect.Signature.empty, f"{name}: no return type hint"
 
 
 def test_unknown_name_is_an_attribute_error():

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -531,7 +532,7 @@ class DesignSettings:
 def clear_operating_range(
     params: Params,
     operating_range_kmh: tuple[float, float],
-    keys=DEFAULT_KEYS,
+    keys: Sequence[str] = DEFAULT_KEYS,
     combine: tuple[str, ...] = (),
     max_relative_change: float = 0.5,
     speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,

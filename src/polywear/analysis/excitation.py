@@ -9,6 +9,7 @@ steady rolling and starts outside it grow to the stable cycle.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -163,7 +164,8 @@ def settling_time(diagram: BifurcationDiagram, speed_kmh: float, cycles,
     return float(np.clip(factor / min(rates), *bounds))
 
 
-def excitation_portraits(diagram: BifurcationDiagram, speeds_kmh, settings: ExcitationSettings = ExcitationSettings(),
+def excitation_portraits(diagram: BifurcationDiagram, speeds_kmh: Iterable[float],
+                         settings: ExcitationSettings = ExcitationSettings(),
                          progress: Progress | None = None) -> list[ExcitationPortrait]:
     """Cycles from the diagram and trajectories from inside/outside each cycle at every speed.
 

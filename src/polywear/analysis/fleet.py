@@ -37,7 +37,7 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
@@ -46,6 +46,9 @@ from .. import __version__
 from ..params import ADHESION_SCALE, ParameterError, Params, get_value, to_toml
 from ..progress import Progress, report, shifted
 from ..results import Result
+
+if TYPE_CHECKING:
+    from .fast_band import BandReference
 
 __all__ = ["FleetParameter", "FleetUsage", "FleetSpec", "load_fleet_spec", "sample_fleet", "FleetEvaluator",
            "FleetResult", "fleet_risk"]
@@ -194,7 +197,7 @@ class FleetSpec(_Spec):
         return R
 
 
-def load_fleet_spec(path, params: Params) -> FleetSpec:
+def load_fleet_spec(path: str | Path, params: Params) -> FleetSpec:
     """Read and validate the ``[fleet]`` table; every problem is one ParameterError line."""
     import tomllib
 
@@ -507,9 +510,10 @@ def _checkpoint_path(out_dir: Path) -> Path:
     return Path(out_dir) / "fleet_checkpoint.npz"
 
 
-def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", workers=None, scheduler=None,
-               batch_size=None, checkpoint_dir=None, resume: bool = False, progress: Progress | None = None,
-               reference=None) -> FleetResult:
+def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", workers: int | None = None,
+               scheduler: str | None = None, batch_size: int | None = None, checkpoint_dir: str | Path | None = None,
+               resume: bool = False, progress: Progress | None = None,
+               reference: BandReference | None = None) -> FleetResult:
     """Evaluate the fleet; with ``checkpoint_dir`` save every ``spec.checkpoint_every`` cars
     (``resume`` continues from the checkpoint, which must belong to the same params and spec).
     Every round of ``checkpoint_every`` cars is one :func:`~polywear.parallel.map_batched` call

@@ -24,7 +24,9 @@ Derivatives are reported in km/h per unit of the key; ``normalized`` is
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -291,12 +293,12 @@ def _speed_kmh(entry) -> float:
 
 def local_sensitivity(
     params: Params,
-    keys=PAPER_PARAMETERS,
+    keys: Sequence[str] = PAPER_PARAMETERS,
     settings: SensitivitySettings = SensitivitySettings(),
     speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
     diagram: BifurcationDiagram | None = None,
     progress: Progress | None = None,
-    **diagram_options,
+    **diagram_options: Any,
 ) -> SensitivityResult:
     """Sensitivity of every bifurcation speed to every parameter key.
 

@@ -36,6 +36,7 @@ import math
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .. import __version__, units
 from ..units import plot_scale
@@ -510,7 +511,7 @@ def simulate(
     duration_s: float = 1.0,
     *,
     disturbance: float = 1e-4,
-    initial=None,
+    initial: ArrayLike | None = None,
     settings: SimulationSettings = SimulationSettings(),
 ) -> SimulationResult:
     """Simulate ``duration_s`` [s] at ``speed_kmh`` [km/h] (default: operating.speed_kmh).

@@ -38,6 +38,7 @@ Fast dynamics and slow wear alternate (``docs/wear.md``). For a distance step ``
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -558,7 +559,8 @@ class EvolutionSettings:
         check_count(self, "revolutions", minimum=6)
 
 
-def evolve(params: Params, distance_km: float, cycle=None, settings: EvolutionSettings = EvolutionSettings(),
+def evolve(params: Params, distance_km: float, cycle: Iterable[tuple[float, float]] | None = None,
+           settings: EvolutionSettings = EvolutionSettings(),
            progress: Progress | None = None, workers: int = 1) -> EvolutionResult:
     """Worn profile from seeded roughness over ``distance_km`` [km] on a drive cycle.
 

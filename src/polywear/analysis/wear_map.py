@@ -25,6 +25,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..models import get_model
 from ..results import Result
@@ -267,7 +268,7 @@ def _tread_mode_frequency(model, p, A) -> float:
     return best[1]
 
 
-def wear_map(params: Params, speeds_kmh, max_order: int | None = None) -> WearMap:
+def wear_map(params: Params, speeds_kmh: ArrayLike, max_order: int | None = None) -> WearMap:
     """The linear wear-stability map at the given speeds [km/h] for orders 1..max_order
     (default ``wear.max_order``)."""
     speeds_kmh = np.atleast_1d(np.asarray(speeds_kmh, dtype=float))
