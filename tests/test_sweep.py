@@ -77,12 +77,12 @@ def test_settle_continues_in_chunks_until_steady():
     u0 = model.equilibrium(60.0 / 3.6, p)
     u0[X] += 1e-5
     # just above the soft Hopf point the cycle builds up over seconds: more than one chunk
-    short = settle(DEFAULTS, 60.0, u0, chunk_s=0.25, max_duration_s=0.25)
+    short = settle(DEFAULTS, 60.0, u0, settings=SweepSettings(chunk_s=0.25, max_duration_s=0.25))
     assert short.outcome == "transient" and not short.steady and short.duration_s == 0.25
-    run = settle(DEFAULTS, 60.0, u0, chunk_s=0.25, max_duration_s=4.0)
+    run = settle(DEFAULTS, 60.0, u0, settings=SweepSettings(chunk_s=0.25, max_duration_s=4.0))
     assert run.outcome == "cycle" and 0.25 < run.duration_s <= 4.0
     # continuing from where the short run stopped gives the same cycle
-    resumed = settle(DEFAULTS, 60.0, short.final_state, chunk_s=0.25, max_duration_s=4.0)
+    resumed = settle(DEFAULTS, 60.0, short.final_state, settings=SweepSettings(chunk_s=0.25, max_duration_s=4.0))
     assert resumed.amplitude[X] == pytest.approx(run.amplitude[X], rel=2e-3)
 
 
@@ -123,4 +123,4 @@ def test_bad_input():
     with pytest.raises(ValueError, match="large"):
         sweep(DEFAULTS, [100.0], settings=SweepSettings(large=0.0))
     with pytest.raises(ValueError, match="chunk"):
-        settle(DEFAULTS, 100.0, np.zeros(3), chunk_s=1.0, max_duration_s=0.5)
+        settle(DEFAULTS, 100.0, np.zeros(3), settings=SweepSettings(chunk_s=1.0, max_duration_s=0.5))

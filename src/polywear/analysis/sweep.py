@@ -100,14 +100,14 @@ def settle(
     initial,
     *,
     start: str = "",
-    settings: SimulationSettings = SimulationSettings(),
-    chunk_s: float = 0.25,
-    max_duration_s: float = 4.0,
+    settings: SweepSettings = SweepSettings(),
 ) -> SteadyRun:
-    """Integrate from ``initial`` at ``speed_kmh`` [km/h] in chunks of ``chunk_s`` [s]
-    until the latest chunk is at the equilibrium or on a cycle, at most ``max_duration_s``."""
-    if not (chunk_s > 0.0 and max_duration_s >= chunk_s):
-        raise ValueError(f"chunk_s = {chunk_s!r}, max_duration_s = {max_duration_s!r}: need 0 < chunk <= max")
+    """Integrate from ``initial`` at ``speed_kmh`` [km/h] in chunks of ``settings.chunk_s`` [s]
+    until the latest chunk is at the equilibrium or on a cycle, at most
+    ``settings.max_duration_s`` [s], with ``settings.simulation`` (:class:`SweepSettings`;
+    its disturbances are not used here)."""
+    chunk_s, max_duration_s = settings.chunk_s, settings.max_duration_s
+    simulation = settings.simulation
     model = get_model(params.model)
     p = model.pack(params)
     V = float(kmh_to_ms(speed_kmh))
@@ -117,10 +117,10 @@ def settle(
     h0 = None
     elapsed = 0.0
     while True:
-        traj = integrate(model, u, V, p, chunk_s, dt_out=settings.dt_out, rtol=settings.rtol,
-                         atol=settings.atol, method=settings.method, dense_from=0.0, h0=h0)
+        traj = integrate(model, u, V, p, chunk_s, dt_out=simulation.dt_out, rtol=simulation.rtol,
+                         atol=simulation.atol, method=simulation.method, dense_from=0.0, h0=h0)
         scale = np.maximum(scale, np.abs(traj.u - u_eq).max(axis=0))
-        steady = classify_window(model, V, p, traj.t, traj.u, traj.dense, u_eq, scale, settings)
+        steady = classify_window(model, V, p, traj.t, traj.u, traj.dense, u_eq, scale, simulation)
         elapsed += chunk_s
         u, h0 = traj.u_end, traj.h_last
         if steady.steady or elapsed + chunk_s > max_duration_s * (1.0 + 1e-12):
@@ -133,13 +133,12 @@ def settle(
 
 
 def _settle_job(job) -> SteadyRun:
-    """``settle`` for one (params, speed, start, disturbance, settings, chunk, max) tuple."""
-    params, speed_kmh, start, disturbance, settings, chunk_s, max_duration_s = job
+    """``settle`` for one (params, speed, start, disturbance, settings) tuple."""
+    params, speed_kmh, start, disturbance, settings = job
     model = get_model(params.model)
     p = model.pack(params)
     u0 = initial_state(model, p, float(kmh_to_ms(speed_kmh)), disturbance)
-    return settle(params, speed_kmh, u0, start=start, settings=settings, chunk_s=chunk_s,
-                  max_duration_s=max_duration_s)
+    return settle(params, speed_kmh, u0, start=start, settings=settings)
 
 
 @dataclass(frozen=True)
@@ -262,10 +261,8 @@ def sweep(
     speeds = np.unique(np.asarray(speeds_kmh, dtype=float))
     if speeds.size == 0 or not np.all(np.isfinite(speeds)) or speeds[0] <= 0.0:
         raise ValueError(f"speeds {speeds_kmh!r}: need at least one positive finite speed [km/h]")
-    small, large, chunk_s, max_duration_s = settings.small, settings.large, settings.chunk_s, settings.max_duration_s
-    simulation = settings.simulation
-    jobs = [(params, v, s, d, simulation, chunk_s, max_duration_s)
-            for s, d in (("small", small), ("large", large)) for v in speeds]
+    small, large = settings.small, settings.large
+    jobs = [(params, v, s, d, settings) for s, d in (("small", small), ("large", large)) for v in speeds]
     independent = []
     step = StepCounter(progress, 4 * speeds.size)
     for run in map(_settle_job, jobs):
@@ -276,15 +273,15 @@ def sweep(
         chain = []
         for i, v in enumerate(order):
             if i == 0:
-                run = _settle_job((params, v, start, small, simulation, chunk_s, max_duration_s))
+                run = _settle_job((params, v, start, small, settings))
             else:
-                run = settle(params, v, chain[-1].final_state, start=start, settings=simulation,
-                             chunk_s=chunk_s, max_duration_s=max_duration_s)
+                run = settle(params, v, chain[-1].final_state, start=start, settings=settings)
             chain.append(run)
             step(f"{start} start at {v:.1f} km/h")
         runs[start] = sorted(chain, key=lambda r: r.speed_kmh)
     return SweepResult(params=params, speeds_kmh=speeds, runs=runs, small=float(small), large=float(large),
-                       settings=simulation, chunk_s=float(chunk_s), max_duration_s=float(max_duration_s))
+                       settings=settings.simulation, chunk_s=float(settings.chunk_s),
+                       max_duration_s=float(settings.max_duration_s))
 
 
 # -- bands as the sweep sees them --------------------------------------------------------------
