@@ -20,6 +20,7 @@ from polywear.analysis.friction import (
     FrictionDataError,
     bristle_response,
     LOOP_COLUMNS,
+    LoopSettings,
     falling_branch,
     fit_loops,
     fit_steady_curve,
@@ -274,7 +275,7 @@ def first_order_deviation(f: Friction, loops, i):
 
 def test_loops_collapse_onto_the_static_curve_at_low_frequency():
     f = Friction()
-    loops = hysteresis_loops(f, 0.4, 0.25, [0.5, 0.05, 0.005], points_per_period=120)
+    loops = hysteresis_loops(f, 0.4, 0.25, [0.5, 0.05, 0.005], settings=LoopSettings(points_per_period=120))
     dev = loops.max_deviation
     assert dev[0] > 1e-3  # visibly open at 0.5 Hz ...
     assert np.all(np.diff(dev) < 0) and dev[2] < 1e-4  # ... and closing as f -> 0
@@ -297,7 +298,7 @@ def test_loops_follow_the_quasi_static_expansion(f, v_mean, ratio):
     # and v_min for the a^(delta-1) terms) at speed v_amp omega
     stretch = 1.0 + v_amp * f.stribeck_exponent * (1.0 / f.stribeck_velocity_m_per_s + 1.0 / v_min)
     freq = 1e-3 * slowest_rate / (2 * np.pi * stretch)
-    loops = hysteresis_loops(f, v_mean, v_amp, [freq], points_per_period=64)
+    loops = hysteresis_loops(f, v_mean, v_amp, [freq], settings=LoopSettings(points_per_period=64))
     pred = first_order_deviation(f, loops, 0)
     err = np.max(np.abs(loops.mu[0] - loops.steady_mu[0] - pred))
     assume(np.abs(pred).max() > 1e-9)  # flat curve (mu_s ~ mu_c): nothing to compare
@@ -310,7 +311,7 @@ def test_loops_approach_the_frozen_bristle_limit_at_high_frequency():
     v_mean, v_amp = 0.3, 0.2
     errors = []
     for freq in (1e3, 1e4):
-        loops = hysteresis_loops(f, v_mean, v_amp, [freq], points_per_period=256)
+        loops = hysteresis_loops(f, v_mean, v_amp, [freq], settings=LoopSettings(points_per_period=256))
         v = loops.velocity[0]
         a = np.array([bristle_decay_rate(x, f.sigma0_per_m, g_of(f, x)) for x in v])
         zbar = np.mean(v) / np.mean(a)
@@ -334,7 +335,7 @@ def plain_lugre_rhs(f: Friction, velocity):
 def test_periodic_loop_equals_brute_force_transient_integration(v_mean, v_amp, freq):
     """Second method: run DOP853 on an independent rhs from z = 0 until the transient is gone."""
     f = Friction()
-    loops = hysteresis_loops(f, v_mean, v_amp, [freq], points_per_period=100)
+    loops = hysteresis_loops(f, v_mean, v_amp, [freq], settings=LoopSettings(points_per_period=100))
     velocity = lambda t: v_mean + v_amp * np.sin(2 * np.pi * freq * t)  # noqa: E731
     period = 1.0 / freq
     n = 60  # periods: the memory exp(-int a dt) is < 1e-12 by then for these cases
@@ -350,14 +351,15 @@ def test_periodic_loop_equals_brute_force_transient_integration(v_mean, v_amp, f
 
 def test_zero_crossing_loop_is_odd_symmetric():
     """v_mean = 0: half a period later v -> -v, so mu -> -mu (the model is odd)."""
-    loops = hysteresis_loops(Friction(), 0.0, 0.5, [5.0], points_per_period=200)
+    loops = hysteresis_loops(Friction(), 0.0, 0.5, [5.0], settings=LoopSettings(points_per_period=200))
     assert np.any(loops.velocity[0] < 0) and np.any(loops.velocity[0] > 0)
     mu = loops.mu[0]
     assert np.allclose(mu[100:], -mu[:100], atol=1e-9)
 
 
 def test_loops_open_with_frequency_and_close_again_when_the_bristle_freezes():
-    loops = hysteresis_loops(Friction(), 0.267, 0.2, [0.5, 5.0, 50.0, 1000.0], points_per_period=200)
+    loops = hysteresis_loops(Friction(), 0.267, 0.2, [0.5, 5.0, 50.0, 1000.0],
+                             settings=LoopSettings(points_per_period=200))
     assert np.all(np.diff(loops.max_deviation) > 0)
     assert loops.area[0] < 0.2 * loops.area[1]
     assert loops.area[3] < 0.2 * loops.area[2]  # fast limit: a curve without area
@@ -365,7 +367,7 @@ def test_loops_open_with_frequency_and_close_again_when_the_bristle_freezes():
 
 @pytest.mark.parametrize("kwargs", [
     {"frequencies_hz": []}, {"frequencies_hz": [0.0]}, {"frequencies_hz": [np.nan]},
-    {"v_amplitude": 0.0}, {"v_amplitude": -1.0}, {"v_mean": np.inf}, {"points_per_period": 4},
+    {"v_amplitude": 0.0}, {"v_amplitude": -1.0}, {"v_mean": np.inf},
 ])
 def test_loops_reject_bad_input(kwargs):
     args = {"v_mean": 0.3, "v_amplitude": 0.1, "frequencies_hz": [1.0], **kwargs}
@@ -379,7 +381,7 @@ def test_loop_result_saves_and_plots(tmp_path):
     matplotlib.use("Agg")
     import xarray as xr
 
-    loops = hysteresis_loops(Friction(), 0.267, 0.2, [0.5, 50.0], points_per_period=50)
+    loops = hysteresis_loops(Friction(), 0.267, 0.2, [0.5, 50.0], settings=LoopSettings(points_per_period=50))
     path = loops.save(tmp_path / "loops.nc")
     ds = xr.open_dataset(path, engine="h5netcdf")
     assert np.array_equal(ds["mu"].values, loops.mu)

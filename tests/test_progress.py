@@ -91,10 +91,11 @@ def test_bifurcation_counts_continuation_steps():
 
 
 def test_friction_loops_report_each_frequency():
-    from polywear.analysis.friction.loops import hysteresis_loops
+    from polywear.analysis.friction.loops import LoopSettings, hysteresis_loops
 
     calls, progress = _recorder()
-    hysteresis_loops(Params().friction, 0.05, 0.04, [1.0, 10.0], points_per_period=16, progress=progress)
+    hysteresis_loops(Params().friction, 0.05, 0.04, [1.0, 10.0], settings=LoopSettings(points_per_period=16),
+                     progress=progress)
     assert calls == [(1, 2, "1 Hz"), (2, 2, "10 Hz")]
 
 

@@ -165,9 +165,9 @@ def _steady_curve(d):
 
 
 def _loops(d):
-    from polywear.analysis.friction import hysteresis_loops
+    from polywear.analysis.friction import LoopSettings, hysteresis_loops
 
-    return hysteresis_loops(Params().friction, 0.3, 0.2, [1.0, 10.0], points_per_period=64)
+    return hysteresis_loops(Params().friction, 0.3, 0.2, [1.0, 10.0], settings=LoopSettings(points_per_period=64))
 
 
 def _friction_fit(d):

@@ -13,6 +13,7 @@ from polywear.analysis.calibration import CalibrationSettings
 from polywear.analysis.campbell import CampbellSettings
 from polywear.analysis.design import DesignSettings
 from polywear.analysis.excitation import ExcitationSettings
+from polywear.analysis.friction import LoopFitSettings, LoopSettings
 from polywear.analysis.sensitivity import SensitivitySettings
 from polywear.analysis.simulation import SimulationSettings
 from polywear.analysis.stability import StabilitySettings
@@ -93,11 +94,19 @@ BAD = [
     (EvolutionSettings, "step_km", math.inf),
     (EvolutionSettings, "revolutions", 5),  # the CLI's least --revolutions
     (EvolutionSettings, "revolutions", 16.0),
+    (LoopSettings, "points_per_period", 4),  # hysteresis_loops needs at least 8 samples per loop
+    (LoopSettings, "rtol", 0.0),
+    (LoopSettings, "atol", -1e-12),
+    (LoopFitSettings, "harmonics", 0),
+    (LoopFitSettings, "rtol", math.nan),
+    (LoopFitSettings, "sigma0_range", (1e3, 10.0)),
+    (LoopFitSettings, "sigma0_range", (0.0, 1e6)),
+    (LoopFitSettings, "sigma0_range", (1.0, math.inf)),
 ]
 
 CLASSES = [ContinuationSettings, MapSettings, StabilitySettings, SimulationSettings, AutoSettings, SweepSettings,
            CampbellSettings, SensitivitySettings, CalibrationSettings, DesignSettings, ExcitationSettings,
-           EvolutionSettings]
+           EvolutionSettings, LoopSettings, LoopFitSettings]
 
 
 @pytest.mark.parametrize(("cls", "name", "value"), BAD, ids=[f"{c.__name__}.{n}={v!r}" for c, n, v in BAD])
@@ -133,6 +142,9 @@ def test_defaults_are_unchanged():
     assert (e.duration_s, e.settling_efoldings, e.settling_min_s, e.settling_max_s) == (None, 8.0, 0.6, 8.0)
     assert DesignSettings(margin_kmh=0.0).margin_kmh == 0.0  # no margin is allowed
     assert (EvolutionSettings().step_km, EvolutionSettings().revolutions) == (1000.0, 16)
+    assert (LoopSettings().points_per_period, LoopSettings().rtol, LoopSettings().atol) == (400, 1e-10, None)
+    f = LoopFitSettings()
+    assert (f.harmonics, f.sigma0_range, f.rtol) == (3, (1.0, 1e6), 1e-8)
     c = CampbellSettings()
     assert (c.window_s, c.overlap, c.f_range_hz, c.peak_db, c.sev_db, c.disturbance_m) == (0.5, 0.75, None, 15.0, 20.0,
                                                                                           1e-6)

@@ -158,7 +158,7 @@ def loops(
     quiet: QuietOpt = False,
 ) -> None:
     """Friction hysteresis loops for v_r = v_mean + v_amplitude sin(2 pi f t) (paper Fig. 1)."""
-    from ..analysis.friction import hysteresis_loops
+    from ..analysis.friction import LoopSettings, hysteresis_loops
 
     output_file(out, "--out", (".nc",))
     output_file(plot, "--plot", PLOT_SUFFIXES)
@@ -171,8 +171,8 @@ def loops(
     if v_mean is None:
         v_mean = _operating_sliding_velocity(params)
     with progress("loops", enabled=not quiet) as update:
-        result = hysteresis_loops(params.friction, v_mean, v_amplitude, freqs, points_per_period=points,
-                                  progress=update)
+        result = hysteresis_loops(params.friction, v_mean, v_amplitude, freqs,
+                                  settings=LoopSettings(points_per_period=points), progress=update)
     _save(result, out, quiet)
     if plot:
         _write_plot(result, plot, quiet=quiet)
@@ -305,7 +305,7 @@ def fit_loops(
     quiet: QuietOpt = False,
 ) -> None:
     """Fit sigma0 and sigma1 to measured periodic loops (static-curve keys from -c/--set)."""
-    from ..analysis.friction import FrictionDataError, read_loops_csv
+    from ..analysis.friction import FrictionDataError, LoopFitSettings, read_loops_csv
     from ..analysis.friction import fit_loops as fit_measured_loops
 
     path = _data_path(file, sample, "loops")
@@ -314,8 +314,8 @@ def fit_loops(
     try:
         data = read_loops_csv(path)
         with progress("fitting loops: model evaluations", enabled=not quiet) as update:
-            result = fit_measured_loops(*data, params.friction, harmonics=harmonics, confidence=confidence,
-                                        progress=update, source=str(path))
+            result = fit_measured_loops(*data, params.friction, settings=LoopFitSettings(harmonics=harmonics),
+                                        confidence=confidence, progress=update, source=str(path))
     except FrictionDataError as exc:
         raise UserError(str(exc)) from None
     _report_fit(result, params, path, out, plot, json_, quiet)

@@ -41,8 +41,16 @@ from .data import (
     sample_path,
     synthetic_steady_data,
 )
-from .fits import LOOP_PARAMETERS, FrictionFit, LoopFit, fit_loops, fit_steady_curve, steady_friction_jacobian
-from .loops import BristleResponse, HysteresisLoops, bristle_response, hysteresis_loops
+from .fits import (
+    LOOP_PARAMETERS,
+    FrictionFit,
+    LoopFit,
+    LoopFitSettings,
+    fit_loops,
+    fit_steady_curve,
+    steady_friction_jacobian,
+)
+from .loops import BristleResponse, HysteresisLoops, LoopSettings, bristle_response, hysteresis_loops
 
 __all__ = [
     "SteadyCurve",
@@ -50,6 +58,8 @@ __all__ = [
     "HysteresisLoops",
     "FrictionFit",
     "LoopFit",
+    "LoopSettings",
+    "LoopFitSettings",
     "FrictionDataError",
     "STEADY_PARAMETERS",
     "LOOP_PARAMETERS",

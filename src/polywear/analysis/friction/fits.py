@@ -7,11 +7,13 @@ from dataclasses import dataclass
 from typing import Any, Callable, ClassVar
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ...params import Friction, with_updates
 from ...physics.lugre import steady_friction
 from ...progress import Progress, StepCounter
 from ...results import Result
+from ...settings import check_count, check_positive
 from .curve import STEADY_PARAMETERS, _axes, _friction_toml, _steady_args, steady_curve
 from .data import FrictionDataError
 from .loops import _periodic_orbit
@@ -20,6 +22,7 @@ __all__ = [
     "LOOP_PARAMETERS",
     "FrictionFit",
     "LoopFit",
+    "LoopFitSettings",
     "fit_loops",
     "fit_steady_curve",
     "steady_friction_jacobian",
@@ -444,17 +447,34 @@ def _fourier_velocity(t: np.ndarray, v: np.ndarray, frequency: float, harmonics:
     return lambda time: basis(time) @ coef
 
 
+@dataclass(frozen=True)
+class LoopFitSettings:
+    """Numerical settings of :func:`fit_loops` (``polywear friction fit-loops --harmonics``)."""
+
+    harmonics: int = 3
+    """Fourier harmonics kept of each measured velocity loop [-] (integer >= 1)."""
+    sigma0_range: tuple[float, float] = (1.0, 1e6)
+    """Search range of sigma0 [1/m] (``0 < low < high``, finite)."""
+    rtol: float = 1e-8
+    """Relative tolerance of the bristle integration (Radau) [-]."""
+
+    def __post_init__(self) -> None:
+        check_count(self, "harmonics")
+        check_positive(self, "rtol")
+        lo, hi = self.sigma0_range
+        if not 0.0 < lo < hi < math.inf:
+            raise ValueError(f"LoopFitSettings: sigma0_range = {self.sigma0_range!r}: need 0 < low < high [1/m]")
+
+
 def fit_loops(
-    frequency_hz,
-    time_s,
-    velocity,
-    mu,
+    frequency_hz: ArrayLike,
+    time_s: ArrayLike,
+    velocity: ArrayLike,
+    mu: ArrayLike,
     base: Friction | None = None,
     *,
-    harmonics: int = 3,
-    sigma0_range: tuple[float, float] = (1.0, 1e6),
+    settings: LoopFitSettings = LoopFitSettings(),
     confidence: float = 0.95,
-    rtol: float = 1e-8,
     progress: Progress | None = None,
     source: str = "",
 ) -> LoopFit:
@@ -462,16 +482,17 @@ def fit_loops(
 
     Each frequency's points must come from one steady periodic loop (after the
     transient) and cover its period; ``time_s`` may span several periods. The measured
-    velocity of each loop is replaced by its least-squares Fourier series (``harmonics``
-    harmonics of the frequency), which drives the bristle ODE; its periodic orbit comes
-    from the same fixed-point construction as :func:`hysteresis_loops`. The static-curve
+    velocity of each loop is replaced by its least-squares Fourier series
+    (``settings.harmonics`` harmonics of the frequency), which drives the bristle ODE; its
+    periodic orbit comes from the same fixed-point construction as :func:`hysteresis_loops`
+    (tolerance ``settings.rtol``). The static-curve
     keys (mu_s, mu_c, v_s, delta, sigma2) are taken from ``base``: fit them first with
     :func:`fit_steady_curve`.
 
     The model is linear in sigma1, so for each sigma0 the best sigma1 >= 0 is a linear
     least-squares solution (variable projection); sigma0 is found by a scan of
-    ``sigma0_range`` [1/m] in half-decade steps followed by a bounded Brent search in
-    log sigma0. Standard errors come from the Jacobian at the optimum (central
+    ``settings.sigma0_range`` [1/m] in half-decade steps followed by a bounded Brent search
+    in log sigma0 (:class:`LoopFitSettings`). Standard errors come from the Jacobian at the optimum (central
     difference in sigma0, analytic in sigma1). ``progress`` (:mod:`polywear.progress`)
     counts the model evaluations (one per sigma0, all loops), total unknown.
     """
@@ -488,9 +509,8 @@ def fit_loops(
         raise FrictionDataError("data contain NaN or infinite values")
     if np.any(f_all <= 0.0):
         raise FrictionDataError("frequencies must be > 0")
+    harmonics, sigma0_range, rtol = settings.harmonics, settings.sigma0_range, settings.rtol
     lo, hi = sigma0_range
-    if not 0.0 < lo < hi < math.inf:
-        raise ValueError(f"sigma0_range = {sigma0_range!r}: need 0 < low < high")
     if not 0.0 < confidence < 1.0:
         raise ValueError(f"confidence = {confidence!r}: must lie in (0, 1)")
     min_points = 4 * harmonics + 4

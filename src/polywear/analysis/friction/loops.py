@@ -7,10 +7,11 @@ at low frequency the loop lies on the static curve, at high frequency it opens.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any, Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ...params import Friction
 from ...physics.lugre import (
@@ -23,9 +24,10 @@ from ...physics.lugre import (
 )
 from ...progress import Progress, StepCounter
 from ...results import Result
+from ...settings import check_count, check_positive
 from .curve import SteadyCurve, _axes, _friction_toml, _steady_args, steady_curve
 
-__all__ = ["BristleResponse", "HysteresisLoops", "bristle_response", "hysteresis_loops"]
+__all__ = ["BristleResponse", "HysteresisLoops", "LoopSettings", "bristle_response", "hysteresis_loops"]
 
 
 # -- bristle dynamics for a prescribed sliding velocity ------------------------------------
@@ -240,6 +242,24 @@ def _periodic_orbit(friction, velocity, period, t_eval, rtol, atol):
     return loop, error
 
 
+@dataclass(frozen=True)
+class LoopSettings:
+    """Numerical settings of :func:`hysteresis_loops` (``polywear friction loops --points``)."""
+
+    points_per_period: int = 400
+    """Samples per loop [-] (integer >= 8)."""
+    rtol: float = 1e-10
+    """Relative tolerance of the bristle integration (Radau, see :func:`bristle_response`) [-]."""
+    atol: float | None = None
+    """Absolute tolerance on the bristle deflection [m]; None: 1e-9 of mu_s / sigma0."""
+
+    def __post_init__(self) -> None:
+        check_count(self, "points_per_period", minimum=8)
+        check_positive(self, "rtol")
+        if self.atol is not None:
+            check_positive(self, "atol")
+
+
 def _sinusoid(v_mean: float, v_amplitude: float, frequency: float) -> Callable[[Any], Any]:
     omega = 2.0 * math.pi * frequency
     return lambda t: v_mean + v_amplitude * np.sin(omega * t)
@@ -249,11 +269,9 @@ def hysteresis_loops(
     friction: Friction,
     v_mean: float,
     v_amplitude: float,
-    frequencies_hz,
+    frequencies_hz: ArrayLike,
     *,
-    points_per_period: int = 400,
-    rtol: float = 1e-10,
-    atol: float | None = None,
+    settings: LoopSettings = LoopSettings(),
     progress: Progress | None = None,
 ) -> HysteresisLoops:
     """Periodic LuGre friction loops for a sinusoidal sliding velocity (the paper's Fig. 1).
@@ -271,10 +289,8 @@ def hysteresis_loops(
         Mean and amplitude of the sliding velocity [m/s]; ``v_amplitude > 0``.
     frequencies_hz : sequence of float
         Excitation frequencies [Hz], each > 0.
-    points_per_period : int
-        Samples per loop.
-    rtol, atol : float
-        Integration tolerances (see :func:`bristle_response`).
+    settings : LoopSettings
+        Samples per loop and integration tolerances (:class:`LoopSettings`).
     progress : callable, optional
         Progress callback (:mod:`polywear.progress`), once per finished frequency.
     """
@@ -283,13 +299,13 @@ def hysteresis_loops(
         raise ValueError(f"frequencies_hz = {freqs.tolist()}: need one or more finite frequencies > 0")
     if not (math.isfinite(v_mean) and math.isfinite(v_amplitude)) or v_amplitude <= 0.0:
         raise ValueError(f"v_amplitude = {v_amplitude!r}, v_mean = {v_mean!r}: need finite values, amplitude > 0")
-    if points_per_period < 8:
-        raise ValueError(f"points_per_period = {points_per_period}: must be at least 8")
+    points_per_period = settings.points_per_period
     rows = []
     step = StepCounter(progress, freqs.size)
     for f in freqs:
         t = np.linspace(0.0, 1.0 / f, points_per_period + 1)
-        rows.append(_periodic_orbit(friction, _sinusoid(v_mean, v_amplitude, f), 1.0 / f, t, rtol, atol))
+        rows.append(_periodic_orbit(friction, _sinusoid(v_mean, v_amplitude, f), 1.0 / f, t, settings.rtol,
+                                    settings.atol))
         step(f"{f:g} Hz")
     stack = lambda name: np.array([getattr(loop, name)[:-1] for loop, _ in rows])  # noqa: E731
     return HysteresisLoops(
@@ -302,5 +318,5 @@ def hysteresis_loops(
         deflection=stack("deflection"),
         mu=stack("mu"),
         periodicity_error=np.array([err for _, err in rows]),
-        settings={"points_per_period": points_per_period, "rtol": rtol, "atol": atol, "method": "Radau"},
+        settings={**asdict(settings), "method": "Radau"},
     )
