@@ -7,6 +7,7 @@ cluster that loses a worker in the middle of the run."""
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pytest
@@ -231,6 +232,7 @@ def test_same_numbers_on_serial_processes_and_dask(tmp_path, reference):
     serial = fleet_risk(Params(), spec, backend="serial", reference=reference)
     processes = fleet_risk(Params(), spec, backend="processes", workers=2, reference=reference)
     np.testing.assert_array_equal(serial.values, processes.values)
+    environ = dict(os.environ)  # the nannies write their workers' OMP/OPENBLAS_NUM_THREADS=1 etc. into ours
     cluster = LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1", dashboard_address=None,
                            processes=True)
     try:
@@ -238,6 +240,8 @@ def test_same_numbers_on_serial_processes_and_dask(tmp_path, reference):
                           batch_size=1)
     finally:
         cluster.close()
+        os.environ.clear()
+        os.environ.update(environ)
     np.testing.assert_array_equal(serial.values, dask.values)
     assert serial.status == processes.status == dask.status
     assert serial.paths == processes.paths == dask.paths

@@ -245,6 +245,22 @@ def test_windows_in_worker_processes_give_the_same_evolution():
     assert np.isfinite(serial.vibration_order[:, 1]).all()  # the 120 km/h windows vibrate
 
 
+def test_workers_with_another_blas_thread_count_give_the_same_evolution(monkeypatch):
+    """``distributed.LocalCluster`` leaves ``OPENBLAS_NUM_THREADS=1`` (and OMP, MKL) in
+    ``os.environ``: worker processes started later run BLAS on one thread while this
+    process keeps the count it loaded with. The windows must not depend on it (they did
+    through ``np.dot`` of long windows). Discriminates wherever this process's BLAS runs
+    on more than one thread (several cores, none of these variables set at start)."""
+    for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        monkeypatch.setenv(name, "1")
+    params = Params()
+    cycle = ((50.0, 0.5), (120.0, 0.5))
+    serial = evolve(params, 1000.0, cycle=cycle, settings=EvolutionSettings(step_km=1000.0))
+    parallel = evolve(params, 1000.0, cycle=cycle, settings=EvolutionSettings(step_km=1000.0), workers=2)
+    np.testing.assert_array_equal(parallel.harmonics, serial.harmonics)
+    assert np.isfinite(serial.vibration_order[:, 1]).all()  # the 120 km/h window vibrates
+
+
 def test_initial_roughness_has_the_requested_rms():
     params = with_updates(Params(), {"wear.initial_roughness_um": 2.5, "wear.max_order": 40})
     W = initial_roughness(params)

@@ -113,6 +113,17 @@ def initial_roughness(params: Params) -> np.ndarray:
     return W * (params.wear.initial_roughness_um * 1e-6 / rms)
 
 
+def _window_sum(x: np.ndarray):
+    """Sum of a window's samples, the same in every process: numpy's own pairwise sum.
+
+    A BLAS dot product (``np.dot``) of a long vector splits the sum over BLAS threads,
+    so its rounding depends on the thread count, which is fixed when BLAS loads and
+    follows ``OPENBLAS_NUM_THREADS``/``OMP_NUM_THREADS``; a worker process started later
+    (``evolve(..., workers=N)``) may get another count than this process (e.g. after
+    ``distributed.LocalCluster`` set those variables to 1 here) and a different window."""
+    return np.sum(x)
+
+
 def _dominant_order(t, signal, f_rot: float) -> float:
     """Order nu = f / f_rot of the dominant spectral line of ``signal``."""
     x = signal - signal.mean()
@@ -126,8 +137,8 @@ def _dominant_order(t, signal, f_rot: float) -> float:
     k = int(np.argmax(spectrum[1:])) + 1
     from scipy.optimize import minimize_scalar
 
-    def minus_power(f):
-        return -abs(np.dot(xw, np.exp(-2j * math.pi * f * t)))
+    def minus_power(f):  # numpy's pairwise sum, not BLAS: see _window_sum
+        return -abs(_window_sum(xw * np.exp(-2j * math.pi * f * t)))
 
     df = 1.0 / (pad * dt)
     best = minimize_scalar(minus_power, bracket=None, bounds=((k - 2) * df, (k + 2) * df), method="bounded",
@@ -226,7 +237,7 @@ def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float,
         reference = _per_revolution(t, friction_power(coupled, u_ref, V, p_ref), u_ref[:, -1], per_rev, revolutions,
                                     params, K)[0]
     coherent, drifting, ratios = _split(D, nu, eps, revolutions, reference)
-    energy = float(np.dot(power[:-1], np.diff(t))) / revolutions
+    energy = float(_window_sum(power[:-1] * np.diff(t))) / revolutions
     return WindowWear(coherent=coherent, drifting=drifting, ratios=ratios, mean_per_rev=mean,
                       revolutions=revolutions, order=nu, locked=bool(locked), end_state=run.u_end.copy(),
                       energy_per_rev=energy, profile=np.array(W))
