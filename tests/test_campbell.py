@@ -156,5 +156,7 @@ def test_cli_json_plot_and_netcdf(runup, tmp_path):
     with xr.open_dataset(out, engine="h5netcdf") as ds:
         assert ds["power_db"].dims == ("channel", "frequency_hz", "time_s")
         assert float(ds["speed_kmh"].max()) <= 80.0
+    assert json.loads(out.with_suffix(".json").read_text()) == summary  # the summary next to the map
+    assert sorted(f.name for f in tmp_path.iterdir() if f.name.startswith(".")) == []  # no temporary file left
     code, _, err = run_main(["measure", "campbell", str(tmp_path / "missing.csv")])
     assert code == 2 and err.count("\n") == 1

@@ -234,9 +234,8 @@ def test_every_public_result_class_is_covered():
 
 
 def _save(result, path):
-    """``result.save(path)``, which returns the path (the fleet's own save returns None)."""
-    out = result.save(path)
-    assert out == path or (out is None and type(result).__name__ == "FleetResult")
+    """``result.save(path)``, which returns the path."""
+    assert result.save(path) == path
     return path
 
 
@@ -260,7 +259,7 @@ def test_result_interface(name, results, tmp_path):
     saved = json.loads(path.read_text())
     assert {k: saved[k] for k in summary} == json.loads(json.dumps(summary))
     assert saved["polywear_version"] == __version__
-    if has_params and name != "fleet":  # the fleet keeps its own save (summary and version)
+    if has_params:
         assert Params.model_validate(saved["params"]) == result.params
 
     # .nc: to_xarray with the parameters and version in its attributes
@@ -275,15 +274,13 @@ def test_result_interface(name, results, tmp_path):
     # .csv: the dataframe
     path = _save(result, tmp_path / "r.csv")
     back = pd.read_csv(path)
-    if name == "fleet":  # its own save writes the per-car table (samples, outputs, status)
+    assert list(back.columns) == [str(c) for c in df.columns] and len(back) == len(df)
+    if name == "fleet":  # the per-car table
         assert len(back) == len(result.status)
-    else:
-        assert list(back.columns) == [str(c) for c in df.columns] and len(back) == len(df)
 
-    if name != "fleet":
-        with pytest.raises(ValueError, match="cannot write"):
-            result.save(tmp_path / "r.txt")
-        assert not (tmp_path / "r.txt").exists()
+    with pytest.raises(ValueError, match="cannot write"):
+        result.save(tmp_path / "r.txt")
+    assert not (tmp_path / "r.txt").exists()
 
     fig, ax = plt.subplots()
     result.plot(ax=ax)

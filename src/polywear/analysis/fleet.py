@@ -33,7 +33,6 @@ includes what the correlated partners carry (e.g. toe and camber).
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -42,7 +41,6 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from .. import __version__
 from ..params import ADHESION_SCALE, ParameterError, Params, get_value, to_toml
 from ..progress import Progress, report, shifted
 from ..results import Result
@@ -323,9 +321,6 @@ class FleetResult(Result):
     def keys(self) -> list[str]:
         return [q.key for q in self.spec.parameter]
 
-    def _dataset(self):
-        return self.to_dataset()
-
     @property
     def ok(self) -> np.ndarray:
         return np.array([s == "ok" for s in self.status])
@@ -433,35 +428,27 @@ class FleetResult(Result):
         ci = binomtest(k, n).proportion_ci(self.confidence, method="exact")
         return {"wear_share": k / n, "wear_ci": [float(ci.low), float(ci.high)], "mileage_km": mileage}
 
-    def to_dataset(self):
+    def _dataset(self):
+        """Every car: sampled parameters, outputs, status and path (``fleet_spec_json`` attr)."""
         import xarray as xr
 
         return xr.Dataset(
             {"sample": (("car", "param"), self.samples), "value": (("car", "output"), self.values),
              "status": ("car", np.array(self.status, dtype=str)), "path": ("car", np.array(self.paths, dtype=str))},
             coords={"param": self.keys, "output": list(OUTPUTS)},
-            attrs={"model": self.params.model, "params_toml": to_toml(self.params),
-                   "fleet_spec_json": self.spec.model_dump_json(), "polywear_version": __version__,
-                   "summary_json": json.dumps(self.summary())},
+            attrs={"fleet_spec_json": self.spec.model_dump_json()},
         )
 
-    def save(self, path) -> None:
-        """netCDF (.nc: every car), CSV (.csv: one row per car) or JSON (the summary)."""
-        path = str(path)
-        if path.endswith(".nc"):
-            self.to_dataset().to_netcdf(path, engine="h5netcdf")
-        elif path.endswith(".csv"):
-            import pandas as pd
+    def to_dataframe(self):
+        """One row per car: the sampled parameters, the outputs, status and path."""
+        import pandas as pd
 
-            df = pd.DataFrame(self.samples, columns=self.keys)
-            for j, name in enumerate(OUTPUTS):
-                df[name] = self.values[:, j]
-            df["status"] = self.status
-            df["path"] = self.paths
-            df.to_csv(path, index=False)
-        else:
-            with open(path, "w") as fh:
-                json.dump({**self.summary(), "polywear_version": __version__}, fh, indent=2)
+        df = pd.DataFrame(self.samples, columns=self.keys)
+        for j, name in enumerate(OUTPUTS):
+            df[name] = self.values[:, j]
+        df["status"] = self.status
+        df["path"] = self.paths
+        return df
 
     def plot(self, ax=None):
         """Histograms of the first and second bifurcation speeds and the usage speeds. Returns artists."""

@@ -73,8 +73,9 @@ def campbell(
          + (", model prediction and ramp simulation ..." if predict or ramp_correction else " ..."), quiet)
     result = analyze(run, params, CampbellSettings(window_s=window_s, disturbance_m=disturbance_m), predict=predict,
                      correct_ramp=ramp_correction)
-    if out:
-        write_output(out, result.save, quiet)
+    if out:  # save() is atomic itself and writes the summary next to the map (.json)
+        result.save(out)
+        info(f"wrote {out} and {out.with_suffix('.json')}", quiet)
     if observations:
         entries = result.observations()
         if not entries:
