@@ -16,6 +16,8 @@ from scipy import stats
 from polywear.analysis.bifurcation import bifurcation_diagram
 from polywear.analysis.fast_band import _FIXED_RANGE, band_reference
 from polywear.analysis.fleet import (
+    CAR_FIELDS,
+    CarOutcome,
     FleetResult,
     FleetSpec,
     fleet_risk,
@@ -143,7 +145,7 @@ def test_clopper_pearson_intervals_cover():
     for _ in range(trials):
         values = np.zeros((60, 6))
         values[:, 2] = rng.random(60) < p_true
-        result = FleetResult(Params(), spec, np.zeros((60, 1)), values, ["ok"] * 60)
+        result = FleetResult(Params(), spec, np.zeros((60, 1)), values, [CarOutcome(path="fast")] * 60)
         _, _, lo, hi = result.risk_ci()
         covered += lo <= p_true <= hi
     assert covered / trials >= 0.95 - 3 * math.sqrt(0.05 * 0.95 / trials)
@@ -296,8 +298,7 @@ def test_cli_resume_is_bit_identical(tmp_path):
     data = dict(np.load(ckpt / "fleet_checkpoint.npz"))
     assert int(data["done"]) == 4
     data["values"][2:] = np.nan
-    np.savez(ckpt / "fleet_checkpoint.npz", **(data | {"done": 2, "status": data["status"][:2],
-                                                        "paths": data["paths"][:2]}))
+    np.savez(ckpt / "fleet_checkpoint.npz", **(data | {"done": 2} | {name: data[name][:2] for name in CAR_FIELDS}))
     code, resumed, err = run_main(args + ["--resume", "--out", str(tmp_path / "resumed.csv")])
     assert code == 0, err
     assert resumed == whole
@@ -310,11 +311,18 @@ def test_paths_and_fallback_reasons_are_counted():
     """Summary: cars per path over the evaluated cars, fallbacks by reason tag, failed cars
     counted by kind and listed (index and whole reason)."""
     spec = FleetSpec(samples=7, parameter=MARGINALS[:1], usage=[{"speed_kmh": 100.0, "share": 1.0}])
+    outcomes = [CarOutcome(path="hopf"), CarOutcome(path="fast"),
+                CarOutcome(path="full", fallback="fold_out_of_range", fallback_detail="fold 1 at 612.3 km/h, outside the speed range"),
+                CarOutcome(path="full", fallback="fold_out_of_range", fallback_detail="fold 1 at 640.0 km/h, outside the speed range"),
+                CarOutcome(path="full", fallback="hopf_signature", fallback_detail="('soft',) vs ('soft', 'hard')"),
+                CarOutcome(failure="ValueError", detail="tread.mass_kg must be > 0"),
+                CarOutcome(failure="ValueError", detail="other")]
+    result = FleetResult(Params(), spec, np.zeros((7, 1)), np.zeros((7, 6)), outcomes)
     status = ["ok"] * 5 + ["failed: ValueError: tread.mass_kg must be > 0", "failed: ValueError: other"]
-    paths = ["hopf", "fast", "full: fold_out_of_range: fold 1 at 612.3 km/h, outside the speed range",
-             "full: fold_out_of_range: fold 1 at 640.0 km/h, outside the speed range",
-             "full: hopf_signature: ('soft',) vs ('soft', 'hard')", "", ""]
-    result = FleetResult(Params(), spec, np.zeros((7, 1)), np.zeros((7, 6)), status, paths=paths)
+    assert result.status == status  # the texts of the files, composed from the fields
+    assert result.paths == ["hopf", "fast", "full: fold_out_of_range: fold 1 at 612.3 km/h, outside the speed range",
+                            "full: fold_out_of_range: fold 1 at 640.0 km/h, outside the speed range",
+                            "full: hopf_signature: ('soft',) vs ('soft', 'hard')", "", ""]
     s = result.summary()
     assert s["paths"] == {"hopf": 1, "fast": 1, "full": 3}
     assert s["fallback_reasons"] == {"fold_out_of_range": 2, "hopf_signature": 1}

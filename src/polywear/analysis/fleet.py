@@ -48,7 +48,7 @@ from ..results import Result
 if TYPE_CHECKING:
     from .fast_band import BandReference
 
-__all__ = ["FleetParameter", "FleetUsage", "FleetSpec", "load_fleet_spec", "sample_fleet", "FleetEvaluator",
+__all__ = ["CarOutcome", "FleetParameter", "FleetUsage", "FleetSpec", "load_fleet_spec", "sample_fleet", "FleetEvaluator",
            "FleetResult", "fleet_risk"]
 
 OUTPUTS = ("first_bifurcation_kmh", "second_bifurcation_kmh", "at_risk", "hard_at_usage", "fast_path",
@@ -57,7 +57,39 @@ N_BINS = 20
 """Equal-probability bins of the main-effect estimator."""
 PATHS = ("hopf", "fast", "full")
 """How a car's risk was decided: the Hopf points alone (``FastBand.usage_verdict``), the
-fast band path, or the full continuation (a fallback: ``"full: <FallbackReason tag>: <detail>"``)."""
+fast band path, or the full continuation (a fallback, with its
+:class:`~polywear.analysis.fast_band.FallbackReason`)."""
+CAR_FIELDS = ("failure", "detail", "path", "fallback", "fallback_detail")
+"""The fields of :class:`CarOutcome`, stored per car in the checkpoint."""
+
+
+@dataclass(frozen=True)
+class CarOutcome:
+    """How one car ended. Failed: ``failure`` (the exception type, or ``"wear map"``) and
+    ``detail`` (its message); evaluated: ``path`` (one of :data:`PATHS`) and, on the full
+    path, ``fallback`` (a :class:`~polywear.analysis.fast_band.FallbackReason` value) and
+    ``fallback_detail``. The texts of the files (:attr:`status`, :attr:`path_text`) are
+    composed from these fields, never parsed back."""
+
+    failure: str = ""
+    detail: str = ""
+    path: str = ""
+    fallback: str = ""
+    fallback_detail: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return not self.failure
+
+    @property
+    def status(self) -> str:
+        """``"ok"`` or ``"failed: <type>: <message>"``."""
+        return "ok" if self.ok else f"failed: {self.failure}: {self.detail}"
+
+    @property
+    def path_text(self) -> str:
+        """``"hopf"``, ``"fast"``, ``"full: <reason>: <message>"``, or ``""`` for a failed car."""
+        return f"full: {self.fallback}: {self.fallback_detail}" if self.path == "full" else self.path
 LISTED_FAILURES = 20
 """Failed cars listed one by one (index and reason) in the summary; all are counted."""
 
@@ -236,10 +268,8 @@ def sample_fleet(spec: FleetSpec) -> np.ndarray:
 
 @dataclass(frozen=True)
 class FleetEvaluator:
-    """One car: (outputs, status, path). Outputs as :data:`OUTPUTS` (speeds [km/h], e-folding
-    distance [km], 0/1 flags); status ``"ok"`` or ``"failed: <reason>"``; path ``"hopf"``,
-    ``"fast"``, ``"full: <tag>: <detail>"`` (:class:`~polywear.analysis.fast_band.FallbackReason`)
-    or ``""`` for a failed car."""
+    """One car: (outputs, :class:`CarOutcome`). Outputs as :data:`OUTPUTS` (speeds [km/h],
+    e-folding distance [km], 0/1 flags)."""
 
     params: Params
     keys: tuple[str, ...]
@@ -248,7 +278,7 @@ class FleetEvaluator:
     wear: bool = False
     band_every: int = 1
 
-    def __call__(self, item) -> tuple[tuple[float, ...], str, str]:
+    def __call__(self, item) -> tuple[tuple[float, ...], CarOutcome]:
         """``item = (car index, parameter values)``."""
         from .global_sensitivity import sample_params
 
@@ -258,29 +288,29 @@ class FleetEvaluator:
             verdict = None if index % self.band_every == 0 else self.solver.usage_verdict(params, self.usage_speeds_kmh)
             band = None if verdict is not None else self.solver(params)
         except Exception as exc:  # invalid parameters or a numerical failure: recorded, never dropped
-            return (np.nan,) * len(OUTPUTS), f"failed: {type(exc).__name__}: {exc}", ""
+            return (np.nan,) * len(OUTPUTS), CarOutcome(failure=type(exc).__name__, detail=str(exc))
         efold = self._efold(params) if self.wear else np.nan
-        if isinstance(efold, str):
-            return (np.nan,) * len(OUTPUTS), efold, ""
+        if isinstance(efold, CarOutcome):
+            return (np.nan,) * len(OUTPUTS), efold
         if verdict is not None:  # Hopf points alone decided: no second speed for this car
             at_risk, hard, first = verdict
-            return (first, np.nan, float(at_risk), float(hard), 1.0, efold), "ok", "hopf"
+            return (first, np.nan, float(at_risk), float(hard), 1.0, efold), CarOutcome(path="hopf")
         inside = lambda intervals: any(a <= v <= b for v in self.usage_speeds_kmh for a, b in intervals)
-        path = "fast"
+        outcome = CarOutcome(path="fast")
         if band.path != "fast":  # the fast path was tried first, so the reason is set
-            path = f"full: {band.reason.value}: {band.detail}"
+            outcome = CarOutcome(path="full", fallback=band.reason.value, fallback_detail=band.detail)
         return (band.first_bifurcation_kmh, band.second_bifurcation_kmh, float(inside(band.sev_band_kmh)),
-                float(inside(band.hard_regions_kmh)), float(band.path == "fast"), efold), "ok", path
+                float(inside(band.hard_regions_kmh)), float(band.path == "fast"), efold), outcome
 
 
-    def _efold(self, params) -> float | str:
+    def _efold(self, params) -> float | CarOutcome:
         """Shortest e-folding distance [km] of any order at the usage speeds, or the failure."""
         from .wear_map import wear_map
 
         try:
             return float(np.nanmin(wear_map(params, self.usage_speeds_kmh).efold_km, initial=np.inf))
         except Exception as exc:
-            return f"failed: wear map: {type(exc).__name__}: {exc}"
+            return CarOutcome(failure="wear map", detail=f"{type(exc).__name__}: {exc}")
 
 
 def _spec_hash(params: Params, spec: FleetSpec) -> str:
@@ -311,11 +341,20 @@ class FleetResult(Result):
     spec: FleetSpec
     samples: np.ndarray
     values: np.ndarray  # (samples, len(OUTPUTS))
-    status: list[str]
+    outcomes: list[CarOutcome]
+    """Per car: how it ended (failure, or path and fallback reason)."""
     confidence: float = 0.95
     settings: dict = field(default_factory=dict)
-    paths: list[str] = field(default_factory=list)
-    """Per car: ``"hopf"``, ``"fast"``, ``"full: <reason>"`` or ``""`` (failed); see :data:`PATHS`."""
+
+    @property
+    def status(self) -> list[str]:
+        """Per car: ``"ok"`` or ``"failed: <type>: <message>"`` (the text of the files)."""
+        return [c.status for c in self.outcomes]
+
+    @property
+    def paths(self) -> list[str]:
+        """Per car: ``"hopf"``, ``"fast"``, ``"full: <reason>: <message>"`` or ``""`` (failed); see :data:`PATHS`."""
+        return [c.path_text for c in self.outcomes]
 
     @property
     def keys(self) -> list[str]:
@@ -323,7 +362,7 @@ class FleetResult(Result):
 
     @property
     def ok(self) -> np.ndarray:
-        return np.array([s == "ok" for s in self.status])
+        return np.array([c.ok for c in self.outcomes], dtype=bool)
 
     def risk_ci(self, mask=None) -> tuple[int, int, float, float]:
         """(cars at risk, cars evaluated, Clopper-Pearson lower, upper) among ``mask``."""
@@ -368,16 +407,15 @@ class FleetResult(Result):
             hard_ci = (float(c.low), float(c.high))
         drivers = main_effects(self.samples[ok], v[:, 2]) if n > 2 * N_BINS else np.full(len(self.keys), np.nan)
         failures: dict[str, int] = {}
-        for s in self.status:
-            if s != "ok":
-                kind = s.split(":")[1].strip() if ":" in s else s
-                failures[kind] = failures.get(kind, 0) + 1
-        failed_cars = [{"car": i, "reason": s} for i, s in enumerate(self.status) if s != "ok"]
+        for c in self.outcomes:
+            if not c.ok:
+                failures[c.failure] = failures.get(c.failure, 0) + 1
+        failed_cars = [{"car": i, "reason": c.status} for i, c in enumerate(self.outcomes) if not c.ok]
         return {
             "model": self.params.model,
-            "n_samples": len(self.status),
+            "n_samples": len(self.outcomes),
             "n_evaluated": n,
-            "failed_samples": len(self.status) - n,
+            "failed_samples": len(self.outcomes) - n,
             "failures": failures,
             "failed_cars": failed_cars[:LISTED_FAILURES],
             "risk_probability": k / n if n else None,
@@ -400,13 +438,11 @@ class FleetResult(Result):
         """Cars per path (:data:`PATHS`) and the fallbacks to the full path by reason tag."""
         paths = {name: 0 for name in PATHS}
         reasons: dict[str, int] = {}
-        for path in self.paths:
-            if path:
-                kind, _, reason = path.partition(": ")
-                paths[kind] += 1
-                if kind == "full":
-                    tag = reason.partition(": ")[0]
-                    reasons[tag] = reasons.get(tag, 0) + 1
+        for c in self.outcomes:
+            if c.path:
+                paths[c.path] += 1
+                if c.path == "full":
+                    reasons[c.fallback] = reasons.get(c.fallback, 0) + 1
         return {"paths": paths, "fallback_reasons": dict(sorted(reasons.items(), key=lambda kv: -kv[1]))}
 
     def _inside_range(self, speeds) -> tuple[np.ndarray, int]:
@@ -521,36 +557,33 @@ def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", w
     evaluator = FleetEvaluator(params, keys, solver, usage, wear=spec.mileage_km is not None,
                                band_every=spec.band_every)
     values = np.full((spec.samples, len(OUTPUTS)), np.nan)
-    status: list[str] = []
-    paths: list[str] = []
+    outcomes: list[CarOutcome] = []
     digest = _spec_hash(params, spec)
     ckpt = _checkpoint_path(checkpoint_dir) if checkpoint_dir else None
     if resume and ckpt is not None and ckpt.exists():
         data = np.load(ckpt, allow_pickle=False)
         if str(data["digest"]) != digest:
             raise ParameterError(f"{ckpt}: checkpoint of another parameter set or spec; remove it or drop --resume")
-        if "paths" not in data:
-            raise ParameterError(f"{ckpt}: checkpoint of an older polywear (no paths); remove it or drop --resume")
+        if not set(CAR_FIELDS) <= set(data.files):
+            raise ParameterError(f"{ckpt}: checkpoint of an older polywear (no per-car outcomes); remove it or drop --resume")
         done = int(data["done"])
         values[:done] = data["values"][:done]
-        status = [str(s) for s in data["status"][:done]]
-        paths = [str(s) for s in data["paths"][:done]]
+        outcomes = [CarOutcome(*(str(v) for v in row)) for row in zip(*(data[name][:done] for name in CAR_FIELDS))]
         report(progress)(done, spec.samples)
     every = spec.checkpoint_every if ckpt is not None else spec.samples  # no checkpoint: one round
-    for start in range(len(status), spec.samples, every):
+    for start in range(len(outcomes), spec.samples, every):
         chunk = X[start:start + every]
         results = map_batched(evaluator, list(enumerate(chunk, start)), backend=backend, workers=workers, scheduler=scheduler,
                               batch_size=batch_size, progress=shifted(progress, start, spec.samples))
         values[start:start + len(chunk)] = [r[0] for r in results]
-        status += [r[1] for r in results]
-        paths += [r[2] for r in results]
+        outcomes += [r[1] for r in results]
         if ckpt is not None:
             from ..io import atomic_path
 
             with atomic_path(ckpt) as tmp:
                 with open(tmp, "wb") as fh:
-                    np.savez(fh, digest=digest, done=len(status), values=values, status=np.array(status, dtype=str),
-                             paths=np.array(paths, dtype=str))
-    return FleetResult(params=params, spec=spec, samples=X, values=values, status=status, paths=paths,
+                    columns = {name: np.array([getattr(c, name) for c in outcomes], dtype=str) for name in CAR_FIELDS}
+                    np.savez(fh, digest=digest, done=len(outcomes), values=values, **columns)
+    return FleetResult(params=params, spec=spec, samples=X, values=values, outcomes=outcomes,
                        settings={"backend": backend, "seed": spec.seed, "samples": spec.samples,
                                  "reference_unusable": reference.unusable or None})
