@@ -13,11 +13,12 @@ continues whole branches; the fast path solves the defining systems directly:
    p_ref)`` from ``theta = 0`` to 1. Predictor: the exact fold-speed gradient of the
    reference (left null vector of the collocation system,
    :func:`~polywear.analysis.sensitivity.fold_speed_derivative`), then secants.
-   Corrector (:func:`~polywear.solvers.continuation.locate_fold`): Newton onto the new
-   cycle branch, pseudo-arclength steps towards the fold until the speed component of
-   the tangent changes sign, secant iteration inside that bracket. The first try is one
-   step; a step whose fold misses the prediction by more than a quarter of the predicted
-   change is halved, a good one doubled.
+   Corrector (:func:`~polywear.solvers.continuation.solve_fold`): Newton on the fold's
+   minimally augmented system (the collocation equations, the phase condition and the
+   vanishing speed component of the bordered Jacobian's null vector), so the fold is
+   found without stepping along the new branch. The first try is one step; a step
+   whose fold misses the prediction by more than the predicted change is halved, a good
+   one doubled.
 3. **Bands by label**: every end of the reference's SEV band, hard regions and
    stable-cycle intervals is labelled by the special point it sits at (Hopf point k, fold
    j, an end of the speed range); the sample's bands are the same intervals with its own
@@ -56,12 +57,12 @@ from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params
 from ..results import Result
 from ..units import DEFAULT_SPEED_RANGE_KMH
-from ..solvers.continuation import (BranchPoint, ContinuationSettings, fold_curvature, locate_fold,
-                                    on_adapted_mesh, solve_at_speed)
+from ..solvers.continuation import (BranchPoint, ContinuationSettings, on_adapted_mesh, solve_at_speed,
+                                    solve_fold)
 from .points import PointKind
 
 __all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "band_from_diagram", "band_reference",
-           "fold_curvature", "pilot_indices", "pilot_references", "pilot_size"]
+           "pilot_indices", "pilot_references", "pilot_size"]
 
 
 def _fixed_range() -> dict:
@@ -244,8 +245,6 @@ class BandReference:
     """State scales of the continuation norm, per fold (those of its branch)."""
     fold_gradients: tuple[np.ndarray, ...] = ()
     """dV_fold/dp [m/s per unit of each kernel parameter], per fold (exact, left null vector)."""
-    fold_curvatures: tuple[float, ...] = ()
-    """d(dV/ds)/ds along the branch at each fold (first step of the relocation)."""
     sev_labels: tuple = ()
     hard_labels: tuple = ()
     stable_labels: tuple = ()
@@ -331,7 +330,6 @@ def band_reference(diagram, amplitude_speeds_kmh=()) -> BandReference:
         folds=tuple(folds),
         scales=tuple(scales),
         fold_gradients=gradients,
-        fold_curvatures=tuple(fold_curvature(model, p, f, sc, diagram.settings) for f, sc in zip(folds, scales)),
         sev_labels=labels["sev"] or (),
         hard_labels=labels["hard"] or (),
         stable_labels=labels["stable"] or (),
@@ -477,6 +475,8 @@ class FastBand:
         the reference's (a Bautin point is near) [-].
     adapt_mesh : adapt the mesh to the sample's fold orbit and re-locate the fold (off: the
         fold speeds agree with the continuation's to ~1e-12 without it, on both models).
+    fold_newton : Newton iterations of one fold solve before its step is halved [-]
+        (from folds 10 % away in the parameters they took 5-10).
     """
 
     references: tuple[BandReference, ...]
@@ -486,6 +486,7 @@ class FastBand:
     max_halvings: int = 6
     min_fold_amplitude: float = 0.1
     adapt_mesh: bool = False
+    fold_newton: int = 12
     settings: ContinuationSettings = field(default_factory=ContinuationSettings)
 
     def __call__(self, params: Params) -> Band:
@@ -593,22 +594,23 @@ class FastBand:
     def _fold(self, model, p, ref, j) -> BranchPoint:
         """Fold j of the reference followed from ``ref.p`` to ``p``.
 
-        Predictor: the exact gradient of the reference's fold speed for the first step,
-        then the secant through the last two folds; a step whose fold misses the
-        prediction by more than a quarter of the predicted change (plus 1e-3 of the speed)
-        is halved, a good one doubled.
+        Each step solves the fold's defining system directly
+        (:func:`~polywear.solvers.continuation.solve_fold`) from the last fold, its speed
+        predicted by the exact gradient of the reference's fold speed for the first step,
+        then by the secant through the last two folds; a step whose fold misses the
+        prediction by more than the predicted change (plus 1e-3 of the speed: the error of
+        a first-order prediction is of second order) is halved, a good one doubled.
         """
         direction = _difference(p, ref.p)
         fold, scales = ref.folds[j], ref.scales[j]
         slope = float(ref.fold_gradients[j] @ direction)  # dV/dtheta [m/s]
-        curvature = ref.fold_curvatures[j]
         theta, h, halvings = 0.0, 1.0, 0
         while theta < 1.0:
             nxt = min(1.0, theta + h)
             V_pred = fold.orbit.speed + (nxt - theta) * slope
-            new = locate_fold(model, ref.p + nxt * direction, fold, V_pred, scales, self.settings, curvature)
+            new = solve_fold(model, ref.p + nxt * direction, fold, V_pred, scales, self.settings, self.fold_newton)
             change = abs(V_pred - fold.orbit.speed)
-            if new is None or abs(new.orbit.speed - V_pred) > 0.25 * change + 1e-3 * fold.orbit.speed:
+            if new is None or abs(new.orbit.speed - V_pred) > change + 1e-3 * fold.orbit.speed:
                 halvings += 1
                 if halvings > self.max_halvings:
                     raise _Fallback(FallbackReason.FOLD_NOT_FOLLOWED, f"fold {j + 1} not followed to this sample (step halved {self.max_halvings} times)")
@@ -617,8 +619,8 @@ class FastBand:
             slope = (new.orbit.speed - fold.orbit.speed) / (nxt - theta)
             fold, theta, h = new, nxt, 2.0 * h
         if self.adapt_mesh:
-            fold = locate_fold(model, p, on_adapted_mesh(model, p, fold), fold.orbit.speed, scales, self.settings,
-                               curvature)
+            fold = solve_fold(model, p, on_adapted_mesh(model, p, fold), fold.orbit.speed, scales, self.settings,
+                              self.fold_newton)
             if fold is None:
                 raise _Fallback(FallbackReason.FOLD_NOT_FOLLOWED, f"fold {j + 1} lost after mesh adaptation")
         return fold

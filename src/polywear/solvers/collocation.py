@@ -326,12 +326,29 @@ class Collocation:
         rhs[:-2, 0] = -res
         rhs[-2:, 0] = -border_values
         rhs[-1, 1] = 1.0
+        out = self.solve_system(blocks, tcol, vcol, border, rhs)
+        return None if out is None else (out[0][:, 0], out[0][:, 1], out[1], out[2])
+
+    def solve_system(self, blocks: np.ndarray, tcol: np.ndarray, vcol: np.ndarray, border: np.ndarray,
+                     rhs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """Solve the bordered system of the parts :meth:`evaluate` returns and ``border``
+        (2, size) for the columns of ``rhs`` (size, k). Returns ``(x, CL, CR)`` or None
+        if the matrix is singular or the solution not finite."""
         CL = np.empty((self.N, self.n, self.n))
         CR = np.empty((self.N, self.n, self.n))
-        x = solve_bordered(blocks, tcol, vcol, np.ascontiguousarray(border), rhs, self.m, CL, CR)
+        x = solve_bordered(blocks, tcol, vcol, np.ascontiguousarray(border), np.ascontiguousarray(rhs), self.m,
+                           CL, CR)
         if x.size == 0 or not np.all(np.isfinite(x)):
             return None
-        return x[:, 0], x[:, 1], CL, CR
+        return x, CL, CR
+
+    def product(self, blocks: np.ndarray, tcol: np.ndarray, vcol: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``A v`` for the collocation rows ``A`` given by ``blocks, tcol, vcol`` and a vector
+        ``v`` over the unknowns (nodes, T, V): a vector over those rows (N m n,)."""
+        N, m, n = self.N, self.m, self.n
+        nodes = v[:-2].reshape(N * m, n)
+        local = nodes[(np.arange(N)[:, None] * m + np.arange(m + 1)[None, :]) % (N * m)].reshape(N, (m + 1) * n)
+        return np.einsum("jrc,jc->jr", blocks, local).ravel() + tcol * v[-2] + vcol * v[-1]
 
     def adapted_mesh(self, orbit: PeriodicOrbit, n_intervals: int | None = None) -> np.ndarray:
         """New mesh equidistributing |u^(m+1)|^(1/(m+1)) over the orbit (AUTO's rule)."""

@@ -1,0 +1,92 @@
+"""The direct fold solver (minimally augmented system) against the bracketed fold locator
+(a second method), the toe law of tread1dof (a closed form) and the Floquet invariant of a
+fold of cycles (a second multiplier at 1)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from polywear.analysis.bifurcation import bifurcation_diagram
+from polywear.analysis.fast_band import _FIXED_RANGE, _difference, band_reference
+from polywear.models import get_model
+from polywear.params import Params, with_updates
+from polywear.solvers.continuation import (ContinuationSettings, fold_curvature, locate_fold, solve_fold)
+
+SETTINGS = ContinuationSettings()
+
+
+def _reference(updates):
+    params = with_updates(Params(), updates)
+    return params, band_reference(bifurcation_diagram(params, **_FIXED_RANGE))
+
+
+def _second_multiplier_gap(point) -> float:
+    """|mu - 1| of the multiplier next closest to 1 after the trivial one."""
+    return float(np.sort(np.abs(point.multipliers - 1.0))[1])
+
+
+@pytest.fixture(scope="module")
+def axle_reference():
+    return _reference({"model": "axle4dof"})
+
+
+@pytest.mark.parametrize("updates", [
+    {"tread.lateral_damping_ns_per_m": 76.0, "operating.toe_deg": 0.47},
+    {"friction.mu_static": 0.95, "tread.mass_kg": 0.93},
+])
+def test_agrees_with_the_bracketed_locator(axle_reference, updates):
+    base, ref = axle_reference
+    model = get_model("axle4dof")
+    p = model.pack(with_updates(base, updates))
+    fold, scales = ref.folds[0], ref.scales[0]
+    V_pred = fold.orbit.speed + float(ref.fold_gradients[0] @ _difference(p, ref.p))
+    direct = solve_fold(model, p, fold, V_pred, scales, SETTINGS, max_newton=12)
+    bracketed = locate_fold(model, p, fold, V_pred, scales, SETTINGS, fold_curvature(model, ref.p, fold, scales,
+                                                                                   SETTINGS))
+    assert direct is not None and bracketed is not None
+    assert abs(direct.orbit.speed - V_pred) > 1e-3 * V_pred  # a real move, not the guess
+    np.testing.assert_allclose(direct.orbit.speed, bracketed.orbit.speed, rtol=1e-10)
+    np.testing.assert_allclose(direct.orbit.period, bracketed.orbit.period, rtol=1e-9)
+    assert abs(direct.tangent_speed) < SETTINGS.fold_tol
+    assert _second_multiplier_gap(direct) < 1e-5  # a fold of cycles: a second multiplier at 1
+    assert direct.n_unstable == bracketed.n_unstable
+
+
+def test_toe_law():
+    """tread1dof: the speed enters only as V sin(toe), so the fold speed scales with 1/sin(toe)."""
+    base, ref = _reference({"model": "tread1dof"})
+    model = get_model("tread1dof")
+    for toe in (0.44, 0.58):
+        p = model.pack(with_updates(base, {"operating.toe_deg": toe}))
+        ratio = math.sin(math.radians(0.5)) / math.sin(math.radians(toe))
+        for fold, scales, gradient in zip(ref.folds, ref.scales, ref.fold_gradients):
+            V_pred = fold.orbit.speed + float(gradient @ _difference(p, ref.p))
+            new = solve_fold(model, p, fold, V_pred, scales, SETTINGS, max_newton=12)
+            assert new is not None
+            np.testing.assert_allclose(new.orbit.speed, fold.orbit.speed * ratio, rtol=1e-10)
+            np.testing.assert_allclose(new.orbit.amplitude(), fold.orbit.amplitude(), rtol=1e-8, atol=1e-12)
+
+
+def test_converges_in_one_step_on_its_own_fold(axle_reference):
+    _, ref = axle_reference
+    model = get_model("axle4dof")
+    fold = ref.folds[0]
+    same = solve_fold(model, ref.p, fold, fold.orbit.speed, ref.scales[0], SETTINGS)
+    assert same is not None and same.newton_iterations <= 2
+    np.testing.assert_allclose(same.orbit.speed, fold.orbit.speed, rtol=1e-12)
+
+
+def test_no_fold_near_the_guess_gives_none(axle_reference):
+    """Parameters whose second Hopf point is supercritical (no fold on the branch): None, not a point."""
+    base, ref = axle_reference
+    model = get_model("axle4dof")
+    params = with_updates(base, {"friction.mu_static": 0.82, "operating.vertical_load_n": 3700.0})
+    diagram = bifurcation_diagram(params, **_FIXED_RANGE)
+    assert not diagram.folds, "the sample must have no fold for this test"
+    p = model.pack(params)
+    fold = ref.folds[0]
+    V_pred = fold.orbit.speed + float(ref.fold_gradients[0] @ _difference(p, ref.p))
+    assert solve_fold(model, p, fold, V_pred, ref.scales[0], SETTINGS, max_newton=12) is None
