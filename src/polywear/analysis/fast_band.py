@@ -16,9 +16,12 @@ continues whole branches; the fast path solves the defining systems directly:
    Corrector (:func:`~polywear.solvers.continuation.solve_fold`): Newton on the fold's
    minimally augmented system (the collocation equations, the phase condition and the
    vanishing speed component of the bordered Jacobian's null vector), so the fold is
-   found without stepping along the new branch. The first try is one step; a step
-   whose fold misses the prediction by more than the predicted change is halved, a good
-   one doubled.
+   found without stepping along the new branch. Where that Newton fails (its basin is
+   smaller: e.g. a fold of tiny amplitude next to its Hopf point) the step falls back to
+   :func:`~polywear.solvers.continuation.locate_fold`: Newton onto the new branch, then
+   pseudo-arclength steps to a bracket of the fold and secants inside it. The first try
+   is one step; a step whose fold misses the prediction by more than the predicted
+   change is halved, a good one doubled.
 3. **Bands by label**: every end of the reference's SEV band, hard regions and
    stable-cycle intervals is labelled by the special point it sits at (Hopf point k, fold
    j, an end of the speed range); the sample's bands are the same intervals with its own
@@ -57,8 +60,8 @@ from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params
 from ..results import Result
 from ..units import DEFAULT_SPEED_RANGE_KMH
-from ..solvers.continuation import (BranchPoint, ContinuationSettings, on_adapted_mesh, solve_at_speed,
-                                    solve_fold)
+from ..solvers.continuation import (BranchPoint, ContinuationSettings, fold_curvature, locate_fold,
+                                    on_adapted_mesh, solve_at_speed, solve_fold)
 from .points import PointKind
 
 __all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "band_from_diagram", "band_reference",
@@ -245,6 +248,8 @@ class BandReference:
     """State scales of the continuation norm, per fold (those of its branch)."""
     fold_gradients: tuple[np.ndarray, ...] = ()
     """dV_fold/dp [m/s per unit of each kernel parameter], per fold (exact, left null vector)."""
+    fold_curvatures: tuple[float, ...] = ()
+    """d(dV/ds)/ds along the branch at each fold (first step of :func:`locate_fold`, the fallback corrector)."""
     sev_labels: tuple = ()
     hard_labels: tuple = ()
     stable_labels: tuple = ()
@@ -330,6 +335,7 @@ def band_reference(diagram, amplitude_speeds_kmh=()) -> BandReference:
         folds=tuple(folds),
         scales=tuple(scales),
         fold_gradients=gradients,
+        fold_curvatures=tuple(fold_curvature(model, p, f, sc, diagram.settings) for f, sc in zip(folds, scales)),
         sev_labels=labels["sev"] or (),
         hard_labels=labels["hard"] or (),
         stable_labels=labels["stable"] or (),
@@ -595,7 +601,8 @@ class FastBand:
         """Fold j of the reference followed from ``ref.p`` to ``p``.
 
         Each step solves the fold's defining system directly
-        (:func:`~polywear.solvers.continuation.solve_fold`) from the last fold, its speed
+        (:func:`~polywear.solvers.continuation.solve_fold`; where its Newton fails,
+        :func:`~polywear.solvers.continuation.locate_fold`) from the last fold, its speed
         predicted by the exact gradient of the reference's fold speed for the first step,
         then by the secant through the last two folds; a step whose fold misses the
         prediction by more than the predicted change (plus 1e-3 of the speed: the error of
@@ -608,7 +615,10 @@ class FastBand:
         while theta < 1.0:
             nxt = min(1.0, theta + h)
             V_pred = fold.orbit.speed + (nxt - theta) * slope
-            new = solve_fold(model, ref.p + nxt * direction, fold, V_pred, scales, self.settings, self.fold_newton)
+            p_next = ref.p + nxt * direction
+            new = solve_fold(model, p_next, fold, V_pred, scales, self.settings, self.fold_newton)
+            if new is None:  # e.g. a fold of tiny amplitude next to its Hopf point: march to it
+                new = locate_fold(model, p_next, fold, V_pred, scales, self.settings, ref.fold_curvatures[j])
             change = abs(V_pred - fold.orbit.speed)
             if new is None or abs(new.orbit.speed - V_pred) > change + 1e-3 * fold.orbit.speed:
                 halvings += 1
