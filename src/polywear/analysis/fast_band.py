@@ -24,7 +24,12 @@ continues whole branches; the fast path solves the defining systems directly:
    speeds at the labels.
 4. **Amplitudes** at chosen speeds: Newton at fixed speed
    (:func:`~polywear.solvers.continuation.solve_at_speed`) from the reference's stable
-   cycle at that speed (near a Hopf end rescaled by the square-root amplitude law).
+   cycle at that speed (near a Hopf end rescaled by the square-root amplitude law). When
+   the reference has none there (the sample's stable interval reaches past the
+   reference's), or Newton fails or lands on an unstable cycle: along the sample's own
+   branch (:func:`~polywear.solvers.continuation.cycle_along_branch`) from the end of its
+   stable interval nearest to the speed, from the Hopf point or from the fold (the
+   stable side of it).
 
 The fast path applies only while the topology is the reference's. It falls back to the
 full continuation, and says why (``Band.path``, ``Band.reason``), when: the number of
@@ -113,7 +118,8 @@ class FallbackReason(str, Enum):
     ORDER_CHANGED = "order_changed"
     """The order of the Hopf and fold speeds differs from the reference's."""
     AMPLITUDE_CYCLE = "amplitude_cycle"
-    """No stable cycle found at a chosen speed from the reference's."""
+    """No stable cycle found at a chosen speed, neither from the reference's nor along the
+    sample's branch from the nearest end of its stable interval."""
 
 
 @dataclass(frozen=True)
