@@ -639,8 +639,12 @@ class FastBand:
         kind, j = min(ends)[1]
         if kind == "H":
             return cycle_along_branch(model, p, stab.hopf_points[j], V, self.settings)
+        # first step from V - V_F = curvature s^2 / 2 (the reference's curvature), within the branches' steps
+        fold = fold_points[j]
+        s = np.sqrt(2.0 * abs((V - fold.orbit.speed) / ref.fold_curvatures[j]))
+        first = float(np.clip(s, self.settings.ds_initial, self.settings.ds_max)) if np.isfinite(s) else None
         for reverse in (False, True):
-            point = cycle_along_branch(model, p, fold_points[j], V, self.settings, ref.scales[j], reverse)
+            point = cycle_along_branch(model, p, fold, V, self.settings, ref.scales[j], reverse, first_step=first)
             if point is not None and point.stable:
                 return point
         return None

@@ -592,7 +592,8 @@ MAX_STEPS_TO_SPEED = 40
 
 def cycle_along_branch(model: Model, p: np.ndarray, start: HopfPoint | BranchPoint, speed: float,
                        settings: ContinuationSettings = ContinuationSettings(), scales: np.ndarray | None = None,
-                       reverse: bool = False, amplitude_ref: float = 1e-4) -> BranchPoint | None:
+                       reverse: bool = False, amplitude_ref: float = 1e-4,
+                       first_step: float | None = None) -> BranchPoint | None:
     """The cycle at ``speed`` [m/s] on the branch through ``start``, reached along the branch.
 
     ``start`` is a Hopf point (the branch born there, with the start and norm of
@@ -600,9 +601,10 @@ def cycle_along_branch(model: Model, p: np.ndarray, start: HopfPoint | BranchPoi
     ``scales`` are the state scales of its branch; ``reverse``: along minus the tangent).
     Pseudo-arclength steps towards ``speed`` until one passes it, then Newton at that
     speed (:func:`solve_at_speed`) from the two points that bracket it, on a mesh adapted
-    to the interpolated orbit. None if a corrector fails at the smallest step, the branch
-    turns away from ``speed`` (a fold) before reaching it, or after
-    :data:`MAX_STEPS_TO_SPEED` steps.
+    to the interpolated orbit. ``first_step``: arclength of the first step (scaled; default
+    ``settings.ds_initial``), then as the branches' steps. None if a corrector fails at the
+    smallest step, the branch turns away from ``speed`` (a fold) before reaching it, or
+    after :data:`MAX_STEPS_TO_SPEED` steps.
     """
     if isinstance(start, BranchPoint):
         stepper = _Stepper.near(model, p, start.orbit, start.orbit.speed, scales, settings)
@@ -612,7 +614,7 @@ def cycle_along_branch(model: Model, p: np.ndarray, start: HopfPoint | BranchPoi
     else:
         stepper, X0, t0, phase_ref = _hopf_start(model, p, start, settings, amplitude_ref)
     side = np.sign(speed - X0[-1])
-    ds = settings.ds_initial
+    ds = settings.ds_initial if first_step is None else first_step
     c = stepper.coll
     for _ in range(MAX_STEPS_TO_SPEED):
         out = stepper.correct(X0, t0, ds, phase_ref)
