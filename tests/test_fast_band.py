@@ -15,7 +15,10 @@ from polywear.analysis.bifurcation import bifurcation_diagram
 from polywear.analysis.fast_band import (_FIXED_RANGE, BandPath, Fallback, FallbackReason, FastBand, band_from_diagram,
                                          band_reference, pilot_indices, pilot_references)
 from polywear.analysis.global_sensitivity import DEFAULT_KEYS, sample_params
+from polywear.models import get_model
+from polywear.models.base import kmh_to_ms
 from polywear.params import Params, get_value, with_updates
+from polywear.solvers.continuation import cycle_along_branch, solve_at_speed
 
 AMPLITUDE_SPEEDS = (80.0, 130.0)
 
@@ -203,3 +206,85 @@ def test_a_reference_whose_band_runs_to_the_range_end_is_not_used(tread_solver):
     band = both(car)
     assert band.path is BandPath.FAST and len(band.folds_kmh) == 1 and band.folds_kmh[0] < 300.0
     assert_agrees(band, both.full(car))
+
+
+def test_cycle_along_branch_is_the_diagrams_cycle():
+    """tread1dof: soft Hopf point at 58 km/h, fold at 255, hard Hopf point at 208 (one branch).
+    Along the branch from a Hopf point, or from the fold on either side, the cycle at a speed
+    is the diagram's there (with its stability); a branch that turns away first gives None."""
+    diagram = bifurcation_diagram(with_updates(Params(), {"model": "tread1dof"}), **_FIXED_RANGE)
+    model = get_model("tread1dof")
+    p, ix = model.pack(diagram.params), model.index("x")
+    soft, hard = diagram.hopf_points
+    (branch,) = diagram.branches
+    (fold,) = [point for label, point, _ in branch.special if label == "LP"]
+
+    def along(start, v_kmh, **kw):
+        return cycle_along_branch(model, p, start, kmh_to_ms(v_kmh), diagram.settings, **kw)
+
+    (at_80,) = diagram.cycles_at(80.0)
+    point = along(soft, 80.0)
+    assert point.stable and point.orbit.amplitude()[ix] == pytest.approx(at_80.amplitude[ix], rel=1e-5)
+    small, large = diagram.cycles_at(215.0)  # sorted by amplitude: unstable, stable
+    assert (small.stable, large.stable) == (False, True)
+    sides = sorted((along(fold, 215.0, scales=branch.scales, reverse=r) for r in (False, True)),
+                   key=lambda pt: pt.orbit.amplitude()[ix])
+    for point, cycle in zip(sides, (small, large)):
+        assert point.stable == cycle.stable
+        assert point.orbit.amplitude()[ix] == pytest.approx(cycle.amplitude[ix], rel=1e-5)
+    point = along(hard, 215.0)
+    assert not point.stable and point.orbit.amplitude()[ix] == pytest.approx(small.amplitude[ix], rel=1e-5)
+    assert along(hard, 200.0) is None  # its cycles lie above 208 km/h
+
+
+AXLE_REF_HARD = {  # a pilot reference with two hard Hopf points (87.3, 162.5) and folds at 86.0, 170.7 km/h
+    "tread.lateral_stiffness_n_per_m": 965394.4553211121, "tread.lateral_damping_ns_per_m": 87.79642949340682,
+    "operating.toe_deg": 0.48187108384855165, "operating.camber_deg": -1.0577097871640058,
+    "friction.mu_static": 0.9665813721053189, "tread.mass_kg": 0.9782169613078388,
+    "operating.vertical_load_n": 3950.3054984982386}
+AXLE_FOLD_BELOW_80 = {  # the same topology with the lower fold at 70.6 km/h
+    "tread.lateral_stiffness_n_per_m": 991003.4966304799, "tread.lateral_damping_ns_per_m": 72.90838979828666,
+    "operating.toe_deg": 0.5495361659428997, "operating.camber_deg": -1.0777398613416667,
+    "friction.mu_static": 0.9749383082952126, "tread.mass_kg": 0.9493151060147278,
+    "operating.vertical_load_n": 3915.2882037799745}
+AXLE_HOPF_BELOW_80 = {  # soft Hopf point at 79.81 km/h (nominal: 79.42)
+    "tread.lateral_stiffness_n_per_m": 1076811.378839294, "tread.lateral_damping_ns_per_m": 82.26514728355968,
+    "operating.toe_deg": 0.5069694274473808, "operating.camber_deg": -0.975257567225984,
+    "friction.mu_static": 0.8839719507882834, "tread.mass_kg": 0.947897842536369,
+    "operating.vertical_load_n": 3630.445829352991}
+
+
+@pytest.mark.slow
+def test_cycle_outside_the_references_stable_interval_is_found_along_the_branch():
+    """axle4dof, two hard Hopf points (samples of a +-10 % study): the reference's lower fold
+    lies at 86.0 km/h, so it has no stable cycle at 80 km/h to start from; the sample's lies at
+    70.6 km/h. The cycle at 80 km/h is reached from the sample's fold (6 of 60 samples fell
+    back for this before) and is the continuation's."""
+    base = with_updates(Params(), {"model": "axle4dof"})
+    ref = band_reference(bifurcation_diagram(with_updates(base, AXLE_REF_HARD), **_FIXED_RANGE), AMPLITUDE_SPEEDS)
+    assert ref.band.hopf_criticality == ("hard", "hard") and not ref.unusable
+    assert ref.band.folds_kmh[0] > 80.0 and ref.cycles[0] is None
+    solver = FastBand((ref,), amplitude_speeds_kmh=AMPLITUDE_SPEEDS)
+    car = with_updates(base, AXLE_FOLD_BELOW_80)
+    band = solver(car)
+    assert band.path is BandPath.FAST, band.detail
+    assert band.folds_kmh[0] < band.hopf_kmh[0] < 80.0 and band.amplitude_x_m[0] > 0.0
+    assert_agrees(band, solver.full(car))
+
+
+@pytest.mark.slow
+def test_small_cycle_just_above_a_hopf_point_is_found_along_the_branch():
+    """axle4dof: soft Hopf point at 79.81 km/h, 0.19 km/h below the chosen speed (the nominal
+    reference's at 79.42). Newton from the nominal cycle at 80 km/h, rescaled by the
+    square-root law (4.0e-5 m against the sample's 2.25e-5 m) or not, fails; the branch
+    from the sample's Hopf point reaches the continuation's cycle."""
+    base = with_updates(Params(), {"model": "axle4dof"})
+    ref = band_reference(bifurcation_diagram(base, **_FIXED_RANGE), AMPLITUDE_SPEEDS)
+    solver = FastBand((ref,), amplitude_speeds_kmh=AMPLITUDE_SPEEDS)
+    car = with_updates(base, AXLE_HOPF_BELOW_80)
+    model = get_model("axle4dof")
+    assert solve_at_speed(model, model.pack(car), ref.cycles[0], kmh_to_ms(80.0), solver.settings) is None
+    band = solver(car)
+    assert band.path is BandPath.FAST, band.detail
+    assert 79.5 < band.hopf_kmh[0] < 80.0 and band.amplitude_x_m[0] > 0.0
+    assert_agrees(band, solver.full(car))

@@ -231,7 +231,7 @@ class BifurcationDiagram(Result):
     def cycles_at(self, speed_kmh: float) -> list[CyclePoint]:
         """Every cycle of the diagram at exactly this speed (Newton at fixed speed from the
         two branch points that bracket it, located folds included), sorted by amplitude of x."""
-        from ..solvers.continuation import solve_at_speed
+        from ..solvers.continuation import orbit_between, solve_at_speed
 
         model = get_model(self.params.model)
         p = model.pack(self.params)
@@ -243,11 +243,7 @@ class BifurcationDiagram(Result):
                 va, vc = a.orbit.speed, c.orbit.speed
                 if not (min(va, vc) <= V <= max(va, vc)) or va == vc:
                     continue
-                s = (V - va) / (vc - va)
-                guess_c = c.orbit.with_mesh(a.orbit.mesh)
-                guess = replace(a.orbit, nodes=(1 - s) * a.orbit.nodes + s * guess_c.nodes,
-                                period=(1 - s) * a.orbit.period + s * c.orbit.period, speed=V)
-                point = solve_at_speed(model, p, guess, V, self.settings)
+                point = solve_at_speed(model, p, orbit_between(a.orbit, c.orbit, V), V, self.settings)
                 if point is not None:
                     found.append(_cycle_point(b, point))
         return sorted(found, key=lambda cp: cp.amplitude[self.state_names.index("x")])

@@ -28,7 +28,12 @@ continues whole branches; the fast path solves the defining systems directly:
    speeds at the labels.
 4. **Amplitudes** at chosen speeds: Newton at fixed speed
    (:func:`~polywear.solvers.continuation.solve_at_speed`) from the reference's stable
-   cycle at that speed (near a Hopf end rescaled by the square-root amplitude law).
+   cycle at that speed (near a Hopf end rescaled by the square-root amplitude law). When
+   the reference has none there (the sample's stable interval reaches past the
+   reference's), or Newton fails or lands on an unstable cycle: along the sample's own
+   branch (:func:`~polywear.solvers.continuation.cycle_along_branch`) from the end of its
+   stable interval nearest to the speed, from the Hopf point or from the fold (the
+   stable side of it).
 
 The fast path applies only while the topology is the reference's. It falls back to the
 full continuation, and says why (``Band.path``, ``Band.reason``), when: the number of
@@ -60,8 +65,8 @@ from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params
 from ..results import Result
 from ..units import DEFAULT_SPEED_RANGE_KMH
-from ..solvers.continuation import (BranchPoint, ContinuationSettings, fold_curvature, locate_fold,
-                                    on_adapted_mesh, solve_at_speed, solve_fold)
+from ..solvers.continuation import (BranchPoint, ContinuationSettings, cycle_along_branch, fold_curvature,
+                                    locate_fold, on_adapted_mesh, solve_at_speed, solve_fold)
 from .points import PointKind
 
 __all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "band_from_diagram", "band_reference",
@@ -117,7 +122,8 @@ class FallbackReason(str, Enum):
     ORDER_CHANGED = "order_changed"
     """The order of the Hopf and fold speeds differs from the reference's."""
     AMPLITUDE_CYCLE = "amplitude_cycle"
-    """No stable cycle found at a chosen speed from the reference's."""
+    """No stable cycle found at a chosen speed, neither from the reference's nor along the
+    sample's branch from the nearest end of its stable interval."""
 
 
 @dataclass(frozen=True)
@@ -635,6 +641,26 @@ class FastBand:
                 raise _Fallback(FallbackReason.FOLD_NOT_FOLLOWED, f"fold {j + 1} lost after mesh adaptation")
         return fold
 
+    def _along_branch(self, model, p, ref, stab, fold_points, labels, interval, V) -> BranchPoint | None:
+        """A stable cycle at speed V [m/s] on the sample's branch from the end of its stable
+        ``interval`` [km/h] (with the reference's ``labels``) nearest to V: from a Hopf end the
+        branch born there, from a fold end either side of it (the stable one). None if not found."""
+        ends = [(abs(ms_to_kmh(V) - v), label) for v, label in zip(interval, labels) if label[0] in ("H", "F")]
+        if not ends:
+            return None
+        kind, j = min(ends)[1]
+        if kind == "H":
+            return cycle_along_branch(model, p, stab.hopf_points[j], V, self.settings)
+        # first step from V - V_F = curvature s^2 / 2 (the reference's curvature), within the branches' steps
+        fold = fold_points[j]
+        s = np.sqrt(2.0 * abs((V - fold.orbit.speed) / ref.fold_curvatures[j]))
+        first = float(np.clip(s, self.settings.ds_initial, self.settings.ds_max)) if np.isfinite(s) else None
+        for reverse in (False, True):
+            point = cycle_along_branch(model, p, fold, V, self.settings, ref.scales[j], reverse, first_step=first)
+            if point is not None and point.stable:
+                return point
+        return None
+
     def _fast(self, model, params, p, ref, stab) -> Band:
         if ref.band.amplitude_speeds_kmh != tuple(float(v) for v in self.amplitude_speeds_kmh):
             raise ValueError(f"amplitude speeds {self.amplitude_speeds_kmh} differ from the reference's "
@@ -673,17 +699,22 @@ class FastBand:
             if k is None:
                 amplitudes.append(0.0)
                 continue
-            if guess is None:
-                raise _Fallback(FallbackReason.AMPLITUDE_CYCLE, f"no reference cycle to start from at {v:g} km/h")
             V = kmh_to_ms(v)
-            # the guess rescaled by the square-root law of the nearest Hopf end (ratio ~ 1 far
-            # from it; near it Newton from the reference's tiny cycle fails), else as it is
-            scaled = _rescaled(model, ref.p, p, guess, V, ref.stable_labels[k], ref_stable[k], stable[k], v)
-            point = None if scaled is None else solve_at_speed(model, p, scaled, V, self.settings)
-            if point is None:
-                point = solve_at_speed(model, p, guess, V, self.settings)
+            point = None
+            if guess is not None:
+                # the guess rescaled by the square-root law of the nearest Hopf end (ratio ~ 1 far
+                # from it; near it Newton from the reference's tiny cycle fails), else as it is
+                scaled = _rescaled(model, ref.p, p, guess, V, ref.stable_labels[k], ref_stable[k], stable[k], v)
+                point = None if scaled is None else solve_at_speed(model, p, scaled, V, self.settings)
+                if point is None:
+                    point = solve_at_speed(model, p, guess, V, self.settings)
             if point is None or not point.stable:
-                raise _Fallback(FallbackReason.AMPLITUDE_CYCLE, f"stable cycle at {v:g} km/h not found from the reference's")
+                # no reference cycle there (its interval ends on the other side of v), Newton
+                # failed or landed on an unstable cycle: along the sample's own branch
+                point = self._along_branch(model, p, ref, stab, fold_points, ref.stable_labels[k], stable[k], V)
+            if point is None or not point.stable:
+                raise _Fallback(FallbackReason.AMPLITUDE_CYCLE, f"stable cycle at {v:g} km/h found neither from the "
+                                "reference's nor along the branch from the nearest end of its stable interval")
             amplitudes.append(float(point.orbit.amplitude()[ix]))
         return Band(
             hopf_kmh=hopf,

@@ -27,7 +27,7 @@ predictor/corrector step, tangent orientation and step-length control are
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 from collections.abc import Callable
 from typing import TYPE_CHECKING
@@ -48,6 +48,8 @@ __all__ = [
     "Branch",
     "continue_from_hopf",
     "solve_at_speed",
+    "orbit_between",
+    "cycle_along_branch",
     "switching_times",
     "fold_curvature",
     "locate_fold",
@@ -302,6 +304,26 @@ def _scaled_amplitude(orbit: PeriodicOrbit, scales: np.ndarray) -> float:
     return float(np.max(np.ptp(orbit.nodes, axis=0) / scales)) * 0.5
 
 
+def _hopf_start(model: Model, p: np.ndarray, hopf: HopfPoint, settings: ContinuationSettings,
+                amplitude_ref: float) -> _Step:
+    """The start of the branch born at ``hopf``: the steady state as a trivial orbit on a uniform
+    mesh, the tangent along the critical eigenvector (x component ``amplitude_ref`` [m]) and the
+    norm's scales (x: ``amplitude_ref``, other states: the eigenvector's, plus 0.1 of the steady state)."""
+    q = hopf.q / hopf.q[model.index("x")]  # x component 1
+    scales = np.maximum(np.abs(q), 1e-6 * np.abs(q).max()) * amplitude_ref + 0.1 * np.abs(hopf.u)
+    period_scale = 2.0 * np.pi / hopf.omega
+    speed_scale = 0.1 * hopf.speed_ms
+    N = settings.n_intervals
+    mesh = np.linspace(0.0, 1.0, N + 1)
+    stepper = _Stepper(model, p, mesh, settings, scales, speed_scale, period_scale)
+    c = stepper.coll
+    tau = (mesh[:-1, None] + np.diff(mesh)[:, None] * c.sch.nodes[None, :-1]).ravel()
+    psi = np.real(q[None, :] * np.exp(2j * np.pi * tau)[:, None]) * amplitude_ref
+    trivial = PeriodicOrbit(mesh, np.tile(hopf.u, (N * c.m, 1)), period_scale, hopf.speed_ms, c.m)
+    t0 = stepper.unit(np.concatenate([psi.ravel(), [0.0, 0.0]]))
+    return stepper, c.pack(trivial), t0, PeriodicOrbit(mesh, psi, period_scale, hopf.speed_ms, c.m)
+
+
 def continue_from_hopf(
     model: Model,
     p: np.ndarray,
@@ -321,21 +343,8 @@ def continue_from_hopf(
     amplitude passed through zero), exceeds the amplitude or period limit, or fails
     after the rescues (finer meshes) listed in ``recoveries``.
     """
-    q = hopf.q / hopf.q[model.index("x")]  # x component 1
-    scales = np.maximum(np.abs(q), 1e-6 * np.abs(q).max()) * amplitude_ref + 0.1 * np.abs(hopf.u)
-    period_scale = 2.0 * np.pi / hopf.omega
-    speed_scale = 0.1 * hopf.speed_ms
-    N = settings.n_intervals
-    mesh = np.linspace(0.0, 1.0, N + 1)
-    stepper = _Stepper(model, p, mesh, settings, scales, speed_scale, period_scale)
-    c = stepper.coll
-    tau = (mesh[:-1, None] + np.diff(mesh)[:, None] * c.sch.nodes[None, :-1]).ravel()
-    psi = np.real(q[None, :] * np.exp(2j * np.pi * tau)[:, None]) * amplitude_ref
-    trivial = PeriodicOrbit(mesh, np.tile(hopf.u, (N * c.m, 1)), period_scale, hopf.speed_ms, c.m)
-    X0 = c.pack(trivial)
-    t0 = stepper.unit(np.concatenate([psi.ravel(), [0.0, 0.0]]))
-    phase_ref = PeriodicOrbit(mesh, psi, period_scale, hopf.speed_ms, c.m)
-
+    stepper, X0, t0, phase_ref = _hopf_start(model, p, hopf, settings, amplitude_ref)
+    scales, period_scale = stepper.scales, stepper.period_scale
     branch = Branch(scales=scales)
     ds = settings.ds_initial
     prev: BranchPoint | None = None
@@ -567,6 +576,64 @@ def solve_at_speed(model: Model, p: np.ndarray, guess: PeriodicOrbit, speed: flo
             mu = np.linalg.eigvals(monodromy(CL, CR))
             return BranchPoint(coll.unpack(X), mu, np.zeros(coll.size), it)
         previous = size
+    return None
+
+
+def orbit_between(a: PeriodicOrbit, c: PeriodicOrbit, speed: float) -> PeriodicOrbit:
+    """The orbit at ``speed`` [m/s] interpolated linearly in the speed between two orbits of a
+    branch (on ``a``'s mesh): the guess of Newton at that speed."""
+    s = (speed - a.speed) / (c.speed - a.speed)
+    return replace(a, nodes=(1 - s) * a.nodes + s * c.with_mesh(a.mesh).nodes,
+                   period=(1 - s) * a.period + s * c.period, speed=speed)
+
+
+MAX_STEPS_TO_SPEED = 40
+"""Largest number of arclength steps of :func:`cycle_along_branch`."""
+
+
+def cycle_along_branch(model: Model, p: np.ndarray, start: HopfPoint | BranchPoint, speed: float,
+                       settings: ContinuationSettings = ContinuationSettings(), scales: np.ndarray | None = None,
+                       reverse: bool = False, amplitude_ref: float = 1e-4,
+                       first_step: float | None = None) -> BranchPoint | None:
+    """The cycle at ``speed`` [m/s] on the branch through ``start``, reached along the branch.
+
+    ``start`` is a Hopf point (the branch born there, with the start and norm of
+    :func:`continue_from_hopf`) or a branch point with its tangent, e.g. a fold (then
+    ``scales`` are the state scales of its branch; ``reverse``: along minus the tangent).
+    Pseudo-arclength steps towards ``speed`` until one passes it, then Newton at that
+    speed (:func:`solve_at_speed`) from the two points that bracket it, on a mesh adapted
+    to the interpolated orbit. ``first_step``: arclength of the first step (scaled; default
+    ``settings.ds_initial``), then as the branches' steps. None if a corrector fails at the
+    smallest step, the branch turns away from ``speed`` (a fold) before reaching it, or
+    after :data:`MAX_STEPS_TO_SPEED` steps.
+    """
+    if isinstance(start, BranchPoint):
+        if scales is None:
+            raise ValueError("cycle_along_branch from a branch point needs the state scales of its branch")
+        stepper = _Stepper.near(model, p, start.orbit, start.orbit.speed, scales, settings)
+        X0 = stepper.coll.pack(start.orbit)
+        t0 = (-1.0 if reverse else 1.0) * stepper.unit(start.tangent)
+        phase_ref = start.orbit
+    else:
+        stepper, X0, t0, phase_ref = _hopf_start(model, p, start, settings, amplitude_ref)
+    side = np.sign(speed - X0[-1])
+    ds = settings.ds_initial if first_step is None else first_step
+    c = stepper.coll
+    for _ in range(MAX_STEPS_TO_SPEED):
+        out = stepper.correct(X0, t0, ds, phase_ref)
+        if out is None or stepper.norm(out[0] - X0 - ds * t0) > settings.max_correction * ds:
+            ds *= 0.5
+            if ds < settings.ds_min:
+                return None
+            continue
+        X, t, iterations, _ = out
+        if (speed - X[-1]) * side <= 0.0:  # passed
+            guess = orbit_between(c.unpack(X0), c.unpack(X), speed)
+            return solve_at_speed(model, p, guess.with_mesh(stepper.adapted_mesh(guess, c.N)), speed, settings)
+        if t[-1] * side <= 0.0:
+            return None  # the branch turns away before the speed
+        X0, t0, phase_ref = X, t, c.unpack(X)
+        ds = next_step(ds, iterations, settings.ds_max, grow=1.5, shrink_after=5)
     return None
 
 
