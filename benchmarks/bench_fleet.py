@@ -2,6 +2,7 @@
 Sobol and fleet extrapolations, Dask 1 -> 2 workers, cost growth (nothing is asserted).
 
     .venv/bin/python benchmarks/bench_fleet.py agreement --model axle4dof --samples 200 --pilot 32
+    .venv/bin/python benchmarks/bench_fleet.py agreement --model axle4dof --samples 40 --amplitude-speeds
     .venv/bin/python benchmarks/bench_fleet.py sobol --samples 16
     .venv/bin/python benchmarks/bench_fleet.py fleet --samples 400
     .venv/bin/python benchmarks/bench_fleet.py fleet --samples 100000 --backend processes
@@ -229,9 +230,11 @@ def main() -> None:
     parser.add_argument("--mode", choices=("fast", "full"), action="append",
                         help="sobol: fast band path with pilot, or continuation only (default: both)")
     parser.add_argument("--pilot", type=int, default=32, help="pilot samples (references besides the nominal one)")
+    parser.add_argument("--amplitude-speeds", type=float, nargs="*", default=[80.0, 130.0],
+                        help="agreement: speeds [km/h] of the amplitudes (none: the bands alone, as fleets need)")
     args = parser.parse_args()
     if args.what == "agreement":
-        agreement(args.model, args.samples, args.seed, args.pilot)
+        agreement(args.model, args.samples, args.seed, args.pilot, tuple(args.amplitude_speeds))
     elif args.what == "sobol":
         sobol(args.samples, args.mode or ("fast", "full"))
     elif args.what == "fleet":

@@ -185,3 +185,20 @@ def test_cycles_at_finds_both_cycles_between_the_last_point_and_the_fold(default
     assert not small.stable and large.stable
     assert small.amplitude[0] < fold.amplitude[0] < large.amplitude[0]
     assert default_diagram.cycles_at(fold.speed_kmh + 0.01) == []
+
+
+def test_cycles_at_finds_the_cycle_between_the_hopf_point_and_the_first_point(default_diagram):
+    """Between a soft Hopf point and its branch's first stored point no two points bracket
+    the speed: the cycle is found from the first point scaled by the square-root law, and
+    equals the one reached along the branch from the Hopf point (a second method)."""
+    from polywear.solvers.continuation import cycle_along_branch
+
+    hopf = default_diagram.hopf_points[0]
+    first = default_diagram.branches[0].points[0].orbit.speed * 3.6
+    assert hopf.criticality == "soft" and first > hopf.speed_kmh
+    speed = hopf.speed_kmh + 0.7 * (first - hopf.speed_kmh)
+    (cycle,) = default_diagram.cycles_at(speed)
+    assert cycle.stable and cycle.amplitude[0] > 0.0
+    along = cycle_along_branch(MODEL, MODEL.pack(default_diagram.params), hopf, speed / 3.6)
+    assert along is not None
+    np.testing.assert_allclose(cycle.amplitude[0], along.orbit.amplitude()[0], rtol=1e-6)

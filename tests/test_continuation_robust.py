@@ -153,6 +153,30 @@ def test_a_branch_does_not_jump_past_its_hopf_point_onto_the_same_branch():
     assert d.hard_regions_kmh == [(hard.speed_kmh, fold.speed_kmh)]
 
 
+def test_a_small_cycle_near_its_hopf_point_is_found_at_the_round_off_floor():
+    """Sample 100 of the axle4dof agreement run (docs/fleet.md): at 80 km/h, 0.026 km/h above
+    the soft Hopf point, the stable cycle (x amplitude 9e-6 m) is ill-conditioned; Newton's
+    scaled steps fall quadratically to 1e-9 and then hover at 1e-9-2e-9. The diagram must
+    still find it (it used to report no cycle there) and agree with the cycle reached along
+    the branch from the Hopf point (a second method)."""
+    from polywear.solvers.continuation import cycle_along_branch
+
+    overrides = ["model=axle4dof", "tread.lateral_stiffness_n_per_m=1002181.9826023495",
+                 "tread.lateral_damping_ns_per_m=79.56133749345365", "operating.toe_deg=0.5017503284087396",
+                 "operating.camber_deg=-1.0458789319714568", "friction.mu_static=0.8101796071696489",
+                 "tread.mass_kg=0.9972262030348931", "operating.vertical_load_n=4036.6179043956095"]
+    d = bifurcation_diagram(load_params(overrides=overrides), (20.0, 300.0), extend=False)
+    hopf = d.hopf_points[0]
+    assert hopf.criticality == "soft" and 0.0 < 80.0 - hopf.speed_kmh < 0.05
+    (cycle,) = d.cycles_at(80.0)
+    ix = d.state_names.index("x")
+    assert cycle.stable and 5e-6 < cycle.amplitude[ix] < 2e-5
+    model = get_model("axle4dof")
+    along = cycle_along_branch(model, model.pack(d.params), hopf, 80.0 / 3.6)
+    assert along is not None
+    np.testing.assert_allclose(cycle.amplitude[ix], along.orbit.amplitude()[ix], rtol=1e-6)
+
+
 def test_defaults_do_not_need_rescue():
     """On the default tire the multipliers are resolved on the first mesh: no refinement, no failure."""
     d = bifurcation_diagram(load_params(overrides=[]), (20.0, 300.0), extend=False)

@@ -230,8 +230,10 @@ class BifurcationDiagram(Result):
 
     def cycles_at(self, speed_kmh: float) -> list[CyclePoint]:
         """Every cycle of the diagram at exactly this speed (Newton at fixed speed from the
-        two branch points that bracket it, located folds included), sorted by amplitude of x."""
-        from ..solvers.continuation import orbit_between, solve_at_speed
+        two branch points that bracket it, located folds included, or between a branch's
+        Hopf point and its first point from that point scaled by the square-root law),
+        sorted by amplitude of x."""
+        from ..solvers.continuation import orbit_between, orbit_from_hopf, solve_at_speed
 
         model = get_model(self.params.model)
         p = model.pack(self.params)
@@ -239,11 +241,15 @@ class BifurcationDiagram(Result):
         found = []
         for b, branch in enumerate(self.branches):
             pts = _points_with_folds(branch)
-            for a, c in zip(pts[:-1], pts[1:]):
-                va, vc = a.orbit.speed, c.orbit.speed
-                if not (min(va, vc) <= V <= max(va, vc)) or va == vc:
-                    continue
-                point = solve_at_speed(model, p, orbit_between(a.orbit, c.orbit, V), V, self.settings)
+            guesses = [orbit_between(a.orbit, c.orbit, V) for a, c in zip(pts[:-1], pts[1:])
+                       if min(a.orbit.speed, c.orbit.speed) <= V <= max(a.orbit.speed, c.orbit.speed)
+                       and a.orbit.speed != c.orbit.speed]
+            if pts:  # between the Hopf point and the branch's first point: the square-root law
+                V_hopf, first = kmh_to_ms(self.branch_info[b]["from_hopf_kmh"]), pts[0].orbit
+                if min(V_hopf, first.speed) < V < max(V_hopf, first.speed):
+                    guesses.append(orbit_from_hopf(model, p, first, V_hopf, V))
+            for guess in guesses:
+                point = solve_at_speed(model, p, guess, V, self.settings)
                 if point is not None:
                     found.append(_cycle_point(b, point))
         return sorted(found, key=lambda cp: cp.amplitude[self.state_names.index("x")])

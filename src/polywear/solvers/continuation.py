@@ -48,6 +48,7 @@ __all__ = [
     "Branch",
     "continue_from_hopf",
     "solve_at_speed",
+    "orbit_from_hopf",
     "orbit_between",
     "cycle_along_branch",
     "switching_times",
@@ -547,6 +548,13 @@ def _period_detail(stepper: _Stepper, orbit: PeriodicOrbit) -> str:
             f"state (a homoclinic orbit when this goes to 0)")
 
 
+STALL_FACTOR = 100.0
+""":func:`solve_at_speed` accepts a Newton iteration that stopped shrinking below this many
+times ``settings.newton_tol`` [-]: the round-off floor of a small, ill-conditioned cycle
+near its Hopf point (measured: scaled steps hovering at 1e-9-2e-9 for a 9e-6 m axle4dof
+cycle 0.026 km/h from its Hopf point, after falling quadratically to 1e-9)."""
+
+
 def solve_at_speed(model: Model, p: np.ndarray, guess: PeriodicOrbit, speed: float,
                    settings: ContinuationSettings = ContinuationSettings()) -> BranchPoint | None:
     """The periodic orbit at a fixed speed [m/s] by Newton from ``guess``; a BranchPoint or None.
@@ -570,9 +578,9 @@ def solve_at_speed(model: Model, p: np.ndarray, guess: PeriodicOrbit, speed: flo
         dX, _, CL, CR = out
         X = X + dX
         size = np.max(np.abs(dX / scale))
-        # converged, or at the round-off floor: below 10 tol and no longer halving (a small
-        # cycle near a Hopf point, ill-conditioned, whose steps hover about the tolerance)
-        if size < settings.newton_tol or (size < 10.0 * settings.newton_tol and size > 0.5 * previous):
+        # converged, or at the round-off floor: below STALL_FACTOR tol and no longer halving
+        # (a small cycle near a Hopf point, ill-conditioned, whose steps hover about the tolerance)
+        if size < settings.newton_tol or (size < STALL_FACTOR * settings.newton_tol and size > 0.5 * previous):
             mu = np.linalg.eigvals(monodromy(CL, CR))
             return BranchPoint(coll.unpack(X), mu, np.zeros(coll.size), it)
         previous = size
@@ -585,6 +593,17 @@ def orbit_between(a: PeriodicOrbit, c: PeriodicOrbit, speed: float) -> PeriodicO
     s = (speed - a.speed) / (c.speed - a.speed)
     return replace(a, nodes=(1 - s) * a.nodes + s * c.with_mesh(a.mesh).nodes,
                    period=(1 - s) * a.period + s * c.period, speed=speed)
+
+
+def orbit_from_hopf(model: Model, p: np.ndarray, orbit: PeriodicOrbit, hopf_speed: float,
+                    speed: float) -> PeriodicOrbit:
+    """A cycle of the branch born at a Hopf point at ``hopf_speed`` [m/s] moved to ``speed``
+    [m/s] by the square-root amplitude law: its deviation from the steady state scaled by
+    ``sqrt(|speed - hopf_speed| / |orbit.speed - hopf_speed|)`` about the steady state at
+    ``speed`` (a Newton guess between the Hopf point and the branch's first point)."""
+    ratio = np.sqrt(abs(speed - hopf_speed) / abs(orbit.speed - hopf_speed))
+    nodes = model.equilibrium(speed, p) + ratio * (orbit.nodes - model.equilibrium(orbit.speed, p))
+    return replace(orbit, nodes=nodes, speed=speed)
 
 
 MAX_STEPS_TO_SPEED = 40
