@@ -427,7 +427,12 @@ def test_a_pilot_car_serves_its_hopf_signature():
 
     assert signature([q.center for q in spec.parameter]) == ("soft", "hard")
     assert signature(X[0]) == signature(X[8]) == signature(X[16]) == ("hard", "hard")
-    result = fleet_risk(base, spec, backend="serial")
+    calls = []
+    result = fleet_risk(base, spec, backend="serial", progress=lambda *call: calls.append(call))
+    # the pilot stage (nominal car and car 0) reports first, in its messages, at 0 cars done of 32
+    pilot = [c for c in calls if c[2].startswith("pilot")]
+    assert pilot == calls[:len(pilot)] and pilot[-1] == (0, 32, "pilot: 2 of 2 references by full continuation")
+    assert calls[-1][:2] == (32, 32) and all(a[0] <= b[0] for a, b in zip(calls, calls[1:]))
     s = result.summary()
     assert result.settings["pilot_cars"] == 1 and s["failed_samples"] == 0
     assert result.paths[0] == "pilot" and s["paths"]["pilot"] == 1

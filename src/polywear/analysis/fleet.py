@@ -291,12 +291,12 @@ class FleetEvaluator:
         from .global_sensitivity import sample_params
 
         index, values = item
-        band = self.pilot.get(index)
+        solved = self.pilot.get(index)  # a pilot car's band is known: its whole full diagram
         try:
             params = sample_params(self.params, self.keys, values)
-            whole = band is not None or index % self.band_every == 0
+            whole = solved is not None or index % self.band_every == 0
             verdict = None if whole else self.solver.usage_verdict(params, self.usage_speeds_kmh)
-            band = band if band is not None or verdict is not None else self.solver(params)
+            band = solved if solved is not None or verdict is not None else self.solver(params)
         except Exception as exc:  # invalid parameters or a numerical failure: recorded, never dropped
             return (np.nan,) * len(OUTPUTS), CarOutcome(failure=type(exc).__name__, detail=str(exc))
         efold = self._efold(params) if self.wear else np.nan
@@ -306,8 +306,9 @@ class FleetEvaluator:
             at_risk, hard, first = verdict
             return (first, np.nan, float(at_risk), float(hard), 1.0, efold), CarOutcome(path="hopf")
         inside = lambda intervals: any(a <= v <= b for v in self.usage_speeds_kmh for a, b in intervals)
-        outcome = CarOutcome(path="pilot" if index in self.pilot else "fast")
-        if band.path != "fast" and index not in self.pilot:  # the fast path was tried first, so the reason is set
+        if solved is not None or band.path == "fast":
+            outcome = CarOutcome(path="fast" if solved is None else "pilot")
+        else:  # the fast path was tried first, so the reason is set
             outcome = CarOutcome(path="full", fallback=band.reason.value, fallback_detail=band.detail)
         return (band.first_bifurcation_kmh, band.second_bifurcation_kmh, float(inside(band.sev_band_kmh)),
                 float(inside(band.hard_regions_kmh)), float(band.path == "fast"), efold), outcome
