@@ -7,6 +7,7 @@ Sobol and fleet extrapolations, Dask 1 -> 2 workers, cost growth (nothing is ass
     .venv/bin/python benchmarks/bench_fleet.py fleet --samples 100000 --backend processes
     .venv/bin/python benchmarks/bench_fleet.py fleet --model axle4dof --samples 3000 --backend serial
     .venv/bin/python benchmarks/bench_fleet.py pilot --model axle4dof --samples 300
+    .venv/bin/python benchmarks/bench_fleet.py pilot --model axle4dof --samples 300 --band-every 100
     .venv/bin/python benchmarks/bench_fleet.py dask --samples 200
     .venv/bin/python benchmarks/bench_fleet.py growth
 
@@ -153,9 +154,9 @@ def _fleet_spec(n, n_params=7, seed=1) -> FleetSpec:
                      speed_range_kmh=(10.0, 600.0))
 
 
-def _fleet_reference(spec, base=Params()):
+def _fleet_reference(spec, base: Params | None = None):
     """The nominal car's reference, as fleet_risk makes it (made once, outside the timings)."""
-    nominal = sample_params(base, [q.key for q in spec.parameter], [q.center for q in spec.parameter])
+    nominal = sample_params(base or Params(), [q.key for q in spec.parameter], [q.center for q in spec.parameter])
     return band_reference(bifurcation_diagram(nominal, spec.speed_range_kmh, **_FIXED_RANGE))
 
 
@@ -185,13 +186,13 @@ def fleet(n: int, backends, model: str = "tread1dof") -> None:
                   f"risk {s['risk_probability']:.3f} {s['risk_ci']}; 1e5 cars: wall ~{dt * 1e5 / size / 60:.1f} min")
 
 
-def pilot(n: int, model: str) -> None:
-    """n cars of the model with whole bands (band_every = 1), serial, in this process: warm
-    started from the nominal reference alone, then from the pilot stage's references too.
+def pilot(n: int, model: str, band_every: int = 1) -> None:
+    """n cars of the model (whole bands for every ``band_every``-th), serial, in this process:
+    warm started from the nominal reference alone, then from the pilot stage's references too.
     CPU per car (the pilot stage included, the nominal reference not), cars per path and
     fallbacks by reason; the cars' numbers where both runs took the same path."""
     base = with_updates(Params(), {"model": model})
-    spec = _fleet_spec(n)
+    spec = _fleet_spec(n).model_copy(update={"band_every": band_every})
     reference = _fleet_reference(spec, base)
     runs = {}
     for use_pilot in (False, True):
@@ -199,7 +200,8 @@ def pilot(n: int, model: str) -> None:
         runs[use_pilot] = result = fleet_risk(base, spec, backend="serial", reference=reference, pilot=use_pilot)
         dc = time.process_time() - c
         s = result.summary()
-        print(f"{model} fleet of {n}, {'with the pilot stage' if use_pilot else 'nominal reference alone'}: "
+        print(f"{model} fleet of {n}, band_every {band_every}, "
+              f"{'with the pilot stage' if use_pilot else 'nominal reference alone'}: "
               f"CPU {dc:.1f} s = {1e3 * dc / n:.0f} ms per car; paths {s['paths']}, "
               f"fallbacks {s['fallback_reasons']}, failed {s['failed_samples']}; risk {s['risk_probability']:.4f}")
     before, after = runs[False], runs[True]
@@ -258,6 +260,7 @@ def main() -> None:
     parser.add_argument("--mode", choices=("fast", "full"), action="append",
                         help="sobol: fast band path with pilot, or continuation only (default: both)")
     parser.add_argument("--pilot", type=int, default=32, help="pilot samples (references besides the nominal one)")
+    parser.add_argument("--band-every", type=int, default=1, help="pilot: whole bands for every k-th car")
     args = parser.parse_args()
     if args.what == "agreement":
         agreement(args.model, args.samples, args.seed, args.pilot)
@@ -266,7 +269,7 @@ def main() -> None:
     elif args.what == "fleet":
         fleet(args.samples, args.backend or ("serial", "processes"), args.model)
     elif args.what == "pilot":
-        pilot(args.samples, args.model)
+        pilot(args.samples, args.model, args.band_every)
     elif args.what == "dask":
         dask(args.samples)
     else:
