@@ -6,6 +6,9 @@ Sobol and fleet extrapolations, Dask 1 -> 2 workers, cost growth (nothing is ass
     .venv/bin/python benchmarks/bench_fleet.py sobol --samples 16
     .venv/bin/python benchmarks/bench_fleet.py fleet --samples 400
     .venv/bin/python benchmarks/bench_fleet.py fleet --samples 100000 --backend processes
+    .venv/bin/python benchmarks/bench_fleet.py fleet --model axle4dof --samples 3000 --backend serial
+    .venv/bin/python benchmarks/bench_fleet.py pilot --model axle4dof --samples 300
+    .venv/bin/python benchmarks/bench_fleet.py pilot --model axle4dof --samples 300 --band-every 100
     .venv/bin/python benchmarks/bench_fleet.py dask --samples 200
     .venv/bin/python benchmarks/bench_fleet.py growth
 
@@ -152,9 +155,9 @@ def _fleet_spec(n, n_params=7, seed=1) -> FleetSpec:
                      speed_range_kmh=(10.0, 600.0))
 
 
-def _fleet_reference(spec):
+def _fleet_reference(spec, base: Params | None = None):
     """The nominal car's reference, as fleet_risk makes it (made once, outside the timings)."""
-    nominal = sample_params(Params(), [q.key for q in spec.parameter], [q.center for q in spec.parameter])
+    nominal = sample_params(base or Params(), [q.key for q in spec.parameter], [q.center for q in spec.parameter])
     return band_reference(bifurcation_diagram(nominal, spec.speed_range_kmh, **_FIXED_RANGE))
 
 
@@ -162,25 +165,53 @@ WHOLE_BAND_CARS = 400
 """At most this many cars in the whole-band run (``band_every = 1``, ~0.1 s per car)."""
 
 
-def fleet(n: int, backends) -> None:
+def fleet(n: int, backends, model: str = "tread1dof") -> None:
     """Whole bands for every car (on n // 10 cars, at most WHOLE_BAND_CARS), and for every
     100th (band_every = 100: the others get the Hopf points and only the folds their risk
     needs) on n cars, on each backend (serial, 2 local processes). Wall time, CPU per car
-    (this process and the pool's workers: ``getrusage`` of the children waited for) and
-    cars per path."""
-    reference = _fleet_reference(_fleet_spec(n))
+    (this process and the pool's workers: ``getrusage`` of the children waited for; the
+    pilot stage included, the nominal reference not) and cars per path."""
+    base = with_updates(Params(), {"model": model})
+    reference = _fleet_reference(_fleet_spec(n), base)
     for every, size in ((1, min(n // 10, WHOLE_BAND_CARS)), (100, n)):
         spec = _fleet_spec(size).model_copy(update={"band_every": every})
         for backend in backends:
             workers = 1 if backend == "serial" else 2
             c, t = _cpu(), time.perf_counter()
-            result = fleet_risk(Params(), spec, backend=backend, workers=workers, reference=reference)
+            result = fleet_risk(base, spec, backend=backend, workers=workers, reference=reference)
             dt, dc = time.perf_counter() - t, _cpu() - c
             s = result.summary()
-            print(f"tread1dof fleet of {size}, band_every {every}, {backend} ({workers}): wall {dt:.1f} s = "
+            print(f"{model} fleet of {size}, band_every {every}, {backend} ({workers}): wall {dt:.1f} s = "
                   f"{1e3 * dt / size:.2f} ms per car, CPU {1e3 * dc / size:.2f} ms per car; paths {s['paths']}, "
                   f"fallbacks {s['fallback_reasons']}, failed {s['failed_samples']}; "
                   f"risk {s['risk_probability']:.3f} {s['risk_ci']}; 1e5 cars: wall ~{dt * 1e5 / size / 60:.1f} min")
+
+
+def pilot(n: int, model: str, band_every: int = 1) -> None:
+    """n cars of the model (whole bands for every ``band_every``-th), serial, in this process:
+    warm started from the nominal reference alone, then from the pilot stage's references too.
+    CPU per car (the pilot stage included, the nominal reference not), cars per path and
+    fallbacks by reason; the cars' numbers where both runs took the same path."""
+    base = with_updates(Params(), {"model": model})
+    spec = _fleet_spec(n).model_copy(update={"band_every": band_every})
+    reference = _fleet_reference(spec, base)
+    runs = {}
+    for use_pilot in (False, True):
+        c = time.process_time()
+        runs[use_pilot] = result = fleet_risk(base, spec, backend="serial", reference=reference, pilot=use_pilot)
+        dc = time.process_time() - c
+        s = result.summary()
+        print(f"{model} fleet of {n}, band_every {band_every}, "
+              f"{'with the pilot stage' if use_pilot else 'nominal reference alone'}: "
+              f"CPU {dc:.1f} s = {1e3 * dc / n:.0f} ms per car; paths {s['paths']}, "
+              f"fallbacks {s['fallback_reasons']}, failed {s['failed_samples']}; risk {s['risk_probability']:.4f}")
+    before, after = runs[False], runs[True]
+    same = np.array([a == b for a, b in zip(before.paths, after.paths)])
+    both = same & before.ok & after.ok
+    at_risk = np.sum(before.values[:, 2] != after.values[:, 2])
+    speeds = np.abs(before.values[both, :2] - after.values[both, :2]) / np.abs(before.values[both, :2])
+    print(f"  at-risk flags that differ: {at_risk} of {n}; bifurcation speeds of the {both.sum()} cars on the same "
+          f"path in both runs: largest relative difference {np.nanmax(speeds, initial=0.0):.1e}")
 
 
 def dask(n: int) -> None:
@@ -221,7 +252,7 @@ def growth() -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("what", choices=("agreement", "sobol", "fleet", "dask", "growth"))
+    parser.add_argument("what", choices=("agreement", "sobol", "fleet", "pilot", "dask", "growth"))
     parser.add_argument("--model", default="tread1dof")
     parser.add_argument("--samples", type=int, default=200)
     parser.add_argument("--seed", type=int, default=20261201)
@@ -232,13 +263,16 @@ def main() -> None:
     parser.add_argument("--pilot", type=int, default=32, help="pilot samples (references besides the nominal one)")
     parser.add_argument("--amplitude-speeds", type=float, nargs="*", default=[80.0, 130.0],
                         help="agreement: speeds [km/h] of the amplitudes (none: the bands alone, as fleets need)")
+    parser.add_argument("--band-every", type=int, default=1, help="pilot: whole bands for every k-th car")
     args = parser.parse_args()
     if args.what == "agreement":
         agreement(args.model, args.samples, args.seed, args.pilot, tuple(args.amplitude_speeds))
     elif args.what == "sobol":
         sobol(args.samples, args.mode or ("fast", "full"))
     elif args.what == "fleet":
-        fleet(args.samples, args.backend or ("serial", "processes"))
+        fleet(args.samples, args.backend or ("serial", "processes"), args.model)
+    elif args.what == "pilot":
+        pilot(args.samples, args.model, args.band_every)
     elif args.what == "dask":
         dask(args.samples)
     else:

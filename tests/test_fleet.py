@@ -1,8 +1,9 @@
 """Fleet risk: spec validation (one-line errors), distributions and the copula against
 scipy and closed forms, exact binomial intervals that cover, risk against the toe law of
 tread1dof, paths and fallback reasons counted, failed cars listed with their reasons,
-bit-identical resume, the same numbers on serial, processes and Dask, and on a Dask
-cluster that loses a worker in the middle of the run."""
+the pilot stage's references serving cars of another Hopf signature, bit-identical
+resume, the same numbers on serial, processes and Dask, and on a Dask cluster that loses
+a worker in the middle of the run."""
 
 from __future__ import annotations
 
@@ -14,10 +15,11 @@ import pytest
 from scipy import stats
 
 from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.fast_band import _FIXED_RANGE, band_reference
+from polywear.analysis.fast_band import _FIXED_RANGE, FastBand, band_reference
 from polywear.analysis.fleet import (
     CAR_FIELDS,
     CarOutcome,
+    FleetEvaluator,
     FleetResult,
     FleetSpec,
     fleet_risk,
@@ -25,7 +27,7 @@ from polywear.analysis.fleet import (
     main_effects,
     sample_fleet,
 )
-from polywear.params import ParameterError, Params
+from polywear.params import ParameterError, Params, with_updates
 
 from .cli_runner import run_main
 
@@ -168,7 +170,8 @@ def test_risk_matches_the_toe_law(tmp_path, reference):
     result = fleet_risk(Params(), spec, backend="serial", reference=reference)
     s = result.summary()
     assert s["failed_samples"] == 0 and s["failed_cars"] == [] and s["fallback_reasons"] == {}
-    assert s["paths"] == {"hopf": 0, "fast": 40, "full": 0} and result.paths == ["fast"] * 40
+    assert s["paths"] == {"hopf": 0, "fast": 39, "full": 0, "pilot": 1}  # car 0: the pilot stage's (1 per 32)
+    assert result.paths == ["pilot"] + ["fast"] * 39
     band = reference.band
     v1, v2 = band.first_bifurcation_kmh, band.second_bifurcation_kmh
     s0 = math.sin(math.radians(0.5))
@@ -204,34 +207,48 @@ def test_band_every_keeps_risk_exact(tmp_path, reference):
 
 @pytest.mark.slow
 def test_resume_is_bit_identical(tmp_path, reference):
-    spec = _spec(tmp_path, samples=10, every=4)
+    """40 cars (car 0 the pilot car), checkpoints every 16: interrupted after 32, resumed
+    (the pilot stage solved again) to the same numbers, statuses and paths. A checkpoint of
+    another spec, of an older polywear (no pilot stage) or with other pilot cars is refused."""
+    text = TOE_SPEC.replace("[[fleet.parameter]]", "band_every = 2\n[[fleet.parameter]]", 1)
+    spec = _spec(tmp_path, samples=40, every=16, text=text)
     whole = fleet_risk(Params(), spec, backend="serial", reference=reference)
-    seen = []
+    assert whole.paths[0] == "pilot" and whole.summary()["paths"]["pilot"] == 1
 
     def interrupt(done, total, message=""):  # after the second chunk is computed, before its checkpoint is written
-        seen.append(done)
-        if done >= 8:
+        if done >= 32:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
         fleet_risk(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path,
                    progress=interrupt, batch_size=4)
-    assert int(np.load(tmp_path / "fleet_checkpoint.npz")["done"]) == 4
+    ckpt = tmp_path / "fleet_checkpoint.npz"
+    assert int(np.load(ckpt)["done"]) == 16
+    np.testing.assert_array_equal(np.load(ckpt)["pilot"], [0])
     resumed = fleet_risk(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path,
                          resume=True)
     np.testing.assert_array_equal(whole.values, resumed.values)
     assert whole.status == resumed.status and whole.paths == resumed.paths
-    other = _spec(tmp_path, samples=10, every=4, seed=99)
+    other = _spec(tmp_path, samples=40, every=16, seed=99, text=text)
     with pytest.raises(ParameterError, match="checkpoint of another"):
         fleet_risk(Params(), other, backend="serial", reference=reference, checkpoint_dir=tmp_path, resume=True)
+    with pytest.raises(ParameterError, match="other pilot cars"):  # written with the pilot stage, resumed without
+        fleet_risk(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path, resume=True,
+                   pilot=False)
+    data = dict(np.load(ckpt))
+    np.savez(ckpt, **{name: value for name, value in data.items() if name != "pilot"})
+    with pytest.raises(ParameterError, match="older polywear [(]no pilot stage[)]"):
+        fleet_risk(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path, resume=True)
 
 
 @pytest.mark.slow
 def test_same_numbers_on_serial_processes_and_dask(tmp_path, reference):
     from distributed import LocalCluster
 
-    spec = _spec(tmp_path, samples=8, every=8)
+    text = TOE_SPEC.replace("[[fleet.parameter]]", "band_every = 4\n[[fleet.parameter]]", 1)
+    spec = _spec(tmp_path, samples=32, every=32, text=text)  # car 0: the pilot car, solved on each backend
     serial = fleet_risk(Params(), spec, backend="serial", reference=reference)
+    assert serial.paths[0] == "pilot"
     processes = fleet_risk(Params(), spec, backend="processes", workers=2, reference=reference)
     np.testing.assert_array_equal(serial.values, processes.values)
     environ = dict(os.environ)  # the nannies write their workers' OMP/OPENBLAS_NUM_THREADS=1 etc. into ours
@@ -279,7 +296,7 @@ def test_cli_json_summary(tmp_path):
     s = json.loads(out)
     assert s["n_samples"] == 3 and s["failed_samples"] == 0 and s["failures"] == {} and s["failed_cars"] == []
     assert 0.0 <= s["risk_ci"][0] <= s["risk_probability"] <= s["risk_ci"][1] <= 1.0
-    assert sum(s["paths"].values()) == 3 and set(s["paths"]) == {"hopf", "fast", "full"}
+    assert sum(s["paths"].values()) == 3 and set(s["paths"]) == {"hopf", "fast", "full", "pilot"}
     assert s["fallback_reasons"] == {}
     assert (tmp_path / "fleet.nc").exists()
 
@@ -310,24 +327,25 @@ def test_cli_resume_is_bit_identical(tmp_path):
 def test_paths_and_fallback_reasons_are_counted():
     """Summary: cars per path over the evaluated cars, fallbacks by reason tag, failed cars
     counted by kind and listed (index and whole reason)."""
-    spec = FleetSpec(samples=7, parameter=MARGINALS[:1], usage=[{"speed_kmh": 100.0, "share": 1.0}])
-    outcomes = [CarOutcome(path="hopf"), CarOutcome(path="fast"),
+    spec = FleetSpec(samples=8, parameter=MARGINALS[:1], usage=[{"speed_kmh": 100.0, "share": 1.0}])
+    outcomes = [CarOutcome(path="pilot"), CarOutcome(path="hopf"), CarOutcome(path="fast"),
                 CarOutcome(path="full", fallback="fold_out_of_range", fallback_detail="fold 1 at 612.3 km/h, outside the speed range"),
                 CarOutcome(path="full", fallback="fold_out_of_range", fallback_detail="fold 1 at 640.0 km/h, outside the speed range"),
                 CarOutcome(path="full", fallback="hopf_signature", fallback_detail="('soft',) vs ('soft', 'hard')"),
                 CarOutcome(failure="ValueError", detail="tread.mass_kg must be > 0"),
                 CarOutcome(failure="ValueError", detail="other")]
-    result = FleetResult(Params(), spec, np.zeros((7, 1)), np.zeros((7, 6)), outcomes)
-    status = ["ok"] * 5 + ["failed: ValueError: tread.mass_kg must be > 0", "failed: ValueError: other"]
+    result = FleetResult(Params(), spec, np.zeros((8, 1)), np.zeros((8, 6)), outcomes)
+    status = ["ok"] * 6 + ["failed: ValueError: tread.mass_kg must be > 0", "failed: ValueError: other"]
     assert result.status == status  # the texts of the files, composed from the fields
-    assert result.paths == ["hopf", "fast", "full: fold_out_of_range: fold 1 at 612.3 km/h, outside the speed range",
+    assert result.paths == ["pilot", "hopf", "fast",
+                            "full: fold_out_of_range: fold 1 at 612.3 km/h, outside the speed range",
                             "full: fold_out_of_range: fold 1 at 640.0 km/h, outside the speed range",
                             "full: hopf_signature: ('soft',) vs ('soft', 'hard')", "", ""]
     s = result.summary()
-    assert s["paths"] == {"hopf": 1, "fast": 1, "full": 3}
+    assert s["paths"] == {"hopf": 1, "fast": 1, "full": 3, "pilot": 1}
     assert s["fallback_reasons"] == {"fold_out_of_range": 2, "hopf_signature": 1}
     assert s["failed_samples"] == 2 and s["failures"] == {"ValueError": 2}
-    assert s["failed_cars"] == [{"car": 5, "reason": status[5]}, {"car": 6, "reason": status[6]}]
+    assert s["failed_cars"] == [{"car": 6, "reason": status[6]}, {"car": 7, "reason": status[7]}]
 
 
 FAST_AND_FULL = """
@@ -377,7 +395,7 @@ def test_fallbacks_and_failures_per_car(tmp_path):
     failed = np.flatnonzero(~ok)
     assert s["failed_samples"] == len(failed) and [c["car"] for c in s["failed_cars"]] == failed.tolist()
     assert all("inertia_x_kgm2" in c["reason"] for c in s["failed_cars"])
-    assert s["paths"] == {"hopf": 0, "fast": int(np.sum(ok & ~outside)), "full": int(np.sum(ok & outside))}
+    assert s["paths"] == {"hopf": 0, "fast": int(np.sum(ok & ~outside)), "full": int(np.sum(ok & outside)), "pilot": 0}
     assert s["fallback_reasons"] == {"fold_out_of_range": int(np.sum(ok & outside))}
     table = pd.read_csv(tmp_path / "fleet.csv", keep_default_na=False)
     assert [p.split(": ")[0] for p in table["path"]] == ["" if not o else "full" if x else "fast"
@@ -385,10 +403,53 @@ def test_fallbacks_and_failures_per_car(tmp_path):
 
 
 @pytest.mark.slow
+def test_a_pilot_car_serves_its_hopf_signature():
+    """axle4dof: mu_s 0.9 (3 of 4 cars; the nominal car's 0.911 too) gives soft and hard
+    Hopf points, 0.945 two hard ones (a Bautin point crossed). Seed 6 makes car 0, the pilot
+    car of 32, one of 0.945: it keeps its full diagram (path "pilot", the numbers the full
+    path gives it), and the other cars of its Hopf signature start from it: cars 8 and 16
+    (whole bands, band_every = 8) take the fast path, where the nominal reference alone has
+    none of their signature (every such car fell back with hopf_signature)."""
+    from polywear.analysis.global_sensitivity import sample_params
+    from polywear.analysis.stability import stability_analysis
+
+    base = with_updates(Params(), {"model": "axle4dof"})
+    spec = FleetSpec(samples=32, seed=6, band_every=8, speed_range_kmh=(10.0, 600.0), usage=[
+        {"speed_kmh": 110.0, "share": 1.0}], parameter=[
+        {"key": "friction.mu_static", "distribution": "discrete", "values": [0.9, 0.945], "weights": [3, 1]},
+        {"key": "operating.toe_deg", "distribution": "normal", "mean": 0.5, "std": 0.01}])
+    keys = [q.key for q in spec.parameter]
+    X = sample_fleet(spec)
+    assert X[0, 0] == X[8, 0] == X[16, 0] == 0.945 and X[24, 0] == 0.9
+
+    def signature(values):
+        return tuple(h.criticality for h in stability_analysis(sample_params(base, keys, values), (10.0, 600.0)).hopf_points)
+
+    assert signature([q.center for q in spec.parameter]) == ("soft", "hard")
+    assert signature(X[0]) == signature(X[8]) == signature(X[16]) == ("hard", "hard")
+    calls = []
+    result = fleet_risk(base, spec, backend="serial", progress=lambda *call: calls.append(call))
+    # the pilot stage (nominal car and car 0) reports first, in its messages, at 0 cars done of 32
+    pilot = [c for c in calls if c[2].startswith("pilot")]
+    assert pilot == calls[:len(pilot)] and pilot[-1] == (0, 32, "pilot: 2 of 2 references by full continuation")
+    assert calls[-1][:2] == (32, 32) and all(a[0] <= b[0] for a, b in zip(calls, calls[1:]))
+    s = result.summary()
+    assert result.settings["pilot_cars"] == 1 and s["failed_samples"] == 0
+    assert result.paths[0] == "pilot" and s["paths"]["pilot"] == 1
+    assert result.paths[8] == result.paths[16] == "fast" and result.paths[24] in ("fast", "hopf")
+    assert "hopf_signature" not in s["fallback_reasons"]
+    alone = FleetEvaluator(base, tuple(keys), FastBand((), speed_range_kmh=(10.0, 600.0)), (110.0,), band_every=8)
+    values, outcome = alone((0, X[0]))  # no reference at all: the full path
+    assert outcome.path == "full" and outcome.fallback == "no_reference"
+    np.testing.assert_array_equal(values, result.values[0])
+
+
+@pytest.mark.slow
 def test_dask_fleet_survives_a_killed_worker(tmp_path, reference):
     """300 cars in 30 tasks on a scheduler and two workers (subprocesses on 127.0.0.1); one
     worker is killed (SIGKILL) when the first task is back: its running and held tasks are
-    recomputed on the other, and every car's numbers, status and path are the serial run's."""
+    recomputed on the other, and every car's numbers, status and path are the serial run's
+    (the 9 pilot cars are solved first, on both workers)."""
     from .test_parallel import DASK, Cluster
 
     if not DASK.exists():
@@ -401,6 +462,8 @@ def test_dask_fleet_survives_a_killed_worker(tmp_path, reference):
         victim, done = cluster.workers[1], []
 
         def kill_after_first_task(n, total, message=""):
+            if message.startswith("pilot"):  # the pilot stage, before the cars
+                return
             done.append(n)
             if len(done) == 1:
                 victim.kill()

@@ -70,7 +70,7 @@ from ..solvers.continuation import (BranchPoint, ContinuationSettings, cycle_alo
 from .points import PointKind
 
 __all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "band_from_diagram", "band_reference",
-           "pilot_indices", "pilot_references", "pilot_size"]
+           "Pilot", "pilot_indices", "pilot_references", "pilot_size", "pilot_stage"]
 
 
 def _fixed_range() -> dict:
@@ -402,12 +402,58 @@ def pilot_references(params_list, speed_range_kmh=DEFAULT_SPEED_RANGE_KMH, ampli
 
     Returns (the references, usable or not, and the messages of the pilots that failed).
     """
+    results = _solved(params_list, speed_range_kmh, amplitude_speeds_kmh, settings, **map_options)
+    return tuple(r for r in results if isinstance(r, BandReference)), [r for r in results if isinstance(r, str)]
+
+
+def _solved(params_list, speed_range_kmh, amplitude_speeds_kmh=(), settings: ContinuationSettings | None = None,
+            **map_options) -> list:
+    """Per parameter set, in order: its :class:`BandReference` or why it failed."""
     from ..parallel import map_batched
 
     task = _PilotReference(tuple(speed_range_kmh), tuple(float(v) for v in amplitude_speeds_kmh),
                            settings or ContinuationSettings())
-    results = map_batched(task, list(params_list), **map_options)
-    return tuple(r for r in results if isinstance(r, BandReference)), [r for r in results if isinstance(r, str)]
+    return map_batched(task, list(params_list), **map_options)
+
+
+@dataclass(frozen=True)
+class Pilot:
+    """The outcome of :func:`pilot_stage`."""
+
+    references: tuple[BandReference, ...]
+    """The nominal set's (first, when solved) and the pilot samples', usable or not."""
+    samples: dict[int, BandReference]
+    """Sample index -> its reference, for the pilot samples solved (their full diagrams)."""
+    nominal: BandReference | None
+    """The nominal set's reference (None: it failed, the first of ``failed`` says why)."""
+    failed: tuple[str, ...] = ()
+    """Why the pilots that failed did (the nominal set's first, if it failed)."""
+
+
+def pilot_stage(base: Params, keys, X, nominal: Params | BandReference, speed_range_kmh=DEFAULT_SPEED_RANGE_KMH,
+                amplitude_speeds_kmh=(), **map_options) -> Pilot:
+    """The pilot stage of a study or fleet: the nominal set and the :func:`pilot_size`
+    samples at :func:`pilot_indices` of the design ``X`` (rows of values of ``keys``, set
+    on ``base``) by the full continuation (:func:`pilot_references`). ``nominal`` is a
+    parameter set, or its reference when already solved. A sample that is no valid
+    parameter set is left out (the study or fleet records it with its own evaluation)."""
+    from ..params import ParameterError
+    from .global_sensitivity import sample_params
+
+    todo: dict[int, Params] = {}
+    for i in pilot_indices(len(X), pilot_size(len(X))):
+        try:
+            todo[int(i)] = sample_params(base, keys, X[i])
+        except ParameterError:
+            continue
+    given = isinstance(nominal, BandReference)
+    results = _solved(([] if given else [nominal]) + list(todo.values()), speed_range_kmh, amplitude_speeds_kmh,
+                      **map_options)
+    first = nominal if given else results.pop(0)
+    samples = {i: r for i, r in zip(todo, results) if isinstance(r, BandReference)}
+    return Pilot(references=tuple(r for r in (first, *results) if isinstance(r, BandReference)), samples=samples,
+                 nominal=first if isinstance(first, BandReference) else None,
+                 failed=tuple(r for r in (first, *results) if isinstance(r, str)))
 
 
 # -- the fast path ------------------------------------------------------------------------------------

@@ -9,7 +9,11 @@ correlation of the normal scores), the usage profile (share of the distance by s
 the sample size and the seed.
 
 Per car the band comes from :class:`~polywear.analysis.fast_band.FastBand` (fast path
-from the nominal car, full continuation as fallback). A car is *at risk* when its SEV
+from the nearest reference with the car's Hopf signature, full continuation as
+fallback). The references come from a pilot stage
+(:func:`~polywear.analysis.fast_band.pilot_stage`, as in studies): the nominal car and
+evenly spaced cars of the sample (one per 32, at most 32) by the full continuation; those
+cars keep their full diagrams as their results (path ``"pilot"``). A car is *at risk* when its SEV
 band (hard regions included) contains a speed of the usage profile with a positive
 share; it has *hard excitation* when such a speed lies in a hard region (stable rolling
 there, but a disturbance starts SEV). The risk probability gets an exact binomial
@@ -19,10 +23,11 @@ speeds gives the shortest e-folding distance of any polygon order where rolling 
 stable; the wear share is the share of cars where it is below the mileage.
 
 Reproducibility: all samples are drawn in the calling process from
-``numpy.random.SeedSequence(seed)`` before any evaluation, and every car is evaluated
-independently of the others (warm start from the fixed nominal reference), so the
-result does not depend on the backend, the number of workers or on resuming from a
-checkpoint: it is bit-identical.
+``numpy.random.SeedSequence(seed)`` before any evaluation, the pilot stage depends on
+the samples alone, and every other car is evaluated independently of the others (warm
+start from the fixed references), so the result does not depend on the backend, the
+number of workers or on resuming from a checkpoint (a resumed run solves the same pilot
+again): it is bit-identical.
 
 Drivers of the risk: first-order (main-effect) indices of the risk indicator from the
 same samples, by the given-data binning estimator ``Var(E[Y | X_i]) / Var(Y)`` with
@@ -55,10 +60,11 @@ OUTPUTS = ("first_bifurcation_kmh", "second_bifurcation_kmh", "at_risk", "hard_a
            "wear_efold_km")
 N_BINS = 20
 """Equal-probability bins of the main-effect estimator."""
-PATHS = ("hopf", "fast", "full")
+PATHS = ("hopf", "fast", "full", "pilot")
 """How a car's risk was decided: the Hopf points alone (``FastBand.usage_verdict``), the
-fast band path, or the full continuation (a fallback, with its
-:class:`~polywear.analysis.fast_band.FallbackReason`)."""
+fast band path, the full continuation (a fallback, with its
+:class:`~polywear.analysis.fast_band.FallbackReason`), or the full continuation of the
+pilot stage (the car is a reference)."""
 CAR_FIELDS = ("failure", "detail", "path", "fallback", "fallback_detail")
 """The fields of :class:`CarOutcome`, stored per car in the checkpoint."""
 
@@ -277,16 +283,20 @@ class FleetEvaluator:
     usage_speeds_kmh: tuple[float, ...]
     wear: bool = False
     band_every: int = 1
+    pilot: dict = field(default_factory=dict)
+    """Car index -> its :class:`~polywear.analysis.fast_band.Band` from the pilot stage (its full diagram)."""
 
     def __call__(self, item) -> tuple[tuple[float, ...], CarOutcome]:
         """``item = (car index, parameter values)``."""
         from .global_sensitivity import sample_params
 
         index, values = item
+        solved = self.pilot.get(index)  # a pilot car's band is known: its whole full diagram
         try:
             params = sample_params(self.params, self.keys, values)
-            verdict = None if index % self.band_every == 0 else self.solver.usage_verdict(params, self.usage_speeds_kmh)
-            band = None if verdict is not None else self.solver(params)
+            whole = solved is not None or index % self.band_every == 0
+            verdict = None if whole else self.solver.usage_verdict(params, self.usage_speeds_kmh)
+            band = solved if solved is not None or verdict is not None else self.solver(params)
         except Exception as exc:  # invalid parameters or a numerical failure: recorded, never dropped
             return (np.nan,) * len(OUTPUTS), CarOutcome(failure=type(exc).__name__, detail=str(exc))
         efold = self._efold(params) if self.wear else np.nan
@@ -296,8 +306,9 @@ class FleetEvaluator:
             at_risk, hard, first = verdict
             return (first, np.nan, float(at_risk), float(hard), 1.0, efold), CarOutcome(path="hopf")
         inside = lambda intervals: any(a <= v <= b for v in self.usage_speeds_kmh for a, b in intervals)
-        outcome = CarOutcome(path="fast")
-        if band.path != "fast":  # the fast path was tried first, so the reason is set
+        if solved is not None or band.path == "fast":
+            outcome = CarOutcome(path="fast" if solved is None else "pilot")
+        else:  # the fast path was tried first, so the reason is set
             outcome = CarOutcome(path="full", fallback=band.reason.value, fallback_detail=band.detail)
         return (band.first_bifurcation_kmh, band.second_bifurcation_kmh, float(inside(band.sev_band_kmh)),
                 float(inside(band.hard_regions_kmh)), float(band.path == "fast"), efold), outcome
@@ -353,7 +364,8 @@ class FleetResult(Result):
 
     @property
     def paths(self) -> list[str]:
-        """Per car: ``"hopf"``, ``"fast"``, ``"full: <reason>: <message>"`` or ``""`` (failed); see :data:`PATHS`."""
+        """Per car: ``"hopf"``, ``"fast"``, ``"full: <reason>: <message>"``, ``"pilot"`` or ``""`` (failed);
+        see :data:`PATHS`."""
         return [c.path_text for c in self.outcomes]
 
     @property
@@ -533,40 +545,64 @@ def _checkpoint_path(out_dir: Path) -> Path:
     return Path(out_dir) / "fleet_checkpoint.npz"
 
 
+def _pilot_progress(progress: Progress | None, done: int, samples: int) -> Progress | None:
+    """The pilot stage's progress as messages at ``done`` of ``samples`` cars (no car is finished by it)."""
+    if progress is None:
+        return None
+    forward = progress
+
+    def pilot(k: float, n: float | None, message: str = "") -> None:
+        forward(done, samples, f"pilot: {k:.0f} of {n} references by full continuation")
+
+    return pilot
+
+
 def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", workers: int | None = None,
                scheduler: str | None = None, batch_size: int | None = None, checkpoint_dir: str | Path | None = None,
                resume: bool = False, progress: Progress | None = None,
-               reference: BandReference | None = None) -> FleetResult:
+               reference: BandReference | None = None, pilot: bool = True) -> FleetResult:
     """Evaluate the fleet; with ``checkpoint_dir`` save every ``spec.checkpoint_every`` cars
     (``resume`` continues from the checkpoint, which must belong to the same params and spec).
     Every round of ``checkpoint_every`` cars is one :func:`~polywear.parallel.map_batched` call
     (a new pool on the ``processes`` backend); without ``checkpoint_dir`` all cars are one round.
-    ``progress`` (:mod:`polywear.progress`): cars done of ``spec.samples``."""
+    First the pilot stage (:func:`~polywear.analysis.fast_band.pilot_stage`, on the same
+    backend; a resumed run solves it again): the nominal car, unless its ``reference`` is
+    given, and with ``pilot`` evenly spaced cars (off: the nominal reference alone).
+    ``progress`` (:mod:`polywear.progress`): cars done of ``spec.samples``; during the
+    pilot stage the references done in the message."""
     from ..parallel import map_batched
-    from .bifurcation import bifurcation_diagram
-    from .fast_band import _FIXED_RANGE, FastBand, band_reference
+    from .fast_band import FastBand, pilot_stage
     from .global_sensitivity import sample_params
 
     keys = tuple(q.key for q in spec.parameter)
     X = sample_fleet(spec)
-    if reference is None:
-        nominal = sample_params(params, keys, [q.center for q in spec.parameter])
-        reference = band_reference(bifurcation_diagram(nominal, spec.speed_range_kmh, **_FIXED_RANGE))
-    solver = FastBand((reference,), speed_range_kmh=tuple(spec.speed_range_kmh))
-    usage = tuple(u.speed_kmh for u in spec.usage if u.share > 0)
-    evaluator = FleetEvaluator(params, keys, solver, usage, wear=spec.mileage_km is not None,
-                               band_every=spec.band_every)
-    values = np.full((spec.samples, len(OUTPUTS)), np.nan)
-    outcomes: list[CarOutcome] = []
     digest = _spec_hash(params, spec)
     ckpt = _checkpoint_path(checkpoint_dir) if checkpoint_dir else None
+    data = None
     if resume and ckpt is not None and ckpt.exists():
         data = np.load(ckpt, allow_pickle=False)
         if str(data["digest"]) != digest:
             raise ParameterError(f"{ckpt}: checkpoint of another parameter set or spec; remove it or drop --resume")
         if not set(CAR_FIELDS) <= set(data.files):
             raise ParameterError(f"{ckpt}: checkpoint of an older polywear (no per-car outcomes); remove it or drop --resume")
-        done = int(data["done"])
+        if "pilot" not in data.files:
+            raise ParameterError(f"{ckpt}: checkpoint of an older polywear (no pilot stage); remove it or drop --resume")
+    done = int(data["done"]) if data is not None else 0
+    nominal = reference if reference is not None else sample_params(params, keys, [q.center for q in spec.parameter])
+    stage = pilot_stage(params, keys, X if pilot else X[:0], nominal, spec.speed_range_kmh, backend=backend,
+                        workers=workers, scheduler=scheduler, progress=_pilot_progress(progress, done, spec.samples))
+    if stage.nominal is None:  # no fleet without its nominal car
+        raise RuntimeError(f"nominal car: {stage.failed[0]}")
+    pilot_cars = np.array(sorted(stage.samples), dtype=int)
+    if data is not None and not np.array_equal(data["pilot"], pilot_cars):
+        raise ParameterError(f"{ckpt}: checkpoint with other pilot cars; remove it or drop --resume")
+    solver = FastBand(stage.references, speed_range_kmh=tuple(spec.speed_range_kmh))
+    usage = tuple(u.speed_kmh for u in spec.usage if u.share > 0)
+    evaluator = FleetEvaluator(params, keys, solver, usage, wear=spec.mileage_km is not None,
+                               band_every=spec.band_every, pilot={i: r.band for i, r in stage.samples.items()})
+    values = np.full((spec.samples, len(OUTPUTS)), np.nan)
+    outcomes: list[CarOutcome] = []
+    if data is not None:
         values[:done] = data["values"][:done]
         outcomes = [CarOutcome(*(str(v) for v in row)) for row in zip(*(data[name][:done] for name in CAR_FIELDS))]
         report(progress)(done, spec.samples)
@@ -583,7 +619,8 @@ def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", w
             with atomic_path(ckpt) as tmp:
                 with open(tmp, "wb") as fh:
                     columns = {name: np.array([getattr(c, name) for c in outcomes], dtype=str) for name in CAR_FIELDS}
-                    np.savez(fh, digest=digest, done=len(outcomes), values=values, **columns)
+                    np.savez(fh, digest=digest, done=len(outcomes), values=values, pilot=pilot_cars, **columns)
     return FleetResult(params=params, spec=spec, samples=X, values=values, outcomes=outcomes,
                        settings={"backend": backend, "seed": spec.seed, "samples": spec.samples,
-                                 "reference_unusable": reference.unusable or None})
+                                 "reference_unusable": stage.nominal.unusable or None,
+                                 "pilot_cars": len(pilot_cars), "pilot_failed": len(stage.failed)})

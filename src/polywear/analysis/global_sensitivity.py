@@ -534,17 +534,12 @@ def global_sensitivity(
         X = morris_sample.sample(problem, study.n_base, num_levels=study.morris_levels, seed=rng)
     fast = None
     if study.outputs == "bifurcation" and fast_band:
-        from .fast_band import FastBand, pilot_indices, pilot_references, pilot_size
+        from .fast_band import FastBand, pilot_stage
 
-        pilot = [params]  # the nominal set and evenly spaced samples: one reference per topology met
-        for i in pilot_indices(len(X), pilot_size(len(X))):
-            try:
-                pilot.append(sample_params(params, problem["names"], X[i]))
-            except ParameterError:  # an invalid sample is no reference (the study records it)
-                continue
-        references, _ = pilot_references(pilot, study.speed_range_kmh, study.operating_range_kmh,
-                                         backend=backend, workers=workers, scheduler=scheduler)
-        fast = FastBand(references, tuple(study.speed_range_kmh), tuple(study.operating_range_kmh))
+        # the nominal set and evenly spaced samples: one reference per topology met
+        pilot = pilot_stage(params, problem["names"], X, params, study.speed_range_kmh, study.operating_range_kmh,
+                            backend=backend, workers=workers, scheduler=scheduler)
+        fast = FastBand(pilot.references, tuple(study.speed_range_kmh), tuple(study.operating_range_kmh))
     evaluator = StudyEvaluator(
         params, tuple(problem["names"]), study.outputs, study.speed_range_kmh, study.operating_range_kmh, fast
     )

@@ -78,7 +78,7 @@ def fleet(
         paths = s["paths"]
         typer.echo(f"{s['model']}: {s['n_evaluated']} of {s['n_samples']} cars evaluated "
                    f"({s['failed_samples']} failed); Hopf points alone {paths['hopf']}, fast band {paths['fast']}, "
-                   f"full continuation {paths['full']}")
+                   f"full continuation {paths['full']}, pilot stage {paths['pilot']}")
         for reason, count in s["fallback_reasons"].items():
             typer.echo(f"  full continuation because of {reason}: {count} cars")
         for car in s["failed_cars"]:
