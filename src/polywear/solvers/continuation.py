@@ -895,9 +895,11 @@ FOLD_DIFFERENCE = 1e-7
 :func:`solve_fold`, relative to the largest scaled component of the null vector [-]."""
 
 
-MAX_FOLD_CORRECTION = 4.0
-"""Largest scaled Newton correction of :func:`solve_fold` before it gives up as diverging [-]
-(converging runs from folds at parameters 10 % away measured at most 1.4)."""
+MAX_FOLD_CORRECTION = 1.0
+"""Largest scaled Newton correction of :func:`solve_fold` [-]: a longer one is cut to this
+length (damped Newton). Measured on 60 axle4dof samples 10 % from their references:
+undamped, 36 of 113 fold solves failed and went to the marching locator; damped at 1.0,
+27 of 110, and the fast path took 62-64 ms per sample instead of 83 ms."""
 
 
 def solve_fold(model: Model, p: np.ndarray, guess: BranchPoint, speed: float, scales: np.ndarray,
@@ -920,9 +922,9 @@ def solve_fold(model: Model, p: np.ndarray, guess: BranchPoint, speed: float, sc
     ``speed`` [m/s]; ``scales`` are the state scales of its branch's norm. Converged when
     the scaled Newton correction is below ``settings.newton_tol`` and the unit tangent's
     speed component below ``settings.fold_tol``. Returns the fold (multipliers, unit
-    tangent oriented as the guess's) or None when Newton fails within ``max_newton``
-    iterations (default ``settings.max_newton``) or a correction exceeds
-    :data:`MAX_FOLD_CORRECTION`.
+    tangent oriented as the guess's) or None when Newton does not converge within
+    ``max_newton`` iterations (default ``settings.max_newton``); corrections longer than
+    :data:`MAX_FOLD_CORRECTION` are cut to that length.
     """
     orbit = guess.orbit
     stepper = _Stepper.near(model, p, orbit, speed, scales, settings)
@@ -955,10 +957,10 @@ def solve_fold(model: Model, p: np.ndarray, guess: BranchPoint, speed: float, sc
         if grad_t == 0.0:
             return None
         dX = y - t * ((grad_y + g) / grad_t)
-        X = X + dX
         size = float(np.max(np.abs(dX * stepper.inv_scale)))
-        if not size <= MAX_FOLD_CORRECTION:  # diverging (no fold near the guess), or not finite
+        if not np.isfinite(size):
             return None
+        X = X + dX * min(1.0, MAX_FOLD_CORRECTION / size)  # damped far from the fold
         if size < settings.newton_tol:
             final = c.solve(X, border, np.array([border[0] @ X, 0.0]))
             if final is None:
