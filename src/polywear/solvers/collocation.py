@@ -308,7 +308,7 @@ class Collocation:
         return np.concatenate([row.ravel(), [0.0, 0.0]])
 
     def solve(
-        self, X: np.ndarray, border: np.ndarray, border_values: np.ndarray, extra_rhs: np.ndarray | None = None
+        self, X: np.ndarray, border: np.ndarray, border_values: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
         """Newton correction and tangent at X.
 
