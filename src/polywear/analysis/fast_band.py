@@ -55,7 +55,7 @@ count every difference as a failure.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 
 import numpy as np
@@ -479,12 +479,19 @@ def _difference(p: np.ndarray, p_ref: np.ndarray) -> np.ndarray:
     return np.where(both, p - np.where(both, p_ref, 0.0), 0.0)
 
 
+def _recentred(model, orbit, p_from: np.ndarray, p_to: np.ndarray, V: float):
+    """``orbit`` (a cycle at ``p_from``) as a Newton guess at ``p_to`` and speed V [m/s]: its
+    deviation from the steady state kept, about the steady state of ``p_to`` at V. The steady
+    state moves with the parameters by far more than a small cycle's amplitude (e.g. 4e-5 m
+    for a fold next to its Hopf point), which a guess left where it was has to cover first."""
+    shift = model.equilibrium(V, p_to) - model.equilibrium(orbit.speed, p_from)
+    return replace(orbit, nodes=orbit.nodes + shift, speed=V)
+
+
 def _rescaled(model, p_ref, p, guess, V, labels, ref_interval, interval, v_kmh):
     """The reference's cycle at speed V [m/s] as a guess for ``p`` near a Hopf end of its
     stable interval: deviation from the steady state scaled by ``sqrt(|v - v_H| / |v - v_H,ref|)``
     (the amplitude law near a Hopf point), around the sample's steady state. None without a Hopf end."""
-    from dataclasses import replace
-
     ends = [i for i in (0, 1) if labels[i][0] == "H"]
     if not ends:
         return None
@@ -668,9 +675,10 @@ class FastBand:
             nxt = min(1.0, theta + h)
             V_pred = fold.orbit.speed + (nxt - theta) * slope
             p_next = ref.p + nxt * direction
-            new = solve_fold(model, p_next, fold, V_pred, scales, self.settings, self.fold_newton)
+            guess = replace(fold, orbit=_recentred(model, fold.orbit, ref.p + theta * direction, p_next, V_pred))
+            new = solve_fold(model, p_next, guess, V_pred, scales, self.settings, self.fold_newton)
             if new is None:  # e.g. a fold of tiny amplitude next to its Hopf point: march to it
-                new = locate_fold(model, p_next, fold, V_pred, scales, self.settings, ref.fold_curvatures[j])
+                new = locate_fold(model, p_next, guess, V_pred, scales, self.settings, ref.fold_curvatures[j])
             change = abs(V_pred - fold.orbit.speed)
             if new is None or abs(new.orbit.speed - V_pred) > change + 1e-3 * fold.orbit.speed:
                 halvings += 1
@@ -753,7 +761,7 @@ class FastBand:
                 scaled = _rescaled(model, ref.p, p, guess, V, ref.stable_labels[k], ref_stable[k], stable[k], v)
                 point = None if scaled is None else solve_at_speed(model, p, scaled, V, self.settings)
                 if point is None:
-                    point = solve_at_speed(model, p, guess, V, self.settings)
+                    point = solve_at_speed(model, p, _recentred(model, guess, ref.p, p, V), V, self.settings)
             if point is None or not point.stable:
                 # no reference cycle there (its interval ends on the other side of v), Newton
                 # failed or landed on an unstable cycle: along the sample's own branch

@@ -548,6 +548,16 @@ def _period_detail(stepper: _Stepper, orbit: PeriodicOrbit) -> str:
             f"state (a homoclinic orbit when this goes to 0)")
 
 
+def newton_converged(size: float, previous: float, tol: float) -> bool:
+    """Whether a Newton iterate is within ``tol`` [scaled]: its last correction ``size`` is,
+    or the error left after that correction is, estimated from the contraction of the last
+    two corrections as ``size**2 / previous`` (at most the error of linear convergence at
+    that rate; quadratic convergence leaves far less). The estimate saves the last
+    iteration, whose correction only confirms (e.g. scaled corrections 1e-4 then 1e-8: the
+    error after the second is ~1e-12 or below)."""
+    return size < tol or (np.isfinite(previous) and size < 0.5 * previous and size * size < tol * previous)
+
+
 STALL_FACTOR = 100.0
 """:func:`solve_at_speed` accepts a Newton iteration that stopped shrinking below this many
 times ``settings.newton_tol`` [-]: the round-off floor of a small, ill-conditioned cycle
@@ -580,7 +590,8 @@ def solve_at_speed(model: Model, p: np.ndarray, guess: PeriodicOrbit, speed: flo
         size = np.max(np.abs(dX / scale))
         # converged, or at the round-off floor: below STALL_FACTOR tol and no longer halving
         # (a small cycle near a Hopf point, ill-conditioned, whose steps hover about the tolerance)
-        if size < settings.newton_tol or (size < STALL_FACTOR * settings.newton_tol and size > 0.5 * previous):
+        if newton_converged(size, previous, settings.newton_tol) or (
+                size < STALL_FACTOR * settings.newton_tol and size > 0.5 * previous):
             mu = np.linalg.eigvals(monodromy(CL, CR))
             return BranchPoint(coll.unpack(X), mu, np.zeros(coll.size), it)
         previous = size
@@ -920,7 +931,8 @@ def solve_fold(model: Model, p: np.ndarray, guess: BranchPoint, speed: float, sc
 
     Starts from ``guess`` (a fold at nearby parameters) with its speed replaced by
     ``speed`` [m/s]; ``scales`` are the state scales of its branch's norm. Converged when
-    the scaled Newton correction is below ``settings.newton_tol`` and the unit tangent's
+    the scaled Newton correction, or the error estimated after it
+    (:func:`newton_converged`), is below ``settings.newton_tol`` and the unit tangent's
     speed component below ``settings.fold_tol``. Returns the fold (multipliers, unit
     tangent oriented as the guess's) or None when Newton does not converge within
     ``max_newton`` iterations (default ``settings.max_newton``); corrections longer than
@@ -934,6 +946,7 @@ def solve_fold(model: Model, p: np.ndarray, guess: BranchPoint, speed: float, sc
     border = np.vstack([c.phase_row(orbit), stepper.weights * stepper.unit(guess.tangent)])
     rhs = np.zeros((c.size, 2))
     rhs[-1, 1] = 1.0
+    previous = np.inf
     for iterations in range(1, (max_newton or settings.max_newton) + 1):
         res, blocks, tcol, vcol = c.evaluate(X)
         if not (np.all(np.isfinite(res)) and np.all(np.isfinite(blocks))):
@@ -961,7 +974,7 @@ def solve_fold(model: Model, p: np.ndarray, guess: BranchPoint, speed: float, sc
         if not np.isfinite(size):
             return None
         X = X + dX * min(1.0, MAX_FOLD_CORRECTION / size)  # damped far from the fold
-        if size < settings.newton_tol:
+        if newton_converged(size, previous, settings.newton_tol):
             final = c.solve(X, border, np.array([border[0] @ X, 0.0]))
             if final is None:
                 return None
@@ -970,6 +983,7 @@ def solve_fold(model: Model, p: np.ndarray, guess: BranchPoint, speed: float, sc
                 return None
             multipliers = np.linalg.eigvals(monodromy(final[2], final[3]))
             return BranchPoint(c.unpack(X), multipliers, tangent, iterations, "LP")
+        previous = size
     return None
 
 
