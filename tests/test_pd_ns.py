@@ -16,7 +16,7 @@ from polywear.analysis.global_sensitivity import DEFAULT_KEYS, sample_params
 from polywear.models import get_model
 from polywear.params import Params, get_value, with_updates
 from polywear.solvers.continuation import (BranchPoint, ContinuationSettings, _collisions_only, _ns_pair,
-                                           _pd_test, solve_at_speed, stability_decided)
+                                           _pd_test, same_special_point, solve_at_speed, stability_decided)
 
 SETTINGS = ContinuationSettings()
 DELTA_KMH = 1e-4
@@ -98,6 +98,22 @@ def test_stable_runs_end_at_the_located_points(complex_diagram):
     edges = [v for iv in complex_diagram.stable_cycle_intervals_kmh() for v in iv]
     at_crossings = [v for v in edges if any(abs(v - w) <= 1e-12 * w for w in located)]
     assert len(at_crossings) >= 3
+
+
+def test_a_located_point_is_the_same_point_on_another_mesh(complex_diagram):
+    """Branches meet one special point on different meshes: the same orbit on a mesh with every
+    interval halved (exact) is the same special point, although its mesh nodes miss the peaks
+    by more than the tolerance."""
+    located = [pt.orbit for label in ("PD", "NS") for pt in _located(complex_diagram, label)]
+    node_differences = []
+    for orbit in located:
+        mesh = np.sort(np.concatenate([orbit.mesh, 0.5 * (orbit.mesh[:-1] + orbit.mesh[1:])]))
+        other = orbit.with_mesh(mesh)
+        assert same_special_point(orbit, other) and same_special_point(other, orbit)
+        span = np.ptp(orbit.nodes, axis=0)
+        node_differences.append(np.max(np.abs(span - np.ptp(other.nodes, axis=0))) / span.max())
+    assert max(node_differences) > 1e-4  # comparing nodes would find two points
+    assert not any(same_special_point(a, b) for k, a in enumerate(located) for b in located[k + 1:])
 
 
 def _point(*mu: complex) -> BranchPoint:
