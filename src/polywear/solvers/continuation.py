@@ -10,7 +10,8 @@ Along the branch: Floquet multipliers at every point (monodromy by condensation,
 with the trivial multiplier as accuracy check), folds of cycles located by secant
 iteration on the speed component of the tangent, period doubling and torus
 (Neimark-Sacker) bifurcations detected by multipliers crossing the unit circle
-at -1 or as a complex pair.
+at -1 or as a complex pair, and located on the crossing by root finding on a
+test function of the multipliers.
 
 Every branch ends with a typed reason (:class:`BranchEnd`). Before a branch is given
 up the numerics are rescued as a specialist would: a step whose monodromy fails the
