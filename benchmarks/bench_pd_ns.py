@@ -25,12 +25,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench_fleet import _samples  # noqa: E402
+from bench_fleet import _samples
 
-from polywear.analysis.bifurcation import bifurcation_diagram  # noqa: E402
-from polywear.analysis.fast_band import _FIXED_RANGE  # noqa: E402
-from polywear.params import Params, with_updates  # noqa: E402
-from polywear.solvers import continuation  # noqa: E402
+from polywear.analysis.bifurcation import bifurcation_diagram
+from polywear.analysis.fast_band import _FIXED_RANGE
+from polywear.params import Params, with_updates
+from polywear.solvers import continuation
 
 COMPLEX_SAMPLES = (13, 16, 34, 36, 42, 43, 52, 63, 72)
 

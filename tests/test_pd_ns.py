@@ -122,7 +122,7 @@ def _point(*mu: complex) -> BranchPoint:
 
 
 def test_pd_test_function_changes_sign_only_where_a_real_multiplier_crosses_minus_one():
-    conj = lambda z: (z, np.conj(z))  # noqa: E731
+    conj = lambda z: (z, np.conj(z))
     # a complex pair outside meets on the negative axis: two real multipliers below -1
     assert _pd_test(np.array([1.0, *conj(-2.63 + 1.21j)])) > 0 < _pd_test(np.array([1.0, -4.53, -1.66]))
     # one of them then crosses -1

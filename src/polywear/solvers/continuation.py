@@ -870,7 +870,8 @@ def _crossing_in_bracket(start: _Step, ds: float, prev: BranchPoint, point: Bran
     """
     stepper, X0, t0, phase_ref = start
     tol = stepper.settings.crossing_tol
-    ends = [[0.0, *value(prev.multipliers, pair[0])[:2]], [ds, *value(point.multipliers, pair[1])[:2]]]
+    (g_0, z_0, _), (g_1, z_1, _) = value(prev.multipliers, pair[0]), value(point.multipliers, pair[1])
+    ends: list[tuple[float, float, complex]] = [(0.0, g_0, z_0), (ds, g_1, z_1)]  # (s, test function, multiplier)
     best, best_residual, replaced = point, np.inf, -1
     for _ in range(CROSSING_ITERATIONS):
         (s_a, g_a, z_a), (s_b, g_b, z_b) = ends
@@ -887,9 +888,10 @@ def _crossing_in_bracket(start: _Step, ds: float, prev: BranchPoint, point: Bran
         if residual < tol:
             break
         side = 0 if np.sign(g) == np.sign(g_a) else 1
-        ends[side] = [s, g, z]
+        ends[side] = (s, g, z)
         if side == replaced:  # the same end replaced twice in a row: halve the other's value (Illinois)
-            ends[1 - side][1] *= 0.5
+            s_kept, g_kept, z_kept = ends[1 - side]
+            ends[1 - side] = (s_kept, 0.5 * g_kept, z_kept)
         replaced = side
         if abs(ends[1][0] - ends[0][0]) <= 1e-12 * abs(ds):
             break
@@ -937,7 +939,7 @@ def _fold_in_bracket(stepper: _Stepper, X0: np.ndarray, t0: np.ndarray, phase_re
     relocation; on the 61 folds of 9 axle4dof diagrams (``benchmarks/bench_pd_ns.py``'s
     samples) 4.7 correctors per fold instead of 6.5, the folds the same to 1e-12 relative.
     """
-    (s_a, g_a), (s_b, g_b) = a, b
+    (s_a, g_a), (s_b, _) = a, b
     (s_prev, g_prev), (s_cur, g_cur) = a, b
     best = None
     for _ in range(max_iter):
@@ -955,7 +957,7 @@ def _fold_in_bracket(stepper: _Stepper, X0: np.ndarray, t0: np.ndarray, phase_re
         if np.sign(g) == np.sign(g_a):
             s_a, g_a = s, g
         else:
-            s_b, g_b = s, g
+            s_b = s
         s_prev, g_prev, s_cur, g_cur = s_cur, g_cur, s, g
     return best
 
