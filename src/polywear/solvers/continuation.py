@@ -856,7 +856,7 @@ CROSSING_ITERATIONS = 30
 def _crossing_in_bracket(start: _Step, ds: float, prev: BranchPoint, point: BranchPoint, label: str,
                          value: Callable[[np.ndarray, complex], tuple[float, complex, float]],
                          pair: tuple[complex, complex] = (-1.0, -1.0)) -> BranchPoint:
-    """Illinois (regula falsi that halves the value kept at an end twice in a row; bisection
+    """Illinois (regula falsi that halves the value at an end kept twice in a row; bisection
     where a step would leave the bracket) in the arclength s from X0 for the root of a test
     function of the multipliers, between ``prev`` (s = 0) and ``point`` (s = ds).
 
