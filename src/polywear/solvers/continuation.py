@@ -10,7 +10,8 @@ Along the branch: Floquet multipliers at every point (monodromy by condensation,
 with the trivial multiplier as accuracy check), folds of cycles located by secant
 iteration on the speed component of the tangent, period doubling and torus
 (Neimark-Sacker) bifurcations detected by multipliers crossing the unit circle
-at -1 or as a complex pair.
+at -1 or as a complex pair, and located on the crossing by root finding on a
+test function of the multipliers.
 
 Every branch ends with a typed reason (:class:`BranchEnd`). Before a branch is given
 up the numerics are rescued as a specialist would: a step whose monodromy fails the
@@ -77,6 +78,12 @@ class ContinuationSettings:
     max_newton: int = 8
     adapt_every: int = 3
     fold_tol: float = 1e-9
+    crossing_tol: float = 1e-6
+    """A located period doubling (PD) has a multiplier within this of -1, a torus bifurcation
+    (NS) a complex pair within this of modulus 1. Above the accuracy of the multipliers on
+    most cycles (the trivial multiplier's error at 48 PD/NS points of 9 axle4dof samples:
+    median 8e-8); the speed error is this over |dmu/dV| (0.016 to 10 per km/h there):
+    median 8e-7, at most 6e-5 km/h."""
     min_amplitude: float = 1e-3
     """The branch ends (at a Hopf point) once the scaled amplitude falls below this."""
     max_amplitude: float = 1e3
@@ -109,8 +116,8 @@ class ContinuationSettings:
     def __post_init__(self) -> None:
         check_count(self, "n_intervals", "degree", "max_steps", "max_newton")
         check_count(self, "adapt_every", minimum=0)  # 0: never adapt the mesh
-        check_positive(self, "ds_initial", "ds_min", "ds_max", "newton_tol", "fold_tol", "min_amplitude",
-                       "hopf_approach_step", "max_correction")
+        check_positive(self, "ds_initial", "ds_min", "ds_max", "newton_tol", "fold_tol", "crossing_tol",
+                       "min_amplitude", "hopf_approach_step", "max_correction")
         check_positive(self, "max_amplitude", "multiplier_tol", "max_period_factor", finite=False)
         check_order(self, "ds_min", "ds_initial", "ds_max")
         check_order(self, "min_amplitude", "max_amplitude")
@@ -410,7 +417,9 @@ def continue_from_hopf(
                 _add_special(branch, "LP", fold)
         if prev is not None and prev.resolved and resolved:  # counts of unresolved cycles are unknown
             for label in _multiplier_events(prev, point):
-                _add_special(branch, label, _locate_crossing((stepper, X0, t0, phase_ref), ds, prev, point, label))
+                located = _locate_crossing((stepper, X0, t0, phase_ref), ds, prev, point, label)
+                if located is not None:
+                    _add_special(branch, label, located)
         branch.points.append(point)
         if on_step is not None:
             on_step(branch)
@@ -449,10 +458,17 @@ def continue_from_hopf(
 
 def same_special_point(a: PeriodicOrbit, b: PeriodicOrbit, rtol: float = 1e-5) -> bool:
     """True if two orbits are the same special point within ``rtol``: speed, period and
-    every state's peak-to-peak (relative to the largest of the two) agree."""
-    span = np.maximum(np.ptp(a.nodes, axis=0), np.ptp(b.nodes, axis=0))
-    return (abs(a.speed - b.speed) <= rtol * abs(a.speed) and abs(a.period - b.period) <= rtol * a.period
-            and bool(np.all(np.abs(np.ptp(a.nodes, axis=0) - np.ptp(b.nodes, axis=0)) <= rtol * span.max())))
+    every state's peak-to-peak (relative to the largest of the two) agree. Peak-to-peak of
+    the orbit (:meth:`PeriodicOrbit.extrema`, 64 samples per mesh interval), not of its mesh
+    nodes: two branches reach one point on different meshes, and the nodes miss the peaks
+    by up to 1e-3 of the range (measured: a period doubling met by two tread1dof branches,
+    1.4e-4; axle4dof PD points on a mesh with every interval halved, 2e-5 to 2e-3; with 16
+    samples per interval still up to 1e-5, with 64 below 1e-7)."""
+    if not (abs(a.speed - b.speed) <= rtol * abs(a.speed) and abs(a.period - b.period) <= rtol * a.period):
+        return False
+    (lo_a, hi_a), (lo_b, hi_b) = a.extrema(64), b.extrema(64)
+    span_a, span_b = hi_a - lo_a, hi_b - lo_b
+    return bool(np.all(np.abs(span_a - span_b) <= rtol * np.maximum(span_a, span_b).max()))
 
 
 def _add_special(branch: Branch, label: str, point: BranchPoint) -> None:
@@ -738,15 +754,19 @@ def _align_to_kinks(start: _Step, ds: float, out: _Out) -> tuple[
     return stepper, X0, t0, phase_ref, new
 
 
+def _nontrivial(multipliers: np.ndarray) -> np.ndarray:
+    """The Floquet multipliers without the trivial one (the one nearest 1)."""
+    return np.delete(multipliers, int(np.argmin(np.abs(multipliers - 1.0))))
+
+
 def _event_counts(point: BranchPoint) -> dict[str, int]:
-    """Multipliers outside the unit circle (trivial one excluded): real negative ("PD"), complex ("NS")."""
-    mu = point.multipliers
-    trivial = int(np.argmin(np.abs(mu - 1.0)))
-    mu = np.delete(mu, trivial)
+    """Multipliers outside the unit circle (trivial one excluded): real negative ("PD"), complex
+    ("NS"), real positive ("+1")."""
+    mu = _nontrivial(point.multipliers)
     outside = np.abs(mu) > 1.0
-    real_neg = outside & (np.abs(mu.imag) < 1e-8 * np.abs(mu)) & (mu.real < 0)
-    complex_ = outside & (np.abs(mu.imag) >= 1e-8 * np.abs(mu))
-    return {"PD": int(real_neg.sum()), "NS": int(complex_.sum())}
+    real = np.abs(mu.imag) < 1e-8 * np.abs(mu)
+    return {"PD": int(np.sum(outside & real & (mu.real < 0))), "NS": int(np.sum(outside & ~real)),
+            "+1": int(np.sum(outside & real & (mu.real > 0)))}
 
 
 def _multiplier_events(a: BranchPoint, b: BranchPoint) -> list[str]:
@@ -755,12 +775,145 @@ def _multiplier_events(a: BranchPoint, b: BranchPoint) -> list[str]:
     return [label for label in ("PD", "NS") if ca[label] != cb[label]]
 
 
-def _locate_crossing(start: _Step, ds: float, prev: BranchPoint, point: BranchPoint, label: str,
+def _pd_test(multipliers: np.ndarray) -> float:
+    """Test function of period doubling: the product of ``(mu + 1) / (|mu| + 1)`` over the
+    non-trivial multipliers. Each factor lies in [-1, 1] and a complex pair gives
+    ``|mu + 1|^2 / (|mu| + 1)^2 > 0``, so it is continuous along the branch (also where two
+    real multipliers meet and become a complex pair) and changes sign exactly where a real
+    multiplier crosses -1; its sign is (-1)^(number of real multipliers below -1)."""
+    mu = _nontrivial(multipliers)
+    return float(np.real(np.prod((mu + 1.0) / (np.abs(mu) + 1.0))))
+
+
+def _pd_residual(multipliers: np.ndarray) -> float:
+    """Distance of the non-trivial multiplier nearest -1 from -1."""
+    return float(np.min(np.abs(_nontrivial(multipliers) + 1.0)))
+
+
+def _upper(multipliers: np.ndarray) -> np.ndarray:
+    """The non-trivial multipliers with imaginary part >= 0 (one of each complex pair)."""
+    mu = _nontrivial(multipliers)
+    return mu[mu.imag >= 0.0]
+
+
+def _ns_pair(a: np.ndarray, b: np.ndarray) -> tuple[complex, complex] | None:
+    """The complex multiplier pair that crosses the unit circle between two points with
+    multipliers ``a`` and ``b``: complex multipliers (upper half plane), one at each point,
+    each the other's nearest there, with moduli on opposite sides of 1 (the closest such
+    match); None if there is none (e.g. the count of complex multipliers outside the circle
+    changed only because two real ones outside met and became a complex pair)."""
+    ua, ub = _upper(a), _upper(b)
+    matches = []
+    for za in ua[np.abs(ua.imag) >= 1e-8 * np.abs(ua)]:
+        zb = ub[np.argmin(np.abs(ub - za))]
+        back = ua[np.argmin(np.abs(ua - zb))]
+        if back == za and abs(zb.imag) >= 1e-8 * abs(zb) and (abs(za) - 1.0) * (abs(zb) - 1.0) < 0.0:
+            matches.append((abs(za - zb), za, zb))
+    return min(matches, key=lambda m: m[0])[1:] if matches else None
+
+
+def _collisions_only(a: BranchPoint, b: BranchPoint) -> bool:
+    """True if the change of the counts of multipliers outside the unit circle between two
+    points is accounted for by real multipliers crossing +1 or -1 singly (where the parity of
+    those counts changed), with the rest only pairs of real multipliers outside meeting and
+    becoming a complex pair outside, or the reverse (which is no bifurcation)."""
+    ca, cb = _event_counts(a), _event_counts(b)
+    total = sum(cb.values()) - sum(ca.values())
+    single = [(cb[k] - ca[k]) % 2 for k in ("PD", "+1")]
+    return any(total == da + db for da in ((-1, 1) if single[0] else (0,))
+               for db in ((-1, 1) if single[1] else (0,)))
+
+
+def _locate_crossing(start: _Step, ds: float, prev: BranchPoint, point: BranchPoint,
+                     label: str) -> BranchPoint | None:
+    """The PD or NS point between ``prev`` (arclength 0 from the start X0) and ``point`` (arclength ds).
+
+    PD: root in the arclength of :func:`_pd_test`, which changes sign where a real multiplier
+    crosses -1. NS: root of ``|mu| - 1`` of the complex pair that crosses (:func:`_ns_pair`),
+    followed from iterate to iterate as the multiplier nearest the value interpolated
+    between the bracket's ends. Both by :func:`_crossing_in_bracket`, to
+    ``settings.crossing_tol`` on the multiplier. Where the count of such multipliers
+    outside the circle changed without such a crossing: None if the counts changed only by
+    real pairs outside meeting and becoming complex ones or the reverse
+    (:func:`_collisions_only`: no bifurcation), else bisection in the arclength on the count
+    (:func:`_bisect_crossing`, several crossings in one step).
+    """
+    if label == "PD":
+        if np.sign(_pd_test(prev.multipliers)) != np.sign(_pd_test(point.multipliers)):
+            return _crossing_in_bracket(start, ds, prev, point, label, _pd_value)
+    else:
+        pair = _ns_pair(prev.multipliers, point.multipliers)
+        if pair is not None:
+            return _crossing_in_bracket(start, ds, prev, point, label, _ns_value, pair)
+    return None if _collisions_only(prev, point) else _bisect_crossing(start, ds, prev, point, label)
+
+
+def _pd_value(multipliers: np.ndarray, guess: complex) -> tuple[float, complex, float]:
+    """(test function, followed multiplier, residual) of period doubling (``guess`` unused)."""
+    return _pd_test(multipliers), -1.0, _pd_residual(multipliers)
+
+
+def _ns_value(multipliers: np.ndarray, guess: complex) -> tuple[float, complex, float]:
+    """(|mu| - 1, mu, ||mu| - 1|) of the multiplier in the upper half plane nearest ``guess``."""
+    upper = _upper(multipliers)
+    z = complex(upper[np.argmin(np.abs(upper - guess))])
+    return abs(z) - 1.0, z, abs(abs(z) - 1.0)
+
+
+CROSSING_ITERATIONS = 30
+"""Largest number of correctors of one PD/NS location (:func:`_crossing_in_bracket`)."""
+
+
+def _crossing_in_bracket(start: _Step, ds: float, prev: BranchPoint, point: BranchPoint, label: str,
+                         value: Callable[[np.ndarray, complex], tuple[float, complex, float]],
+                         pair: tuple[complex, complex] = (-1.0, -1.0)) -> BranchPoint:
+    """Illinois (regula falsi that halves the value at an end kept twice in a row; bisection
+    where a step would leave the bracket) in the arclength s from X0 for the root of a test
+    function of the multipliers, between ``prev`` (s = 0) and ``point`` (s = ds).
+
+    ``value(multipliers, guess)`` gives the test function, the multiplier followed (the one
+    nearest ``guess``, interpolated linearly in s between the bracket's ends ``pair``) and
+    the residual (distance of the multiplier from the crossing). Stops when the residual is
+    below ``settings.crossing_tol``, after :data:`CROSSING_ITERATIONS` correctors or when the
+    bracket is down to rounding. Returns the point with the smallest residual, labelled:
+    on the crossing to the tolerance, not a point past it (its stability is marginal);
+    ``point`` if the first corrector fails.
+    """
+    stepper, X0, t0, phase_ref = start
+    tol = stepper.settings.crossing_tol
+    (g_0, z_0, _), (g_1, z_1, _) = value(prev.multipliers, pair[0]), value(point.multipliers, pair[1])
+    ends: list[tuple[float, float, complex]] = [(0.0, g_0, z_0), (ds, g_1, z_1)]  # (s, test function, multiplier)
+    best, best_residual, replaced = point, np.inf, -1
+    for _ in range(CROSSING_ITERATIONS):
+        (s_a, g_a, z_a), (s_b, g_b, z_b) = ends
+        s = s_b - g_b * (s_b - s_a) / (g_b - g_a) if g_b != g_a else 0.5 * (s_a + s_b)
+        if not min(s_a, s_b) < s < max(s_a, s_b):
+            s = 0.5 * (s_a + s_b)
+        out = stepper.correct(X0, t0, s, phase_ref)
+        if out is None:
+            break
+        X, t, iterations, multipliers = out
+        g, z, residual = value(multipliers, z_a + (s - s_a) / (s_b - s_a) * (z_b - z_a))
+        if residual < best_residual:
+            best, best_residual = BranchPoint(stepper.coll.unpack(X), multipliers, t, iterations), residual
+        if residual < tol:
+            break
+        side = 0 if np.sign(g) == np.sign(g_a) else 1
+        ends[side] = (s, g, z)
+        if side == replaced:  # the same end replaced twice in a row: halve the other's value (Illinois)
+            s_kept, g_kept, z_kept = ends[1 - side]
+            ends[1 - side] = (s_kept, 0.5 * g_kept, z_kept)
+        replaced = side
+        if abs(ends[1][0] - ends[0][0]) <= 1e-12 * abs(ds):
+            break
+    return BranchPoint(best.orbit, best.multipliers, best.tangent, best.newton_iterations, label)
+
+
+def _bisect_crossing(start: _Step, ds: float, prev: BranchPoint, point: BranchPoint, label: str,
                      rtol: float = 1e-3) -> BranchPoint:
-    """The PD or NS point between ``prev`` (arclength 0 from the start X0) and ``point`` (arclength ds):
-    bisection in the arclength on the count of such multipliers outside the unit circle, to
-    ``rtol * ds``. Returns the first point past the crossing, labelled; ``point`` if a
-    corrector fails."""
+    """Bisection in the arclength on the count of ``label`` multipliers outside the unit circle,
+    to ``rtol * ds`` (where no single crossing can be followed): the first point past the
+    first change of the count, labelled; ``point`` if a corrector fails."""
     stepper, X0, t0, phase_ref = start
     before = _event_counts(prev)[label]
     s_a, s_b, best = 0.0, ds, point
@@ -781,30 +934,26 @@ def _locate_crossing(start: _Step, ds: float, prev: BranchPoint, point: BranchPo
 def _locate_fold(start: _Step, ds: float, prev: BranchPoint, point: BranchPoint) -> BranchPoint | None:
     """The fold between two branch points: zero of the tangent's speed component in the arclength."""
     stepper, X0, t0, phase_ref = start
-    return _fold_in_bracket(stepper, X0, t0, phase_ref, (0.0, prev.tangent_speed), (ds, point.tangent_speed),
-                            regula_falsi=True)
+    return _fold_in_bracket(stepper, X0, t0, phase_ref, (0.0, prev.tangent_speed), (ds, point.tangent_speed))
 
 
 def _fold_in_bracket(stepper: _Stepper, X0: np.ndarray, t0: np.ndarray, phase_ref: PeriodicOrbit,
-                     a: tuple[float, float], b: tuple[float, float], max_iter: int = 30,
-                     regula_falsi: bool = False) -> BranchPoint | None:
+                     a: tuple[float, float], b: tuple[float, float], max_iter: int = 30) -> BranchPoint | None:
     """Secant iteration on the arclength s from X0 (along t0) for dV/ds = 0 inside a bracket.
 
     ``a`` and ``b`` are ``(s, dV/ds)`` with dV/ds of opposite signs. Secant steps through
-    the last two points, or with ``regula_falsi`` through the two ends of the bracket (the
-    branch's rule between two of its points: its folds stay as they were); a step that
-    leaves the bracket (kept up to date) is replaced by bisection. Returns the last point
-    (within ``settings.fold_tol`` of the fold unless ``max_iter`` ran out or a corrector
-    failed), or None if the first corrector fails. Regula falsi converges only linearly
-    where ``dV/ds`` is curved over the bracket (measured on a map: about 3 more correctors
-    per fold relocation than the secant through the last two points).
+    the last two points; a step that leaves the bracket (kept up to date) is replaced by
+    bisection. Returns the last point (within ``settings.fold_tol`` of the fold unless
+    ``max_iter`` ran out or a corrector failed), or None if the first corrector fails.
+    Regula falsi (through the bracket's ends) converges only linearly where ``dV/ds`` is
+    curved over the bracket: measured on a map, about 3 more correctors per fold
+    relocation; on the 61 folds of 9 axle4dof diagrams (``benchmarks/bench_pd_ns.py``'s
+    samples) 4.7 correctors per fold instead of 6.5, the folds the same to 1e-12 relative.
     """
-    (s_a, g_a), (s_b, g_b) = a, b
+    (s_a, g_a), (s_b, _) = a, b
     (s_prev, g_prev), (s_cur, g_cur) = a, b
     best = None
     for _ in range(max_iter):
-        if regula_falsi:
-            (s_prev, g_prev), (s_cur, g_cur) = (s_a, g_a), (s_b, g_b)
         s = s_cur - g_cur * (s_cur - s_prev) / (g_cur - g_prev) if g_cur != g_prev else 0.5 * (s_a + s_b)
         if not min(s_a, s_b) < s < max(s_a, s_b):
             s = 0.5 * (s_a + s_b)
@@ -819,7 +968,7 @@ def _fold_in_bracket(stepper: _Stepper, X0: np.ndarray, t0: np.ndarray, phase_re
         if np.sign(g) == np.sign(g_a):
             s_a, g_a = s, g
         else:
-            s_b, g_b = s, g
+            s_b = s
         s_prev, g_prev, s_cur, g_cur = s_cur, g_cur, s, g
     return best
 
