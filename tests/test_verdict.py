@@ -128,7 +128,7 @@ def test_operating_speed_outside_the_requested_range_is_analysed():
 # -- other attractors -----------------------------------------------------------------------
 def test_stick_slip_past_period_doubling_is_named_with_amplitude_and_frequency():
     """mu_c = 0.05 at 110 km/h lies between two period doublings of the period-1 branch
-    (54.7 and 118.1 km/h); without a stable continued cycle at hand the run starts from
+    (54.4 and 116.5 km/h); without a stable continued cycle at hand the run starts from
     steady rolling and ends on a cycle with several maxima per period. Checks: the run
     continued from its own end state stays on it (an attractor, settled), and the dominant
     frequency of the spectrum is a whole multiple of 1/period (two methods)."""
