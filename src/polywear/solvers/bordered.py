@@ -18,12 +18,13 @@ Cost is linear in the number of mesh intervals. ``CL`` and ``CR`` also give the
 transfer matrices ``-CR_j^{-1} CL_j`` whose product is the monodromy matrix.
 
 The matrices being eliminated are stored transposed (a column of the system is
-contiguous): the update by one pivot is then, per column, one loop over all rows, and
-the back substitution subtracts each solved unknown's column from all rows at once;
-the compiler vectorizes both. Row by row, the loops ran over rows of only 20-50 entries,
-and a back substitution was a chain of dependent scalar sums (``axle4dof``: 0.55 ms
-instead of 0.42 ms per solve; ``docs/continuation.md``, Speed). The pivots are those of
-the row-wise elimination; the solution agrees with it to rounding (1e-16 relative).
+contiguous): the update by one pivot is then, per column, one loop over all rows, which
+the compiler vectorizes. Row by row, the updates ran over rows of only 20-50 entries and
+the condensation of ``axle4dof`` took a third longer (``docs/continuation.md``, Speed).
+The pivots and the arithmetic, back substitution included, are those of the row-wise
+elimination, so the solution is the same to the last bit. (A column-oriented back
+substitution was 10 % faster still, but changes the rounding, and the default
+``axle4dof`` branch is sensitive to it: its step sizes changed from the second point on.)
 """
 
 from __future__ import annotations
@@ -81,33 +82,6 @@ def _eliminate(cols: np.ndarray, col0: int, n_cols: int, used: np.ndarray, borde
                 for q in range(col + 1, width):
                     border[b, q] -= factor * cols[q, best]
     return True
-
-
-@njit(cache=True, inline="always")
-def _start(cols: np.ndarray, tv: int, q: int, dT: float, dV: float, b: np.ndarray) -> None:
-    """b = right-hand side q minus the T and V columns times dT, dV (columns tv, tv + 1; the
-    right-hand sides follow them), for every row of ``cols`` (stored transposed)."""
-    for r in range(cols.shape[1]):
-        b[r] = cols[tv + 2 + q, r] - cols[tv, r] * dT - cols[tv + 1, r] * dV
-
-
-@njit(cache=True, inline="always")
-def _subtract(cols: np.ndarray, q: int, value: float, b: np.ndarray) -> None:
-    """b -= column q * value, over every row of ``cols`` (stored transposed)."""
-    for r in range(cols.shape[1]):
-        b[r] -= cols[q, r] * value
-
-
-@njit(cache=True)
-def _back_substitute(cols: np.ndarray, col0: int, n_cols: int, pivots: np.ndarray, b: np.ndarray,
-                     sol: np.ndarray) -> None:
-    """Unknowns of the eliminated columns col0 .. col0+n_cols-1 into ``sol[:n_cols]``, given
-    ``b``: the right-hand side minus the columns already known. Column-oriented, in reverse
-    elimination order: a solved unknown's column is subtracted from all rows at once."""
-    for c in range(n_cols - 1, -1, -1):
-        value = b[pivots[c]] / cols[col0 + c, pivots[c]]
-        sol[c] = value
-        _subtract(cols, col0 + c, value, b)
 
 
 @njit(cache=True)
@@ -287,30 +261,30 @@ def solve_bordered(blocks: np.ndarray, tcol: np.ndarray, vcol: np.ndarray, borde
             U[N, a, q] = top[a, q]
         x[size - 2, q] = top[n, q]
         x[size - 1, q] = top[n + 1, q]
-    b = np.empty(max(mn, 2 * n))
-    sol = np.empty(max(ni, n))
     for j in range(N - 1, 0, -1):
         S = stage[j]
         for q in range(k):
-            _start(S, 3 * n, q, x[size - 2, q], x[size - 1, q], b)
-            for cc in range(n):
-                if j + 1 < N:
-                    _subtract(S, n + cc, U[j + 1, cc, q], b)
-                _subtract(S, 2 * n + cc, U[0, cc, q], b)
-            _back_substitute(S, 0, n, piv2[j], b, sol)
-            for c in range(n):
-                U[j, c, q] = sol[c]
+            for c in range(n - 1, -1, -1):
+                r = piv2[j, c]
+                acc = S[3 * n + 2 + q, r] - S[3 * n, r] * x[size - 2, q] - S[3 * n + 1, r] * x[size - 1, q]
+                for cc in range(c + 1, n):
+                    acc -= S[cc, r] * U[j, cc, q]
+                for cc in range(n):
+                    acc -= S[n + cc, r] * U[j + 1, cc, q] * (1.0 if j + 1 < N else 0.0)
+                    acc -= S[2 * n + cc, r] * U[0, cc, q]
+                U[j, c, q] = acc / S[c, r]
     for j in range(N):
-        L = loc[j]
         for q in range(k):
             for a in range(n):
                 x[j * mn + a, q] = U[j, a, q]
-            # interior nodes of interval j
-            _start(L, (m + 1) * n, q, x[size - 2, q], x[size - 1, q], b)
-            for cc in range(n):
-                _subtract(L, cc, U[j, cc, q], b)
-                _subtract(L, n + ni + cc, U[j + 1, cc, q], b)
-            _back_substitute(L, n, ni, piv1[j], b, sol)
-            for c in range(ni):
-                x[j * mn + n + c, q] = sol[c]
+            # interior nodes of interval j, back substitution in elimination order
+            for c in range(ni - 1, -1, -1):
+                r = piv1[j, c]
+                L = loc[j]
+                acc = L[(m + 1) * n + 2 + q, r] - L[(m + 1) * n, r] * x[size - 2, q] - L[(m + 1) * n + 1, r] * x[size - 1, q]
+                for cc in range(n):
+                    acc -= L[cc, r] * U[j, cc, q] + L[n + ni + cc, r] * U[j + 1, cc, q]
+                for cc in range(c + 1, ni):
+                    acc -= L[n + cc, r] * x[j * mn + n + cc, q]
+                x[j * mn + n + c, q] = acc / L[n + c, r]
     return x
