@@ -29,7 +29,7 @@ class FirstClass:
     address is valid for as long as the wrapper is alive (at least during the call).
     """
 
-    __slots__ = ("cfunc", "_numba_type_")
+    __slots__ = ("_numba_type_", "cfunc")
 
     def __init__(self, kernel, signature) -> None:
         self.cfunc = kernel
