@@ -3,11 +3,14 @@
 A compiled solver is written once against these types; each model hands it
 ``numba.cfunc`` versions of its kernels, so one cached compilation of the solver
 serves every model (plain njit dispatchers passed as arguments defeat numba's cache).
+The cfuncs are handed over wrapped in :class:`FirstClass`, which makes the call of a
+compiled solver cheaper.
 """
 
 from __future__ import annotations
 
 from numba import cfunc, njit, types
+from numba.core.types import FunctionType
 
 VEC = types.float64[::1]
 MAT = types.float64[:, ::1]
@@ -15,18 +18,44 @@ RHS_SIG = types.void(VEC, types.float64, VEC, VEC)
 JAC_SIG = types.void(VEC, types.float64, VEC, MAT)
 
 
+class FirstClass:
+    """A compiled kernel (``numba.cfunc``) as a first-class function argument.
+
+    Passed to a compiled function, a cfunc has its numba type built anew at every call
+    (about 7 us per function argument; a collocation assembly passes three). This wrapper
+    carries the type, built once (``_numba_type_``), and gives numba the cfunc's address
+    through numba's wrapper address protocol (``__wrapper_address__``), as numba does
+    for the cfunc itself. It holds the cfunc, which owns the compiled code, so the
+    address is valid for as long as the wrapper is alive (at least during the call).
+    """
+
+    __slots__ = ("_numba_type_", "cfunc")
+
+    def __init__(self, kernel, signature) -> None:
+        self.cfunc = kernel
+        self._numba_type_ = FunctionType(signature)
+
+    def __wrapper_address__(self) -> int:
+        return self.cfunc.address
+
+
+def _first_class(py_func, signature) -> FirstClass:
+    """``py_func`` compiled as a cached cfunc of ``signature``, wrapped."""
+    return FirstClass(cfunc(signature, cache=True, error_model="numpy")(py_func), signature)
+
+
 def as_cfuncs(kernels):
-    """``(rhs, jac, dfdv)`` of a kernel namespace as cached cfuncs."""
+    """``(rhs, jac, dfdv)`` of a kernel namespace as cached cfuncs (:class:`FirstClass`)."""
     return (
-        cfunc(RHS_SIG, cache=True, error_model="numpy")(kernels.rhs.py_func),
-        cfunc(JAC_SIG, cache=True, error_model="numpy")(kernels.jac.py_func),
-        cfunc(RHS_SIG, cache=True, error_model="numpy")(kernels.dfdv.py_func),
+        _first_class(kernels.rhs.py_func, RHS_SIG),
+        _first_class(kernels.jac.py_func, JAC_SIG),
+        _first_class(kernels.dfdv.py_func, RHS_SIG),
     )
 
 
 def aux_cfunc(kernels):
-    """The ``aux`` kernel as a cached cfunc."""
-    return cfunc(RHS_SIG, cache=True, error_model="numpy")(kernels.aux.py_func)
+    """The ``aux`` kernel as a cached cfunc (:class:`FirstClass`)."""
+    return _first_class(kernels.aux.py_func, RHS_SIG)
 
 
 @njit(cache=True, error_model="numpy")

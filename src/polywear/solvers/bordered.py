@@ -16,6 +16,15 @@ conditions). It is solved in three compiled passes, as AUTO-07p does:
 
 Cost is linear in the number of mesh intervals. ``CL`` and ``CR`` also give the
 transfer matrices ``-CR_j^{-1} CL_j`` whose product is the monodromy matrix.
+
+The matrices being eliminated are stored transposed (a column of the system is
+contiguous): the update by one pivot is then, per column, one loop over all rows, which
+the compiler vectorizes. Row by row, the updates ran over rows of only 20-50 entries and
+the condensation of ``axle4dof`` took a third longer (``docs/continuation.md``, Speed).
+The pivots and the arithmetic, back substitution included, are those of the row-wise
+elimination, so the solution is the same to the last bit. (A column-oriented back
+substitution was 10 % faster still, but changes the rounding, and the default
+``axle4dof`` branch is sensitive to it: its step sizes changed from the second point on.)
 """
 
 from __future__ import annotations
@@ -27,21 +36,26 @@ __all__ = ["solve_bordered"]
 
 
 @njit(cache=True)
-def _eliminate(rows: np.ndarray, n_rows: int, col0: int, n_cols: int, used: np.ndarray, border: np.ndarray,
-               pivots_out: np.ndarray) -> bool:
-    """Partial-pivot elimination of columns col0 .. col0+n_cols-1 of ``rows`` (in place).
+def _eliminate(cols: np.ndarray, col0: int, n_cols: int, used: np.ndarray, border: np.ndarray,
+               pivots_out: np.ndarray, factors: np.ndarray) -> bool:
+    """Partial-pivot elimination of columns col0 .. col0+n_cols-1 of a matrix stored
+    transposed, ``cols[q, r]`` = entry (row r, column q), in place.
 
-    Pivot rows are chosen among ``rows[:n_rows]`` not ``used``; each pivot row index is
-    written to ``pivots_out``. The border rows are reduced with the same pivots.
+    Pivot rows are chosen among the rows not ``used`` (ties: the first); each pivot row
+    index is written to ``pivots_out``. The border rows ``border[b, q]`` are reduced with
+    the same pivots. Per pivot, only the columns before ``col0`` and those after the pivot
+    column are updated, as in LU: the eliminated columns are zero in the pivot row, and
+    their entries are not read again (so not written either). A used row gets the factor
+    0 and keeps its values. ``factors`` is workspace (at least one entry per row).
     """
-    width = rows.shape[1]
+    width, n_rows = cols.shape
     for c in range(n_cols):
         col = col0 + c
         best = -1
         best_val = -1.0
         for r in range(n_rows):
             if not used[r]:
-                v = abs(rows[r, col])
+                v = abs(cols[col, r])
                 if v > best_val:
                     best_val = v
                     best = r
@@ -49,18 +63,24 @@ def _eliminate(rows: np.ndarray, n_rows: int, col0: int, n_cols: int, used: np.n
             return False
         used[best] = True
         pivots_out[c] = best
-        piv = rows[best, col]
+        piv = cols[col, best]
         for r in range(n_rows):
-            if not used[r]:
-                factor = rows[r, col] / piv
-                if factor != 0.0:
-                    for q in range(width):
-                        rows[r, q] -= factor * rows[best, q]
+            factors[r] = 0.0 if used[r] else cols[col, r] / piv
+        for q in range(col0):
+            p = cols[q, best]
+            for r in range(n_rows):
+                cols[q, r] -= factors[r] * p
+        for q in range(col + 1, width):
+            p = cols[q, best]
+            for r in range(n_rows):
+                cols[q, r] -= factors[r] * p
         for b in range(border.shape[0]):
             factor = border[b, col] / piv
             if factor != 0.0:
-                for q in range(width):
-                    border[b, q] -= factor * rows[best, q]
+                for q in range(col0):
+                    border[b, q] -= factor * cols[q, best]
+                for q in range(col + 1, width):
+                    border[b, q] -= factor * cols[q, best]
     return True
 
 
@@ -85,9 +105,9 @@ def solve_bordered(blocks: np.ndarray, tcol: np.ndarray, vcol: np.ndarray, borde
     k = rhs.shape[1]
     size = N * mn + 2
     # ---- 1. condensation of interior nodes --------------------------------------------
-    # local columns: [L (n) | I (ni) | R (n) | T | V | rhs (k)]
+    # local columns: [L (n) | I (ni) | R (n) | T | V | rhs (k)], stored transposed: loc[j, column, row]
     width1 = (m + 1) * n + 2 + k
-    loc = np.empty((N, mn, width1))
+    loc = np.empty((N, width1, mn))
     piv1 = np.empty((N, ni), dtype=np.int64)
     rest1 = np.empty((N, n), dtype=np.int64)
     # border in reduced form: mesh-node coefficients, T, V, rhs
@@ -100,16 +120,18 @@ def solve_bordered(blocks: np.ndarray, tcol: np.ndarray, vcol: np.ndarray, borde
             b_tv[b, 2 + q] = rhs[size - 2 + b, q]
     bloc = np.empty((2, width1))
     used = np.zeros(mn, dtype=np.bool_)
+    factors = np.empty(max(mn, 2 * n))
     for j in range(N):
         jn = (j + 1) % N
+        L = loc[j]
         for r in range(mn):
             g = j * mn + r
             for q in range((m + 1) * n):
-                loc[j, r, q] = blocks[j, r, q]
-            loc[j, r, (m + 1) * n] = tcol[g]
-            loc[j, r, (m + 1) * n + 1] = vcol[g]
+                L[q, r] = blocks[j, r, q]
+            L[(m + 1) * n, r] = tcol[g]
+            L[(m + 1) * n + 1, r] = vcol[g]
             for q in range(k):
-                loc[j, r, (m + 1) * n + 2 + q] = rhs[g, q]
+                L[(m + 1) * n + 2 + q, r] = rhs[g, q]
         # border restricted to this interval: only interior nodes belong to it alone
         for b in range(2):
             for q in range(width1):
@@ -118,7 +140,7 @@ def solve_bordered(blocks: np.ndarray, tcol: np.ndarray, vcol: np.ndarray, borde
                 bloc[b, n + q] = border[b, (j * m + 1) * n + q]
         for r in range(mn):
             used[r] = False
-        if not _eliminate(loc[j], mn, n, ni, used, bloc, piv1[j]):
+        if not _eliminate(L, n, ni, used, bloc, piv1[j], factors):
             return np.empty((0, 0))
         c = 0
         for r in range(mn):
@@ -136,47 +158,47 @@ def solve_bordered(blocks: np.ndarray, tcol: np.ndarray, vcol: np.ndarray, borde
         for a in range(n):
             r = rest1[j, a]
             for q in range(n):
-                CL[j, a, q] = loc[j, r, q]
-                CR[j, a, q] = loc[j, r, n + ni + q]
+                CL[j, a, q] = L[q, r]
+                CR[j, a, q] = L[n + ni + q, r]
     # mesh-node border coefficients that were set directly (not via interiors)
     for b in range(2):
         for j in range(N):
             for q in range(n):
                 b_mesh[b, j, q] += border[b, j * mn + q]
     # ---- 2. stair elimination of u_1 .. u_{N-1} ----------------------------------------
-    # stage columns: [u_j (n) | u_{j+1} (n) | u_0 fill (n) | T | V | rhs (k)]
+    # stage columns: [u_j (n) | u_{j+1} (n) | u_0 fill (n) | T | V | rhs (k)], stored transposed
     width2 = 3 * n + 2 + k
-    stage = np.zeros((N, 2 * n, width2))
+    stage = np.zeros((N, width2, 2 * n))
     piv2 = np.empty((N, n), dtype=np.int64)
     active = np.zeros((n, width2))
     # active rows from interval 0: u_1 <- CR_0 (goes to the 'u_j' slot of stage 1), fill <- CL_0
     for a in range(n):
         r = rest1[0, a]
         for q in range(n):
-            active[a, q] = loc[0, r, n + ni + q]
-            active[a, 2 * n + q] = loc[0, r, q]
+            active[a, q] = loc[0, n + ni + q, r]
+            active[a, 2 * n + q] = loc[0, q, r]
         for q in range(2 + k):
-            active[a, 3 * n + q] = loc[0, r, (m + 1) * n + q]
+            active[a, 3 * n + q] = loc[0, (m + 1) * n + q, r]
     bst = np.zeros((2, width2))
     used2 = np.zeros(2 * n, dtype=np.bool_)
     for j in range(1, N):
         S = stage[j]
         for a in range(n):
             for q in range(width2):
-                S[a, q] = active[a, q]
+                S[q, a] = active[a, q]
         for a in range(n):
             r = rest1[j, a]
             row = n + a
             for q in range(width2):
-                S[row, q] = 0.0
+                S[q, row] = 0.0
             for q in range(n):
-                S[row, q] = loc[j, r, q]
+                S[q, row] = loc[j, q, r]
                 if j + 1 < N:
-                    S[row, n + q] = loc[j, r, n + ni + q]
+                    S[n + q, row] = loc[j, n + ni + q, r]
                 else:
-                    S[row, 2 * n + q] += loc[j, r, n + ni + q]
+                    S[2 * n + q, row] += loc[j, n + ni + q, r]
             for q in range(2 + k):
-                S[row, 3 * n + q] = loc[j, r, (m + 1) * n + q]
+                S[3 * n + q, row] = loc[j, (m + 1) * n + q, r]
         for b in range(2):
             for q in range(width2):
                 bst[b, q] = 0.0
@@ -189,7 +211,7 @@ def solve_bordered(blocks: np.ndarray, tcol: np.ndarray, vcol: np.ndarray, borde
                 bst[b, 3 * n + q] = b_tv[b, q]
         for r in range(2 * n):
             used2[r] = False
-        if not _eliminate(S, 2 * n, 0, n, used2, bst, piv2[j]):
+        if not _eliminate(S, 0, n, used2, bst, piv2[j], factors):
             return np.empty((0, 0))
         for b in range(2):
             for q in range(n):
@@ -205,10 +227,10 @@ def solve_bordered(blocks: np.ndarray, tcol: np.ndarray, vcol: np.ndarray, borde
                     active[c, q] = 0.0
                 # shift: the u_{j+1} slot becomes the next stage's u_j slot
                 for q in range(n):
-                    active[c, q] = S[r, n + q]
-                    active[c, 2 * n + q] = S[r, 2 * n + q]
+                    active[c, q] = S[n + q, r]
+                    active[c, 2 * n + q] = S[2 * n + q, r]
                 for q in range(2 + k):
-                    active[c, 3 * n + q] = S[r, 3 * n + q]
+                    active[c, 3 * n + q] = S[3 * n + q, r]
                 c += 1
     # ---- 3. final dense system in (u_0, T, V) -------------------------------------------
     A = np.zeros((n + 2, n + 2))
@@ -244,13 +266,13 @@ def solve_bordered(blocks: np.ndarray, tcol: np.ndarray, vcol: np.ndarray, borde
         for q in range(k):
             for c in range(n - 1, -1, -1):
                 r = piv2[j, c]
-                acc = S[r, 3 * n + 2 + q] - S[r, 3 * n] * x[size - 2, q] - S[r, 3 * n + 1] * x[size - 1, q]
+                acc = S[3 * n + 2 + q, r] - S[3 * n, r] * x[size - 2, q] - S[3 * n + 1, r] * x[size - 1, q]
                 for cc in range(c + 1, n):
-                    acc -= S[r, cc] * U[j, cc, q]
+                    acc -= S[cc, r] * U[j, cc, q]
                 for cc in range(n):
-                    acc -= S[r, n + cc] * U[j + 1, cc, q] * (1.0 if j + 1 < N else 0.0)
-                    acc -= S[r, 2 * n + cc] * U[0, cc, q]
-                U[j, c, q] = acc / S[r, c]
+                    acc -= S[n + cc, r] * U[j + 1, cc, q] * (1.0 if j + 1 < N else 0.0)
+                    acc -= S[2 * n + cc, r] * U[0, cc, q]
+                U[j, c, q] = acc / S[c, r]
     for j in range(N):
         for q in range(k):
             for a in range(n):
@@ -258,11 +280,11 @@ def solve_bordered(blocks: np.ndarray, tcol: np.ndarray, vcol: np.ndarray, borde
             # interior nodes of interval j, back substitution in elimination order
             for c in range(ni - 1, -1, -1):
                 r = piv1[j, c]
-                L = loc[j, r]
-                acc = L[(m + 1) * n + 2 + q] - L[(m + 1) * n] * x[size - 2, q] - L[(m + 1) * n + 1] * x[size - 1, q]
+                L = loc[j]
+                acc = L[(m + 1) * n + 2 + q, r] - L[(m + 1) * n, r] * x[size - 2, q] - L[(m + 1) * n + 1, r] * x[size - 1, q]
                 for cc in range(n):
-                    acc -= L[cc] * U[j, cc, q] + L[n + ni + cc] * U[j + 1, cc, q]
+                    acc -= L[cc, r] * U[j, cc, q] + L[n + ni + cc, r] * U[j + 1, cc, q]
                 for cc in range(c + 1, ni):
-                    acc -= L[n + cc] * x[j * mn + n + cc, q]
-                x[j * mn + n + c, q] = acc / L[n + c]
+                    acc -= L[n + cc, r] * x[j * mn + n + cc, q]
+                x[j * mn + n + c, q] = acc / L[n + c, r]
     return x

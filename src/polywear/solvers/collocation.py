@@ -261,8 +261,10 @@ class Collocation:
         blocks = np.empty((N, m * n, (m + 1) * n))
         tcol = np.empty(N * m * n)
         vcol = np.empty(N * m * n)
+        speed = float(X[-1])
+        # every Gauss point is at this one speed: the model may cache speed-only terms in p
         _assemble(
-            rhs, jac, dfdv, nodes, float(X[-2]), float(X[-1]), self.p, self.h,
+            rhs, jac, dfdv, nodes, float(X[-2]), speed, self.model.prepared(speed, self.p), self.h,
             self.sch.basis, self.sch.dbasis, res, blocks, tcol, vcol,
         )
         return res, blocks, tcol, vcol
