@@ -13,7 +13,8 @@ from polywear.analysis.bifurcation import bifurcation_diagram
 from polywear.analysis.fast_band import _FIXED_RANGE, _difference, band_reference
 from polywear.models import get_model
 from polywear.params import Params, with_updates
-from polywear.solvers.continuation import (ContinuationSettings, fold_curvature, locate_fold, solve_fold)
+from polywear.solvers.continuation import (ContinuationSettings, fold_curvature, locate_fold, newton_converged,
+                                          solve_at_speed, solve_fold)
 
 SETTINGS = ContinuationSettings()
 
@@ -90,3 +91,38 @@ def test_no_fold_near_the_guess_gives_none(axle_reference):
     fold = ref.folds[0]
     V_pred = fold.orbit.speed + float(ref.fold_gradients[0] @ _difference(p, ref.p))
     assert solve_fold(model, p, fold, V_pred, ref.scales[0], SETTINGS, max_newton=12) is None
+
+
+def test_newton_stops_on_the_error_estimate():
+    """``newton_converged``: a correction below tol, or one that left (by the contraction of
+    the last two) an error below tol; never on the first iteration's estimate or without
+    contraction."""
+    tol = 1e-10
+    assert newton_converged(5e-11, np.inf, tol)
+    assert newton_converged(1e-8, 1e-4, tol)  # error left ~1e-12
+    assert not newton_converged(1e-6, 1e-3, tol)  # ~1e-9 left: one more iteration
+    assert not newton_converged(1e-9, np.inf, tol)
+    assert not newton_converged(2e-9, 3e-9, tol)  # not contracting (round-off floor)
+
+
+def test_stopping_early_loses_nothing(monkeypatch):
+    """axle4dof, the nominal stable cycle at 130 km/h as the guess for other parameters: Newton
+    stops on the estimate one iteration before its correction itself is below tol, and the
+    cycle it stops at is within tol of the one iterated to 1e-13 from there (the estimate's
+    error bound is honest)."""
+    import polywear.solvers.continuation as continuation
+
+    base = with_updates(Params(), {"model": "axle4dof"})
+    diagram = bifurcation_diagram(base, **_FIXED_RANGE)
+    model, V = get_model("axle4dof"), 130.0 / 3.6
+    p = model.pack(with_updates(base, {"tread.lateral_damping_ns_per_m": 76.0, "operating.toe_deg": 0.47}))
+    guess = next(c for c in diagram.cycles_at(130.0) if c.stable).orbit
+    early = solve_at_speed(model, p, guess, V, SETTINGS)
+    strict = solve_at_speed(model, p, early.orbit, V, ContinuationSettings(newton_tol=1e-13))
+    with monkeypatch.context() as m:
+        m.setattr(continuation, "newton_converged", lambda size, previous, tol: size < tol)
+        plain = solve_at_speed(model, p, guess, V, SETTINGS)
+    assert early.newton_iterations == plain.newton_iterations - 1
+    scale = np.abs(strict.orbit.nodes).max(axis=0) + np.ptp(strict.orbit.nodes, axis=0)
+    assert np.max(np.abs(early.orbit.nodes - strict.orbit.nodes) / scale) < SETTINGS.newton_tol
+    assert early.orbit.period == pytest.approx(strict.orbit.period, rel=SETTINGS.newton_tol)
