@@ -65,8 +65,8 @@ from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params
 from ..results import Result
 from ..units import DEFAULT_SPEED_RANGE_KMH
-from ..solvers.continuation import (BranchPoint, ContinuationSettings, cycle_along_branch, fold_curvature,
-                                    locate_fold, on_adapted_mesh, solve_at_speed, solve_fold)
+from ..solvers.continuation import (BranchPoint, ContinuationSettings, cycle_along_branch, fold_at, fold_curvature,
+                                    on_adapted_mesh, recentred, solve_at_speed, solve_fold)
 from .points import PointKind
 
 __all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "band_from_diagram", "band_reference",
@@ -479,15 +479,6 @@ def _difference(p: np.ndarray, p_ref: np.ndarray) -> np.ndarray:
     return np.where(both, p - np.where(both, p_ref, 0.0), 0.0)
 
 
-def _recentred(model, orbit, p_from: np.ndarray, p_to: np.ndarray, V: float):
-    """``orbit`` (a cycle at ``p_from``) as a Newton guess at ``p_to`` and speed V [m/s]: its
-    deviation from the steady state kept, about the steady state of ``p_to`` at V. The steady
-    state moves with the parameters by far more than a small cycle's amplitude (e.g. 4e-5 m
-    for a fold next to its Hopf point), which a guess left where it was has to cover first."""
-    shift = model.equilibrium(V, p_to) - model.equilibrium(orbit.speed, p_from)
-    return replace(orbit, nodes=orbit.nodes + shift, speed=V)
-
-
 def _rescaled(model, p_ref, p, guess, V, labels, ref_interval, interval, v_kmh):
     """The reference's cycle at speed V [m/s] as a guess for ``p`` near a Hopf end of its
     stable interval: deviation from the steady state scaled by ``sqrt(|v - v_H| / |v - v_H,ref|)``
@@ -659,9 +650,9 @@ class FastBand:
     def _fold(self, model, p, ref, j) -> BranchPoint:
         """Fold j of the reference followed from ``ref.p`` to ``p``.
 
-        Each step solves the fold's defining system directly
-        (:func:`~polywear.solvers.continuation.solve_fold`; where its Newton fails,
-        :func:`~polywear.solvers.continuation.locate_fold`) from the last fold, its speed
+        Each step (:func:`~polywear.solvers.continuation.fold_at`) solves the fold's defining
+        system directly (:func:`~polywear.solvers.continuation.solve_fold`; where its Newton
+        fails, :func:`~polywear.solvers.continuation.locate_fold`) from the last fold, its speed
         predicted by the exact gradient of the reference's fold speed for the first step,
         then by the secant through the last two folds; a step whose fold misses the
         prediction by more than the predicted change (plus 1e-3 of the speed: the error of
@@ -674,11 +665,8 @@ class FastBand:
         while theta < 1.0:
             nxt = min(1.0, theta + h)
             V_pred = fold.orbit.speed + (nxt - theta) * slope
-            p_next = ref.p + nxt * direction
-            guess = replace(fold, orbit=_recentred(model, fold.orbit, ref.p + theta * direction, p_next, V_pred))
-            new = solve_fold(model, p_next, guess, V_pred, scales, self.settings, self.fold_newton)
-            if new is None:  # e.g. a fold of tiny amplitude next to its Hopf point: march to it
-                new = locate_fold(model, p_next, guess, V_pred, scales, self.settings, ref.fold_curvatures[j])
+            new = fold_at(model, fold, ref.p + theta * direction, ref.p + nxt * direction, V_pred, scales,
+                          self.settings, ref.fold_curvatures[j], self.fold_newton)
             change = abs(V_pred - fold.orbit.speed)
             if new is None or abs(new.orbit.speed - V_pred) > change + 1e-3 * fold.orbit.speed:
                 halvings += 1
@@ -761,7 +749,7 @@ class FastBand:
                 scaled = _rescaled(model, ref.p, p, guess, V, ref.stable_labels[k], ref_stable[k], stable[k], v)
                 point = None if scaled is None else solve_at_speed(model, p, scaled, V, self.settings)
                 if point is None:
-                    point = solve_at_speed(model, p, _recentred(model, guess, ref.p, p, V), V, self.settings)
+                    point = solve_at_speed(model, p, recentred(model, guess, ref.p, p, V), V, self.settings)
             if point is None or not point.stable:
                 # no reference cycle there (its interval ends on the other side of v), Newton
                 # failed or landed on an unstable cycle: along the sample's own branch

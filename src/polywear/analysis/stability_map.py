@@ -18,10 +18,11 @@ this module evaluates the model along it, seeds the curves and builds the map.
 * **Fold curves** by natural continuation in ``theta``: the predictor is the exact
   derivative ``dV_fold/d theta`` (:func:`~polywear.analysis.sensitivity.fold_speed_derivative`,
   left null vector of the collocation system), the corrector re-locates the fold at
-  the new ``theta`` (:func:`~polywear.solvers.continuation.locate_fold`): one Newton
-  solve onto the new cycle branch from the predicted orbit, a march along the branch
-  until the speed component of its tangent (zero at the fold) changes sign, then
-  a secant iteration inside that bracket. A fold curve ends at the range, where the corrector
+  the new ``theta`` (:func:`~polywear.solvers.continuation.fold_at`): Newton on the
+  fold's defining system (minimally augmented) from the last fold, recentred on the new
+  steady state; where that fails, one Newton solve onto the new cycle branch from the
+  predicted orbit, a march along the branch until the speed component of its tangent
+  (zero at the fold) changes sign, then a secant iteration inside that bracket. A fold curve ends at the range, where the corrector
   fails (a turning point of the fold curve, e.g. a cusp), or where the fold's
   amplitude has shrunk towards a Bautin point.
 

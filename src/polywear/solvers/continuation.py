@@ -1151,6 +1151,34 @@ def solve_fold(model: Model, p: np.ndarray, guess: BranchPoint, speed: float, sc
     return None
 
 
+def recentred(model: Model, orbit: PeriodicOrbit, p_from: np.ndarray, p_to: np.ndarray,
+              speed: float) -> PeriodicOrbit:
+    """``orbit`` (a cycle at ``p_from``) as a Newton guess at ``p_to`` and ``speed`` [m/s]: its
+    deviation from the steady state kept, about the steady state of ``p_to`` at that speed.
+    The steady state moves with the parameters by far more than a small cycle's amplitude
+    (e.g. 4e-5 m for a fold next to its Hopf point), which a guess left where it was has to
+    cover first."""
+    shift = model.equilibrium(speed, p_to) - model.equilibrium(orbit.speed, p_from)
+    return replace(orbit, nodes=orbit.nodes + shift, speed=speed)
+
+
+def fold_at(model: Model, fold: BranchPoint, p_from: np.ndarray, p_to: np.ndarray, speed: float,
+            scales: np.ndarray, settings: ContinuationSettings, curvature: float | Callable[[], float] = np.nan,
+            max_newton: int = 12) -> BranchPoint | None:
+    """The fold of cycles at ``p_to`` near ``fold`` (one at ``p_from``), its speed predicted as
+    ``speed`` [m/s]: :func:`solve_fold` from the :func:`recentred` guess; where that Newton
+    fails (its basin is smaller: e.g. a fold of tiny amplitude next to its Hopf point), the
+    marching :func:`locate_fold`. ``curvature`` is the fold's d(dV/ds)/ds for the march (a
+    number, or a function evaluated only when the march is needed); ``scales`` the state
+    scales of its branch; ``max_newton`` the iterations of :func:`solve_fold` (from folds
+    10 % away in the parameters it takes 5-10). None if neither finds the fold."""
+    guess = replace(fold, orbit=recentred(model, fold.orbit, p_from, p_to, speed))
+    new = solve_fold(model, p_to, guess, speed, scales, settings, max_newton)
+    if new is None:
+        new = locate_fold(model, p_to, guess, speed, scales, settings, curvature() if callable(curvature) else curvature)
+    return new
+
+
 def on_adapted_mesh(model: Model, p: np.ndarray, fold: BranchPoint) -> BranchPoint:
     """The fold's orbit and tangent moved onto a mesh adapted to its orbit (same number of intervals)."""
     c = Collocation(model, p, fold.orbit.mesh, fold.orbit.m)

@@ -15,14 +15,16 @@
   underflows, or when it closes.
 * **Fold curves**: natural continuation in ``theta``. The predictor is the caller's
   derivative ``dV_fold/d theta``; the corrector is
-  :func:`~polywear.solvers.continuation.locate_fold` at the new ``theta`` (its march and
-  bracketed secant along the new cycle branch), with the fold's curvature along its
-  branch for the first step. A curve ends at the box, when the fold's amplitude has shrunk
+  :func:`~polywear.solvers.continuation.fold_at` at the new ``theta``: Newton on the
+  fold's minimally augmented system from the recentred last fold, and where that fails
+  :func:`~polywear.solvers.continuation.locate_fold` (its march and bracketed secant along
+  the new cycle branch, with the fold's curvature along its branch for the first step). A curve ends at the box, when the fold's amplitude has shrunk
   towards a Bautin point, or when the corrector fails (a turning point of the fold curve).
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Protocol
@@ -30,7 +32,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from .arclength import correct, next_step, oriented
-from .continuation import BranchPoint, ContinuationSettings, fold_curvature, locate_fold, on_adapted_mesh
+from .continuation import BranchPoint, ContinuationSettings, fold_at, fold_curvature, on_adapted_mesh
 
 if TYPE_CHECKING:
     from ..models.base import Model
@@ -352,11 +354,12 @@ def follow_fold_curve(
                 break
             if step % 3 == 2:
                 fold = on_adapted_mesh(model, p, fold)
-            curvature = fold_curvature(model, p, fold, scales, settings.continuation)
+            # evaluated only if the direct fold solver fails and the march needs it
+            curvature = functools.cache(lambda: fold_curvature(model, p, fold, scales, settings.continuation))
             while True:
                 nxt = float(np.clip(theta + sign * h, *value_box))
                 V_pred = fold.orbit.speed + (nxt - theta) * dVdth
-                new = locate_fold(model, p_of(nxt), fold, V_pred, scales, settings.continuation, curvature)
+                new = fold_at(model, fold, p, p_of(nxt), V_pred, scales, settings.continuation, curvature)
                 bad = new is None or abs(new.orbit.speed - V_pred) > 0.2 * abs(V_pred - fold.orbit.speed) + 1e-6 * V_pred
                 if not bad:
                     break
