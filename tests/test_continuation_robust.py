@@ -18,7 +18,7 @@ from polywear.analysis.stability import StabilitySettings
 from polywear.cli.bifurcation_cmd import _print_summary
 from polywear.models import get_model
 from polywear.params import load_params
-from polywear.solvers.continuation import BranchEnd, ContinuationSettings
+from polywear.solvers.continuation import MAX_TRIVIAL_ERROR, BranchEnd, ContinuationSettings, trivial_error
 from polywear.solvers.integrate import integrate
 
 HARD = {
@@ -62,6 +62,23 @@ def test_special_points_are_located_once(diagram):
             same_place = abs(a.speed_kmh - b.speed_kmh) < 1e-3 and \
                 abs(a.amplitude[x] - b.amplitude[x]) <= 1e-3 * max(a.amplitude[x], b.amplitude[x])
             assert not (a.kind is b.kind and same_place), (a.kind, a.speed_kmh)
+
+
+def test_period_doublings_and_tori_are_reported_only_where_the_multipliers_hold(diagram):
+    """At every reported PD point a multiplier is at -1, at every NS point a complex pair on
+    the unit circle, both to the locator's tolerance, and the trivial multiplier there is
+    within MAX_TRIVIAL_ERROR of 1. (Heavy load: a "PD" at the fold at 42.51 km/h, trivial
+    error 0.03 - its dominant real multiplier changed sign between two points - was reported
+    before.)"""
+    tol = ContinuationSettings().crossing_tol
+    for branch in diagram.branches:
+        for label, point, _ in branch.special:
+            if label == "LP":
+                continue
+            assert trivial_error(point.multipliers) <= MAX_TRIVIAL_ERROR, (label, point.orbit.speed * 3.6)
+            mu = point.multipliers
+            near = np.min(np.abs(mu + 1.0)) if label == "PD" else np.min(np.abs(np.abs(mu[np.abs(mu.imag) > 0]) - 1.0))
+            assert near < tol, (label, point.orbit.speed * 3.6, near)
 
 
 def test_multipliers_are_accurate_on_every_reported_cycle(diagram):
