@@ -16,13 +16,15 @@ VEC = types.float64[::1]
 MAT = types.float64[:, ::1]
 RHS_SIG = types.void(VEC, types.float64, VEC, VEC)
 JAC_SIG = types.void(VEC, types.float64, VEC, MAT)
+FUSED_SIG = types.void(VEC, types.float64, VEC, VEC, MAT, VEC)
+"""``rhs_jac_dfdv(u, V, p, f, J, fv)``."""
 
 
 class FirstClass:
     """A compiled kernel (``numba.cfunc``) as a first-class function argument.
 
     Passed to a compiled function, a cfunc has its numba type built anew at every call
-    (about 7 us per function argument; a collocation assembly passes three). This wrapper
+    (about 7 us per function argument). This wrapper
     carries the type, built once (``_numba_type_``), and gives numba the cfunc's address
     through numba's wrapper address protocol (``__wrapper_address__``), as numba does
     for the cfunc itself. It holds the cfunc, which owns the compiled code, so the
@@ -51,6 +53,11 @@ def as_cfuncs(kernels):
         _first_class(kernels.jac.py_func, JAC_SIG),
         _first_class(kernels.dfdv.py_func, RHS_SIG),
     )
+
+
+def fused_cfunc(kernels):
+    """The ``rhs_jac_dfdv`` kernel as a cached cfunc (:class:`FirstClass`)."""
+    return _first_class(kernels.rhs_jac_dfdv.py_func, FUSED_SIG)
 
 
 def aux_cfunc(kernels):
