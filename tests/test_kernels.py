@@ -2,11 +2,14 @@
 the explicit sparse matrix, the assembly against its plain form; the fused model kernel
 ``rhs_jac_dfdv`` against ``rhs``, ``jac`` and ``dfdv``."""
 
+from types import SimpleNamespace
+
 import numba
 import numpy as np
 import pytest
 
 from polywear.models import get_model
+from polywear.models.kernels import fused_cfunc
 from polywear.models.profile import coupled_model, patch_sinc, profile_vector
 from polywear.params import Params, with_updates
 from polywear.solvers.collocation import Collocation, PeriodicOrbit, _assemble
@@ -166,6 +169,21 @@ def test_fused_cfunc_is_bit_for_bit_the_separate_kernels(model_name):
         sep, _ = _separate_and_fused(model.kernels, u, speed, coll.p)
         fused = tuple(np.full_like(a, np.nan) for a in sep)
         _call_fused(model.compiled_fused, u, speed, coll.p, *fused)
+        for a, b in zip(sep, fused):
+            assert a.tobytes() == b.tobytes()
+
+
+def test_kernels_without_a_fused_one_get_one_calling_them_in_turn():
+    """A model's kernels without ``rhs_jac_dfdv`` (e.g. a test model) still give the assembly
+    its fused kernel: rhs, jac and dfdv called in turn, bit for bit theirs."""
+    model, coll, X, _ = _system("axle4dof")
+    plain = fused_cfunc(SimpleNamespace(rhs=model.kernels.rhs, jac=model.kernels.jac, dfdv=model.kernels.dfdv))
+    assert numba.typeof(plain) == numba.typeof(model.compiled_fused)
+    speed = float(X[-1])
+    for u in coll.gauss_states(coll.unpack(X))[::40]:
+        sep, _ = _separate_and_fused(model.kernels, u, speed, coll.p)
+        fused = tuple(np.full_like(a, np.nan) for a in sep)
+        _call_fused(plain, u, speed, coll.p, *fused)
         for a, b in zip(sep, fused):
             assert a.tobytes() == b.tobytes()
 

@@ -56,8 +56,28 @@ def as_cfuncs(kernels):
 
 
 def fused_cfunc(kernels):
-    """The ``rhs_jac_dfdv`` kernel as a cached cfunc (:class:`FirstClass`)."""
-    return _first_class(kernels.rhs_jac_dfdv.py_func, FUSED_SIG)
+    """The ``rhs_jac_dfdv`` kernel as a cached cfunc (:class:`FirstClass`).
+
+    Kernels without one (e.g. a small test model) get a cfunc calling their ``rhs``, ``jac``
+    and ``dfdv`` in turn, compiled anew in every process: numba keys a cached closure by its
+    pickled cells, and a pickled dispatcher carries a per-process id, so every process would
+    miss the cache, compile again (0.6-1.0 s for ``axle4dof``) and add a cache file."""
+    fused = getattr(kernels, "rhs_jac_dfdv", None)
+    if fused is not None:
+        return _first_class(fused.py_func, FUSED_SIG)
+    return FirstClass(cfunc(FUSED_SIG, error_model="numpy")(_in_turn(kernels.rhs, kernels.jac, kernels.dfdv)),
+                      FUSED_SIG)
+
+
+def _in_turn(rhs, jac, dfdv):
+    """``rhs_jac_dfdv`` calling the three kernels."""
+
+    def rhs_jac_dfdv(u, V, p, f, J, fv):
+        rhs(u, V, p, f)
+        jac(u, V, p, J)
+        dfdv(u, V, p, fv)
+
+    return rhs_jac_dfdv
 
 
 def aux_cfunc(kernels):
