@@ -137,7 +137,8 @@ def _separate_and_fused(kernels, u, V, p):
 
 def test_fused_kernel_is_bit_for_bit_the_separate_kernels():
     """rhs_jac_dfdv gives what rhs, jac and dfdv give, to the last bit, on every model, in real
-    arithmetic and (base models) in complex arithmetic (complex-step derivatives)."""
+    arithmetic and (base models) in complex arithmetic (complex-step derivatives); so does its
+    cfunc, which the assembly calls."""
     clamped = set()
     for model, p, V, states in _kernel_cases():
         dtypes = (np.float64,) if model.name.endswith("+profile") else (np.float64, np.complex128)
@@ -147,6 +148,11 @@ def test_fused_kernel_is_bit_for_bit_the_separate_kernels():
                 sep, fused = _separate_and_fused(model.kernels, uu, dtype(V), p.astype(dtype))
                 for a, b in zip(sep, fused):
                     assert a.tobytes() == b.tobytes()
+            sep = _separate_and_fused(model.kernels, u, V, p)[0]
+            compiled = tuple(np.full_like(a, np.nan) for a in sep)
+            _call_fused(model.compiled_fused, u, V, p, *compiled)  # the cfunc the assembly calls
+            for a, b in zip(sep, compiled):
+                assert a.tobytes() == b.tobytes()
             lost = model.diagnostics(u, V, p)[-1] == (0.0 if model.name.startswith("tread1dof") else 1.0)
             if lost and model.name != "tread1dof":
                 clamped.add(model.name)
@@ -157,20 +163,6 @@ def test_fused_kernel_is_bit_for_bit_the_separate_kernels():
 @numba.njit
 def _call_fused(kernel, u, V, p, f, J, fv):
     kernel(u, V, p, f, J, fv)
-
-
-@pytest.mark.parametrize("model_name", ["tread1dof", "axle4dof"])
-def test_fused_cfunc_is_bit_for_bit_the_separate_kernels(model_name):
-    """The compiled (cfunc) fused kernel too, on the states of the collocation system."""
-    model, coll, X, _ = _system(model_name)
-    speed = float(X[-1])
-    states = coll.gauss_states(coll.unpack(X))
-    for u in states[::7]:
-        sep, _ = _separate_and_fused(model.kernels, u, speed, coll.p)
-        fused = tuple(np.full_like(a, np.nan) for a in sep)
-        _call_fused(model.compiled_fused, u, speed, coll.p, *fused)
-        for a, b in zip(sep, fused):
-            assert a.tobytes() == b.tobytes()
 
 
 def test_kernels_without_a_fused_one_get_one_calling_them_in_turn():
