@@ -175,6 +175,7 @@ class _Kernels:
     rhs = _kernels.rhs
     jac = _kernels.jac
     dfdv = _kernels.dfdv
+    rhs_jac_dfdv = _kernels.rhs_jac_dfdv
     aux = _kernels.aux
     equilibrium = staticmethod(equilibrium)
     prepare = staticmethod(prepare)

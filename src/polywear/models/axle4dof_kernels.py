@@ -1,4 +1,4 @@
-"""Compiled kernels of model ``axle4dof``: ``rhs``, ``jac``, ``dfdv``, ``aux``.
+"""Compiled kernels of model ``axle4dof``: ``rhs``, ``jac``, ``dfdv``, ``rhs_jac_dfdv``, ``aux``.
 
 The hand-written numeric part around the generated symbolic expressions of
 :mod:`._axle4dof_generated` (mass matrix, inertial forces, contact gradients, sliding
@@ -57,7 +57,7 @@ from ._axle4dof_generated import (
     _sliding_partials,
 )
 
-__all__ = ["aux", "dfdv", "jac", "preload", "rhs", "rhs_python", "running_equilibrium"]
+__all__ = ["aux", "dfdv", "jac", "preload", "rhs", "rhs_jac_dfdv", "rhs_python", "running_equilibrium"]
 
 _NQ = 4
 """Generalized coordinates alpha, beta, gamma, x (then their rates)."""
@@ -209,43 +209,47 @@ def _evaluate(u, V, p, M, Q, GF, GN):
 
 
 @njit(cache=True, error_model="numpy")
-def rhs(u, V, p, out):
-    """du/dt [rad/s, rad/s, rad/s, m/s, rad/s^2, rad/s^2, rad/s^2, m/s^2, m/s]."""
-    _zero_value, M, Q, GF, GN = _workspace(u, V, p)
-    zd = _evaluate(u, V, p, M, Q, GF, GN)[2]
-    _solve(M, Q)
-    for i in range(_NQ):
-        out[i] = u[_NQ + i]
-        out[_NQ + i] = Q[i, 0]
-    out[_ZB] = zd
-
-
-@njit(cache=True, error_model="numpy")
-def jac(u, V, p, out):
-    """df/du (9 x 9)."""
-    n2 = 2 * _NQ
+def _accelerations(u, V, p):
+    """:func:`_evaluate` at u with Q solved for the accelerations M^-1 Q (4, 1);
+    returns (zero, M, Q, G_F, G_N, v_r, G(v_r), z', F, N, clamped)."""
     zero, M, Q, GF, GN = _workspace(u, V, p)
     vr, g, zd, force, load, clamped = _evaluate(u, V, p, M, Q, GF, GN)
     _solve(M, Q)
-    a = Q[:, 0].copy()
-    dMa = np.empty((_NQ, _NQ), dtype=M.dtype)
-    dh = np.empty((_NQ, n2), dtype=M.dtype)
-    dh_dv = np.empty(_NQ, dtype=M.dtype)
-    _inertia_partials(u, a, V, p, dMa, dh, dh_dv)
-    dGF = np.empty((_NQ, _NQ), dtype=M.dtype)
-    dGN = np.empty((_NQ, _NQ), dtype=M.dtype)
-    _contact_partials(u, p, dGF, dGN)
-    dvr = np.empty(n2, dtype=M.dtype)
-    _sliding_partials(u, V, p, dvr)
+    return zero, M, Q, GF, GN, vr, g, zd, force, load, clamped
 
+
+@njit(cache=True, error_model="numpy")
+def _first_order(u, V, p, s):
+    """Partials that df/du and df/dV share, at the result ``s`` of :func:`_accelerations`:
+    (d(M a)/dq, dh/d(q, q'), dh/dV, dv_r/d(q, q'), dv_r/dV, dz'/dv_r, dz'/dz, dF/dv_r)."""
+    _zero, _M, Q, _GF, _GN, vr, g, _zd, _force, load, _clamped = s
+    dMa = np.empty((_NQ, _NQ), dtype=Q.dtype)
+    dh = np.empty((_NQ, 2 * _NQ), dtype=Q.dtype)
+    dh_dv = np.empty(_NQ, dtype=Q.dtype)
+    _inertia_partials(u, Q[:, 0].copy(), V, p, dMa, dh, dh_dv)
+    dvr = np.empty(2 * _NQ, dtype=Q.dtype)
+    dvr_dv = _sliding_partials(u, V, p, dvr)
     dg = stribeck_dv(vr, p[_MU_S], p[_MU_C], p[_V_S], p[_DELTA])
     dzd_dvr, dzd_dz = bristle_rate_partials(vr, u[_ZB], p[_SIGMA0], g, dg)
-    mu = p[_SIGMA0] * u[_ZB] + p[_SIGMA1] * zd + p[_SIGMA2] * vr
     dF_dvr = load * (p[_SIGMA1] * dzd_dvr + p[_SIGMA2])
+    return dMa, dh, dh_dv, dvr, dvr_dv, dzd_dvr, dzd_dz, dF_dvr
+
+
+@njit(cache=True, error_model="numpy")
+def _jac_columns(u, p, s, d, B):
+    """B[:, :9] = dQ/d(q, q', z) minus d(M a)/dq: M^-1 of it are the acceleration rows of df/du
+    (``s``, ``d``: results of :func:`_accelerations`, :func:`_first_order`)."""
+    n2 = 2 * _NQ
+    _zero, _M, _Q, GF, GN, vr, _g, zd, force, load, clamped = s
+    dMa, dh, _dh_dv, dvr, _dvr_dv, _dzd_dvr, dzd_dz, dF_dvr = d
+    dGF = np.empty((_NQ, _NQ), dtype=B.dtype)
+    dGN = np.empty((_NQ, _NQ), dtype=B.dtype)
+    _contact_partials(u, p, dGF, dGN)
+    mu = p[_SIGMA0] * u[_ZB] + p[_SIGMA1] * zd + p[_SIGMA2] * vr
     dF_dz = load * (p[_SIGMA0] + p[_SIGMA1] * dzd_dz)
 
     # dN/d(q, q'): N = N0 - k_z rise(q) - c_z G_N(q).q', with d rise/dq = G_N
-    dN = np.zeros(n2, dtype=M.dtype)
+    dN = np.zeros(n2, dtype=B.dtype)
     if not clamped:
         for k in range(_NQ):
             dN[k] = -p[_K_Z] * GN[k]
@@ -253,8 +257,6 @@ def jac(u, V, p, out):
             for i in range(_NQ):
                 dN[k] -= p[_C_Z] * dGN[i, k] * u[_NQ + i]
 
-    # dQ/d(q, q', z) minus d(M a)/dq, then the accelerations' rows: M^-1 of that
-    B = np.zeros((_NQ, n2 + 1), dtype=M.dtype)
     stiff = (p[_K_ALPHA], p[_K_BETA], p[_K_GAMMA], p[_K])
     damp = (p[_C_ALPHA], p[_C_BETA], p[_C_GAMMA], p[_C])
     for i in range(_NQ):
@@ -266,8 +268,37 @@ def jac(u, V, p, out):
         B[i, i] -= stiff[i]
         B[i, _NQ + i] -= damp[i]
         B[i, n2] = GF[i] * dF_dz
-    _solve(M, B)
 
+
+@njit(cache=True, error_model="numpy")
+def _dfdv_column(V, p, s, d, B, col):
+    """B[:, col] = dQ/dV: M^-1 of it are the acceleration rows of df/dV
+    (through v_r, the wheel-spin rate V/R_e and the running preloads)."""
+    GF = s[3]
+    _dMa, _dh, dh_dv, _dvr, dvr_dv, _dzd_dvr, _dzd_dz, dF_dvr = d
+    dF_dv = dF_dvr * dvr_dv
+    dP = np.empty(_NQ, dtype=B.dtype)
+    _preload_dv(V, p, dP)
+    for i in range(_NQ):
+        B[i, col] = dh_dv[i] + GF[i] * dF_dv + dP[i]
+
+
+@njit(cache=True, error_model="numpy")
+def _rhs_out(u, s, out):
+    """du/dt into out from the result ``s`` of :func:`_accelerations`."""
+    Q = s[2]
+    for i in range(_NQ):
+        out[i] = u[_NQ + i]
+        out[_NQ + i] = Q[i, 0]
+    out[_ZB] = s[7]
+
+
+@njit(cache=True, error_model="numpy")
+def _jac_out(s, d, B, out):
+    """df/du (9 x 9) into out from B[:, :9] solved by M (:func:`_jac_columns`)."""
+    n2 = 2 * _NQ
+    zero = s[0]
+    dvr, dzd_dvr, dzd_dz = d[3], d[5], d[6]
     for i in range(n2 + 1):
         for k in range(n2 + 1):
             out[i, k] = 0.0 * zero
@@ -281,30 +312,57 @@ def jac(u, V, p, out):
 
 
 @njit(cache=True, error_model="numpy")
-def dfdv(u, V, p, out):
-    """df/dV [per m/s]: through v_r, the wheel-spin rate V/R_e and the running preloads."""
-    zero, M, Q, GF, GN = _workspace(u, V, p)
-    vr, g, _zd, _force, load, _clamped = _evaluate(u, V, p, M, Q, GF, GN)
-    dvr = np.empty(2 * _NQ, dtype=M.dtype)
-    dvr_dv = _sliding_partials(u, V, p, dvr)
-    _solve(M, Q)
-    dMa = np.empty((_NQ, _NQ), dtype=M.dtype)
-    dh = np.empty((_NQ, 2 * _NQ), dtype=M.dtype)
-    dh_dv = np.empty(_NQ, dtype=M.dtype)
-    _inertia_partials(u, Q[:, 0].copy(), V, p, dMa, dh, dh_dv)
-    dg = stribeck_dv(vr, p[_MU_S], p[_MU_C], p[_V_S], p[_DELTA])
-    dzd_dvr = bristle_rate_partials(vr, u[_ZB], p[_SIGMA0], g, dg)[0]
-    dF_dv = load * (p[_SIGMA1] * dzd_dvr + p[_SIGMA2]) * dvr_dv
-    dP = np.empty(_NQ, dtype=M.dtype)
-    _preload_dv(V, p, dP)
-    B = np.empty((_NQ, 1), dtype=M.dtype)
-    for i in range(_NQ):
-        B[i, 0] = dh_dv[i] + GF[i] * dF_dv + dP[i]
-    _solve(M, B)
+def _dfdv_out(s, d, B, col, out):
+    """df/dV into out from B[:, col] solved by M (:func:`_dfdv_column`)."""
+    zero = s[0]
     for i in range(_NQ):
         out[i] = zero
-        out[_NQ + i] = B[i, 0]
-    out[_ZB] = dzd_dvr * dvr_dv
+        out[_NQ + i] = B[i, col]
+    out[_ZB] = d[5] * d[4]
+
+
+@njit(cache=True, error_model="numpy")
+def rhs(u, V, p, out):
+    """du/dt [rad/s, rad/s, rad/s, m/s, rad/s^2, rad/s^2, rad/s^2, m/s^2, m/s]."""
+    _rhs_out(u, _accelerations(u, V, p), out)
+
+
+@njit(cache=True, error_model="numpy")
+def jac(u, V, p, out):
+    """df/du (9 x 9)."""
+    s = _accelerations(u, V, p)
+    d = _first_order(u, V, p, s)
+    B = np.empty((_NQ, 2 * _NQ + 1), dtype=s[1].dtype)
+    _jac_columns(u, p, s, d, B)
+    _solve(s[1], B)
+    _jac_out(s, d, B, out)
+
+
+@njit(cache=True, error_model="numpy")
+def dfdv(u, V, p, out):
+    """df/dV [per m/s]: through v_r, the wheel-spin rate V/R_e and the running preloads."""
+    s = _accelerations(u, V, p)
+    d = _first_order(u, V, p, s)
+    B = np.empty((_NQ, 1), dtype=s[1].dtype)
+    _dfdv_column(V, p, s, d, B, 0)
+    _solve(s[1], B)
+    _dfdv_out(s, d, B, 0, out)
+
+
+@njit(cache=True, error_model="numpy")
+def rhs_jac_dfdv(u, V, p, f, J, fv):
+    """:func:`rhs`, :func:`jac` and :func:`dfdv` into f, J and fv at once, bit for bit
+    theirs: the state is evaluated once and M solved once for the columns of J and fv."""
+    s = _accelerations(u, V, p)
+    _rhs_out(u, s, f)
+    d = _first_order(u, V, p, s)
+    col = 2 * _NQ + 1
+    B = np.empty((_NQ, col + 1), dtype=s[1].dtype)
+    _jac_columns(u, p, s, d, B)
+    _dfdv_column(V, p, s, d, B, col)
+    _solve(s[1], B)
+    _jac_out(s, d, B, J)
+    _dfdv_out(s, d, B, col, fv)
 
 
 @njit(cache=True, error_model="numpy")

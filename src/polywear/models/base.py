@@ -8,6 +8,10 @@ A model is data plus compiled kernels. Every kernel is a ``numba.njit`` function
 ``dfdv``  df/dV                                      out shape (n,)
 ``aux``   diagnostics (sliding velocity, friction force, normal load, ...)  out shape (n_aux,)
 
+and, optional, ``rhs_jac_dfdv(u, V, p, f, J, fv)`` filling ``f``, ``J`` and ``fv`` with
+what ``rhs``, ``jac`` and ``dfdv`` give, bit for bit, sharing their common work (the
+collocation assembly needs all three at every point).
+
 ``u`` is the state, ``V`` the vehicle speed [m/s] and ``p`` the kernel parameter
 vector in SI units (angles in rad), packed from a :class:`~polywear.params.Params` by
 :meth:`Model.pack`. Kernels accept complex arrays too, for complex-step derivatives.
@@ -71,7 +75,8 @@ class Model:
     aux_names: tuple[str, ...]
     slots: tuple[ParamSlot, ...]
     kernels: Any = field(repr=False)
-    """Module (or namespace) with njit ``rhs``, ``jac``, ``dfdv``, ``aux``, ``equilibrium``."""
+    """Module (or namespace) with njit ``rhs``, ``jac``, ``dfdv``, ``aux``, ``equilibrium`` and
+    optional ``rhs_jac_dfdv``, ``prepare``."""
     coordinates: tuple[tuple[str, str], ...] = ()
     """(displacement state, name of its stiffness in ``p``): used to name a mode by the
     coordinate holding most of its potential energy."""
@@ -148,6 +153,14 @@ class Model:
         from .kernels import as_cfuncs
 
         return as_cfuncs(self.kernels)
+
+    @cached_property
+    def compiled_fused(self):
+        """First-class (cfunc) kernel ``rhs_jac_dfdv`` for compiled solvers (built from
+        ``rhs``, ``jac`` and ``dfdv`` if the kernels have none)."""
+        from .kernels import fused_cfunc
+
+        return fused_cfunc(self.kernels)
 
     @cached_property
     def compiled_aux(self):

@@ -16,13 +16,15 @@ VEC = types.float64[::1]
 MAT = types.float64[:, ::1]
 RHS_SIG = types.void(VEC, types.float64, VEC, VEC)
 JAC_SIG = types.void(VEC, types.float64, VEC, MAT)
+FUSED_SIG = types.void(VEC, types.float64, VEC, VEC, MAT, VEC)
+"""``rhs_jac_dfdv(u, V, p, f, J, fv)``."""
 
 
 class FirstClass:
     """A compiled kernel (``numba.cfunc``) as a first-class function argument.
 
     Passed to a compiled function, a cfunc has its numba type built anew at every call
-    (about 7 us per function argument; a collocation assembly passes three). This wrapper
+    (about 7 us per function argument). This wrapper
     carries the type, built once (``_numba_type_``), and gives numba the cfunc's address
     through numba's wrapper address protocol (``__wrapper_address__``), as numba does
     for the cfunc itself. It holds the cfunc, which owns the compiled code, so the
@@ -51,6 +53,31 @@ def as_cfuncs(kernels):
         _first_class(kernels.jac.py_func, JAC_SIG),
         _first_class(kernels.dfdv.py_func, RHS_SIG),
     )
+
+
+def fused_cfunc(kernels):
+    """The ``rhs_jac_dfdv`` kernel as a cached cfunc (:class:`FirstClass`).
+
+    Kernels without one (e.g. a small test model) get a cfunc calling their ``rhs``, ``jac``
+    and ``dfdv`` in turn, compiled anew in every process: numba keys a cached closure by its
+    pickled cells, and a pickled dispatcher carries a per-process id, so every process would
+    miss the cache, compile again (0.6-1.0 s for ``axle4dof``) and add a cache file."""
+    fused = getattr(kernels, "rhs_jac_dfdv", None)
+    if fused is not None:
+        return _first_class(fused.py_func, FUSED_SIG)
+    return FirstClass(cfunc(FUSED_SIG, error_model="numpy")(_in_turn(kernels.rhs, kernels.jac, kernels.dfdv)),
+                      FUSED_SIG)
+
+
+def _in_turn(rhs, jac, dfdv):
+    """``rhs_jac_dfdv`` calling the three kernels."""
+
+    def rhs_jac_dfdv(u, V, p, f, J, fv):
+        rhs(u, V, p, f)
+        jac(u, V, p, J)
+        dfdv(u, V, p, fv)
+
+    return rhs_jac_dfdv
 
 
 def aux_cfunc(kernels):

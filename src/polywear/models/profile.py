@@ -90,6 +90,14 @@ def _base_dfdv(flag, u, V, p, out):
 
 
 @njit(cache=True, error_model="numpy")
+def _base_rhs_jac_dfdv(flag, u, V, p, f, J, fv):
+    if flag == 0:
+        _tread.rhs_jac_dfdv(u, V, p, f, J, fv)
+    else:
+        _axle.rhs_jac_dfdv(u, V, p, f, J, fv)
+
+
+@njit(cache=True, error_model="numpy")
 def _base_aux(flag, u, V, p, out):
     if flag == 0:
         _tread.aux(u, V, p, out)
@@ -161,6 +169,22 @@ def rhs(u, V, p, out):
 
 
 @njit(cache=True, error_model="numpy")
+def _jac_phase(n, col, dn_dtheta, out):
+    """Column and row of phi_c in df/du: the load's column ``col`` (d base rhs / dN) times dN/dphi_c."""
+    for i in range(n):
+        out[i, n] = col[i] * dn_dtheta
+        out[n, i] = 0.0
+    out[n, n] = 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def _add_load_speed_term(n, col, dn_dv, out):
+    """Add the load's column ``col`` (d base rhs / dN) times dN/dV [N s/m] to df/dV."""
+    for i in range(n):
+        out[i] += col[i] * dn_dv
+
+
+@njit(cache=True, error_model="numpy")
 def jac(u, V, p, out):
     """df/du, with the column of phi_c through the load."""
     n = u.size - 1
@@ -170,10 +194,7 @@ def jac(u, V, p, out):
     col = np.zeros(n)
     if not clamped and dn_dtheta != 0.0:
         _df_dload(flag, u[:n], V, q, int(p[_IN0]), col)
-    for i in range(n):
-        out[i, n] = col[i] * dn_dtheta
-        out[n, i] = 0.0
-    out[n, n] = 0.0
+    _jac_phase(n, col, dn_dtheta, out)
 
 
 @njit(cache=True, error_model="numpy")
@@ -190,9 +211,26 @@ def dfdv(u, V, p, out):
     if not clamped and dn_dv != 0.0:
         col = np.zeros(n)
         _df_dload(flag, u[:n], V, q, int(p[_IN0]), col)
-        for i in range(n):
-            out[i] += col[i] * dn_dv
+        _add_load_speed_term(n, col, dn_dv, out)
     out[n] = 1.0 / p[_R]
+
+
+@njit(cache=True, error_model="numpy")
+def rhs_jac_dfdv(u, V, p, f, J, fv):
+    """:func:`rhs`, :func:`jac` and :func:`dfdv` into f, J and fv at once, bit for bit
+    theirs: the load, the base model and the load's column evaluated once."""
+    n = u.size - 1
+    q, clamped, dn_dtheta, dn_dv = _loaded(u, V, p)
+    flag = int(p[_FLAG].real)
+    _base_rhs_jac_dfdv(flag, u[:n], V, q, f[:n], J[:n, :n], fv[:n])
+    f[n] = V / p[_R]
+    col = np.zeros(n)
+    if not clamped and (dn_dtheta != 0.0 or dn_dv != 0.0):
+        _df_dload(flag, u[:n], V, q, int(p[_IN0]), col)
+    _jac_phase(n, col if dn_dtheta != 0.0 else np.zeros(n), dn_dtheta, J)
+    if not clamped and dn_dv != 0.0:
+        _add_load_speed_term(n, col, dn_dv, fv)
+    fv[n] = 1.0 / p[_R]
 
 
 @njit(cache=True, error_model="numpy")
@@ -260,7 +298,7 @@ def coupled_model(base: Model) -> Model:
     """
     if base.name not in _COUPLED:
         kernels = SimpleNamespace(
-            rhs=rhs, jac=jac, dfdv=dfdv, aux=aux,
+            rhs=rhs, jac=jac, dfdv=dfdv, rhs_jac_dfdv=rhs_jac_dfdv, aux=aux,
             equilibrium=_equilibrium_factory(base), prepare=_prepare,
         )
         _COUPLED[base.name] = Model(

@@ -35,10 +35,15 @@ M, K, C, N, TOE, S0, S1, S2, MUS, MUC, VS, DELTA = range(len(SLOTS))
 
 
 @njit(cache=True, error_model="numpy")
-def rhs(u, V, p, out):
-    """du/dt [m/s, m/s^2, m/s]."""
+def _slip(u, V, p):
+    """Sliding velocity v_r [m/s] and Stribeck value G(v_r) [-] at state u."""
     vr = V * np.sin(p[TOE]) - u[1]
-    g = stribeck(vr, p[MUS], p[MUC], p[VS], p[DELTA])
+    return vr, stribeck(vr, p[MUS], p[MUC], p[VS], p[DELTA])
+
+
+@njit(cache=True, error_model="numpy")
+def _rhs_out(u, p, vr, g, out):
+    """du/dt into out, given v_r and G(v_r)."""
     zd = bristle_rate(vr, u[2], p[S0], g)
     force = p[N] * (p[S0] * u[2] + p[S1] * zd + p[S2] * vr)
     out[0] = u[1]
@@ -47,21 +52,19 @@ def rhs(u, V, p, out):
 
 
 @njit(cache=True, error_model="numpy")
-def _partials(u, V, p):
-    """Sliding velocity, dz'/dv_r, dz'/dz, dF/dv_r, dF/dz at state u."""
-    vr = V * np.sin(p[TOE]) - u[1]
-    g = stribeck(vr, p[MUS], p[MUC], p[VS], p[DELTA])
+def _partials(u, p, vr, g):
+    """dz'/dv_r, dz'/dz, dF/dv_r, dF/dz at state u, given v_r and G(v_r)."""
     dg = stribeck_dv(vr, p[MUS], p[MUC], p[VS], p[DELTA])
     dzd_dvr, dzd_dz = bristle_rate_partials(vr, u[2], p[S0], g, dg)
     df_dvr = p[N] * (p[S1] * dzd_dvr + p[S2])
     df_dz = p[N] * (p[S0] + p[S1] * dzd_dz)
-    return vr, dzd_dvr, dzd_dz, df_dvr, df_dz
+    return dzd_dvr, dzd_dz, df_dvr, df_dz
 
 
 @njit(cache=True, error_model="numpy")
-def jac(u, V, p, out):
-    """df/du."""
-    _, dzd_dvr, dzd_dz, df_dvr, df_dz = _partials(u, V, p)
+def _jac_out(p, partials, out):
+    """df/du into out from the :func:`_partials`."""
+    dzd_dvr, dzd_dz, df_dvr, df_dz = partials
     out[0, 0] = 0.0
     out[0, 1] = 1.0
     out[0, 2] = 0.0
@@ -74,13 +77,44 @@ def jac(u, V, p, out):
 
 
 @njit(cache=True, error_model="numpy")
-def dfdv(u, V, p, out):
-    """df/dV [per m/s]; V enters only through v_r = V sin(toe) - x'."""
-    _, dzd_dvr, _, df_dvr, _ = _partials(u, V, p)
+def _dfdv_out(p, partials, out):
+    """df/dV into out from the :func:`_partials`."""
+    dzd_dvr, _, df_dvr, _ = partials
     s = np.sin(p[TOE])
     out[0] = 0.0 * s
     out[1] = df_dvr * s / p[M]
     out[2] = dzd_dvr * s
+
+
+@njit(cache=True, error_model="numpy")
+def rhs(u, V, p, out):
+    """du/dt [m/s, m/s^2, m/s]."""
+    vr, g = _slip(u, V, p)
+    _rhs_out(u, p, vr, g, out)
+
+
+@njit(cache=True, error_model="numpy")
+def jac(u, V, p, out):
+    """df/du."""
+    vr, g = _slip(u, V, p)
+    _jac_out(p, _partials(u, p, vr, g), out)
+
+
+@njit(cache=True, error_model="numpy")
+def dfdv(u, V, p, out):
+    """df/dV [per m/s]; V enters only through v_r = V sin(toe) - x'."""
+    vr, g = _slip(u, V, p)
+    _dfdv_out(p, _partials(u, p, vr, g), out)
+
+
+@njit(cache=True, error_model="numpy")
+def rhs_jac_dfdv(u, V, p, f, J, fv):
+    """:func:`rhs`, :func:`jac` and :func:`dfdv` into f, J and fv at once, bit for bit theirs."""
+    vr, g = _slip(u, V, p)
+    _rhs_out(u, p, vr, g, f)
+    partials = _partials(u, p, vr, g)
+    _jac_out(p, partials, J)
+    _dfdv_out(p, partials, fv)
 
 
 AUX_NAMES = ("sliding_velocity", "friction_force", "normal_load")
@@ -89,8 +123,7 @@ AUX_NAMES = ("sliding_velocity", "friction_force", "normal_load")
 @njit(cache=True, error_model="numpy")
 def aux(u, V, p, out):
     """Sliding velocity v_r [m/s], friction force F [N], normal load N [N]."""
-    vr = V * np.sin(p[TOE]) - u[1]
-    g = stribeck(vr, p[MUS], p[MUC], p[VS], p[DELTA])
+    vr, g = _slip(u, V, p)
     zd = bristle_rate(vr, u[2], p[S0], g)
     out[0] = vr
     out[1] = p[N] * (p[S0] * u[2] + p[S1] * zd + p[S2] * vr)
@@ -121,6 +154,7 @@ class _Kernels:
     rhs = rhs
     jac = jac
     dfdv = dfdv
+    rhs_jac_dfdv = rhs_jac_dfdv
     aux = aux
     equilibrium = staticmethod(equilibrium)
 

@@ -170,10 +170,11 @@ def _refined_peak(y: np.ndarray) -> float:
 
 
 @njit(cache=True)
-def _assemble(rhs: Callable[..., None], jac: Callable[..., None], dfdv: Callable[..., None], nodes: np.ndarray,
-              period: float, speed: float, p: np.ndarray, h: np.ndarray, basis: np.ndarray, dbasis: np.ndarray,
-              res: np.ndarray, blocks: np.ndarray, tcol: np.ndarray, vcol: np.ndarray) -> None:
-    """Collocation residual and Jacobian blocks.
+def _assemble(rhs_jac_dfdv: Callable[..., None], nodes: np.ndarray, period: float, speed: float, p: np.ndarray,
+              h: np.ndarray, basis: np.ndarray, dbasis: np.ndarray, res: np.ndarray, blocks: np.ndarray,
+              tcol: np.ndarray, vcol: np.ndarray) -> None:
+    """Collocation residual and Jacobian blocks; the model's ``rhs_jac_dfdv`` gives f, df/du
+    and df/dV at every Gauss point.
 
     res (N m n,): u'(c) - T f(u(c)) at every Gauss point c. blocks (N, m n, (m+1) n):
     d res / d nodes of the interval; tcol, vcol (N m n,): d res / dT, d res / dV.
@@ -197,9 +198,7 @@ def _assemble(rhs: Callable[..., None], jac: Callable[..., None], dfdv: Callable
                 for i in range(n):
                     uc[i] += basis[k, l] * nodes[node, i]
                     duc[i] += dbasis[k, l] * nodes[node, i] / h[j]
-            rhs(uc, speed, p, f)
-            jac(uc, speed, p, J)
-            dfdv(uc, speed, p, fv)
+            rhs_jac_dfdv(uc, speed, p, f, J, fv)
             row0 = (j * m + k) * n
             for i in range(n):
                 res[row0 + i] = duc[i] - period * f[i]
@@ -254,7 +253,6 @@ class Collocation:
     # -- system ------------------------------------------------------------------------
     def evaluate(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Residual of the collocation equations and their Jacobian parts at X."""
-        rhs, jac, dfdv = self.model.compiled
         N, m, n = self.N, self.m, self.n
         nodes = np.ascontiguousarray(X[:-2].reshape(N * m, n))
         res = np.empty(N * m * n)
@@ -264,7 +262,7 @@ class Collocation:
         speed = float(X[-1])
         # every Gauss point is at this one speed: the model may cache speed-only terms in p
         _assemble(
-            rhs, jac, dfdv, nodes, float(X[-2]), speed, self.model.prepared(speed, self.p), self.h,
+            self.model.compiled_fused, nodes, float(X[-2]), speed, self.model.prepared(speed, self.p), self.h,
             self.sch.basis, self.sch.dbasis, res, blocks, tcol, vcol,
         )
         return res, blocks, tcol, vcol
