@@ -20,7 +20,7 @@ from polywear.models import get_model
 from polywear.models.base import kmh_to_ms
 from polywear.params import Params, get_value, with_updates
 from polywear.units import DEFAULT_SPEED_RANGE_KMH
-from polywear.solvers.continuation import cycle_along_branch, solve_at_speed
+from polywear.solvers.continuation import cycle_along_branch, solve_at_speed, switching_times
 
 AMPLITUDE_SPEEDS = (80.0, 130.0)
 
@@ -297,3 +297,30 @@ def test_small_cycle_just_above_a_hopf_point_is_found_either_way():
     assert band.path is BandPath.FAST, band.detail
     assert 79.5 < band.hopf_kmh[0] < 80.0 and band.amplitude_x_m[0] > 0.0
     assert_agrees(band, solver.full(car))
+
+
+TREAD_KINKED_130 = {  # tread1dof sample 84 of bench_fleet.py agreement --seed 0
+    "tread.lateral_stiffness_n_per_m": 916748.0647793558, "tread.lateral_damping_ns_per_m": 77.16885908969309,
+    "operating.toe_deg": 0.5427558809465962, "operating.camber_deg": -0.9945235057666965,
+    "friction.mu_static": 0.9711853032865766, "tread.mass_kg": 0.991934990655405,
+    "operating.vertical_load_n": 4204.094485248102}
+
+
+def test_amplitude_of_a_kinked_cycle_is_solved_on_its_own_kinks(tread_solver):
+    """tread1dof at 130 km/h: the sliding velocity reverses twice per period (kinks of the
+    vector field). Solved on the reference's mesh the amplitude came out 1.4e-4 too large
+    (kinks inside mesh intervals); on its own kink-aligned mesh it agrees with the
+    continuation's and, to 2e-5, with the cycle solved on a 4x finer mesh."""
+    base, solver = tread_solver
+    car = with_updates(base, TREAD_KINKED_130)
+    model, V = get_model("tread1dof"), kmh_to_ms(130.0)
+    p = model.pack(car)
+    band = solver(car)
+    assert band.path is BandPath.FAST, band.detail
+    diagram = bifurcation_diagram(car, **_FIXED_RANGE)
+    (cycle,) = [c for c in diagram.cycles_at(130.0) if c.stable]
+    assert switching_times(model, p, cycle.orbit).size == 2
+    fine = solve_at_speed(model, p, cycle.orbit.with_mesh(np.linspace(0.0, 1.0, 4 * cycle.orbit.n_intervals + 1)), V)
+    assert fine is not None and fine.stable
+    assert band.amplitude_x_m[1] == pytest.approx(fine.orbit.amplitude(64)[model.index("x")], rel=2e-5)
+    assert_agrees(band, band_from_diagram(diagram, AMPLITUDE_SPEEDS))

@@ -66,7 +66,8 @@ from ..params import Params
 from ..results import Result
 from ..units import DEFAULT_SPEED_RANGE_KMH
 from ..solvers.continuation import (BranchPoint, ContinuationSettings, cycle_along_branch, fold_at, fold_curvature,
-                                    on_adapted_mesh, recentred, solve_at_speed, solve_fold)
+                                    on_adapted_mesh, recentred, solve_at_speed, solve_at_speed_on_kinks,
+                                    solve_fold)
 from .points import PointKind
 
 __all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "band_from_diagram", "band_reference",
@@ -754,6 +755,8 @@ class FastBand:
                 # no reference cycle there (its interval ends on the other side of v), Newton
                 # failed or landed on an unstable cycle: along the sample's own branch
                 point = self._along_branch(model, p, ref, stab, fold_points, ref.stable_labels[k], stable[k], V)
+            if point is not None and point.stable:  # on its own mesh, kinks on mesh points, as the continuation's
+                point = solve_at_speed_on_kinks(model, p, point, self.settings)
             if point is None or not point.stable:
                 raise _Fallback(FallbackReason.AMPLITUDE_CYCLE, f"stable cycle at {v:g} km/h found neither from the "
                                 "reference's nor along the branch from the nearest end of its stable interval")
