@@ -895,6 +895,14 @@ def _ns_value(multipliers: np.ndarray, guess: complex) -> tuple[float, complex, 
     return abs(z) - 1.0, z, abs(abs(z) - 1.0)
 
 
+def _secant_in_bracket(p: tuple[float, float], q: tuple[float, float], s_a: float, s_b: float) -> float:
+    """The zero of the line through the points ``(s, g)`` p and q, or the middle of the
+    bracket [s_a, s_b] where that line is flat or its zero lies outside the bracket."""
+    (s_p, g_p), (s_q, g_q) = p, q
+    s = s_q - g_q * (s_q - s_p) / (g_q - g_p) if g_q != g_p else 0.5 * (s_a + s_b)
+    return s if min(s_a, s_b) < s < max(s_a, s_b) else 0.5 * (s_a + s_b)
+
+
 CROSSING_ITERATIONS = 30
 """Largest number of correctors of one PD/NS location (:func:`_crossing_in_bracket`)."""
 
@@ -921,9 +929,7 @@ def _crossing_in_bracket(start: _Step, ds: float, prev: BranchPoint, point: Bran
     best, best_residual, replaced = point, np.inf, -1
     for _ in range(CROSSING_ITERATIONS):
         (s_a, g_a, z_a), (s_b, g_b, z_b) = ends
-        s = s_b - g_b * (s_b - s_a) / (g_b - g_a) if g_b != g_a else 0.5 * (s_a + s_b)
-        if not min(s_a, s_b) < s < max(s_a, s_b):
-            s = 0.5 * (s_a + s_b)
+        s = _secant_in_bracket((s_a, g_a), (s_b, g_b), s_a, s_b)
         out = stepper.correct(X0, t0, s, phase_ref)
         if out is None:
             break
@@ -989,9 +995,7 @@ def _fold_in_bracket(stepper: _Stepper, X0: np.ndarray, t0: np.ndarray, phase_re
     (s_prev, g_prev), (s_cur, g_cur) = a, b
     best = None
     for _ in range(max_iter):
-        s = s_cur - g_cur * (s_cur - s_prev) / (g_cur - g_prev) if g_cur != g_prev else 0.5 * (s_a + s_b)
-        if not min(s_a, s_b) < s < max(s_a, s_b):
-            s = 0.5 * (s_a + s_b)
+        s = _secant_in_bracket((s_prev, g_prev), (s_cur, g_cur), s_a, s_b)
         out = stepper.correct(X0, t0, s, phase_ref)
         if out is None:
             break
