@@ -639,7 +639,7 @@ def solve_at_speed_on_kinks(model: Model, p: np.ndarray, point: BranchPoint,
     for _ in range(4):
         orbit = point.orbit
         times = switching_times(model, p, orbit) if settings.align_kinks else np.empty(0)
-        if times.size == 0 or np.max(np.min(np.abs(times[:, None] - orbit.mesh[None, :]), axis=1)) < 1e-9:
+        if not _kinks_off_mesh(times, orbit.mesh):
             return point
         mesh = _with_kinks(Collocation(model, p, orbit.mesh, orbit.m).adapted_mesh(orbit), times)
         again = solve_at_speed(model, p, orbit.with_mesh(mesh), orbit.speed, settings)
@@ -752,6 +752,11 @@ def switching_times(model: Model, p: np.ndarray, orbit: PeriodicOrbit, per_inter
     return np.sort(np.mod(times, 1.0))
 
 
+def _kinks_off_mesh(times: np.ndarray, mesh: np.ndarray) -> bool:
+    """Whether any kink time lies more than 1e-9 from every mesh point."""
+    return times.size > 0 and float(np.max(np.min(np.abs(times[:, None] - mesh[None, :]), axis=1))) >= 1e-9
+
+
 def _with_kinks(mesh: np.ndarray, times: np.ndarray) -> np.ndarray:
     """The mesh with its nearest interior point moved onto each switching time."""
     if times.size == 0:
@@ -782,7 +787,7 @@ def _align_to_kinks(start: _Step, ds: float, out: _Out) -> tuple[
         orbit = stepper.coll.unpack(new[0])
         times = switching_times(stepper.model, stepper.p, orbit)
         mesh = stepper.coll.mesh
-        if times.size == 0 or np.max(np.min(np.abs(times[:, None] - mesh[None, :]), axis=1)) < 1e-9:
+        if not _kinks_off_mesh(times, mesh):
             break
         stepper, X0, t0, phase_ref = stepper.remesh(_with_kinks(mesh, times), X0, t0)
         new = stepper.correct(X0, t0, ds, phase_ref)
