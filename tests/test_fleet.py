@@ -18,6 +18,7 @@ from polywear.analysis.bifurcation import bifurcation_diagram
 from polywear.analysis.fast_band import _FIXED_RANGE, FastBand, band_reference
 from polywear.analysis.fleet import (
     CAR_FIELDS,
+    OUTPUTS,
     CarOutcome,
     FleetEvaluator,
     FleetResult,
@@ -145,7 +146,7 @@ def test_clopper_pearson_intervals_cover():
     rng = np.random.default_rng(5)
     p_true, covered, trials = 0.17, 0, 150
     for _ in range(trials):
-        values = np.zeros((60, 6))
+        values = np.zeros((60, len(OUTPUTS)))
         values[:, 2] = rng.random(60) < p_true
         result = FleetResult(Params(), spec, np.zeros((60, 1)), values, [CarOutcome(path="fast")] * 60)
         _, _, lo, hi = result.risk_ci()
@@ -238,6 +239,9 @@ def test_resume_is_bit_identical(tmp_path, reference):
     data = dict(np.load(ckpt))
     np.savez(ckpt, **{name: value for name, value in data.items() if name != "pilot"})
     with pytest.raises(ParameterError, match="older polywear [(]no pilot stage[)]"):
+        fleet_risk(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path, resume=True)
+    np.savez(ckpt, **(data | {"values": data["values"][:, :6]}))  # before the gap output
+    with pytest.raises(ParameterError, match="older polywear [(]other outputs per car[)]"):
         fleet_risk(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path, resume=True)
 
 
@@ -334,7 +338,7 @@ def test_paths_and_fallback_reasons_are_counted():
                 CarOutcome(path="full", fallback="hopf_signature", fallback_detail="('soft',) vs ('soft', 'hard')"),
                 CarOutcome(failure="ValueError", detail="tread.mass_kg must be > 0"),
                 CarOutcome(failure="ValueError", detail="other")]
-    result = FleetResult(Params(), spec, np.zeros((8, 1)), np.zeros((8, 6)), outcomes)
+    result = FleetResult(Params(), spec, np.zeros((8, 1)), np.zeros((8, len(OUTPUTS))), outcomes)
     status = ["ok"] * 6 + ["failed: ValueError: tread.mass_kg must be > 0", "failed: ValueError: other"]
     assert result.status == status  # the texts of the files, composed from the fields
     assert result.paths == ["pilot", "hopf", "fast",
@@ -495,3 +499,33 @@ def test_stacked_eigenvalues_are_those_of_one_call_each(model):
     for V, u, lam in zip(speeds, states, eig):
         np.testing.assert_array_equal(u, m.equilibrium(V, p))
         np.testing.assert_array_equal(lam, np.linalg.eigvals(m.jacobian(u, V, p)).astype(complex))
+
+
+@pytest.mark.slow
+def test_a_usage_speed_in_a_gap_after_a_period_doubling_is_counted():
+    """The cascade car of tests/test_verdict.py (four Hopf points, a gap of its band from the
+    period doubling at 56.55 to the Hopf point at 59.75 km/h, where a simulation reaches
+    chaotic SEV): at a usage speed of 58 km/h it is not at risk by its band, but counted in
+    ``gap_after_pd_ns_share``; at 100 km/h (inside the band) it is at risk and not counted."""
+    from polywear.analysis.fast_band import FastBand, band_reference
+    from polywear.analysis.global_sensitivity import DEFAULT_KEYS
+
+    from .test_verdict import CASCADE_AXLE
+
+    base = with_updates(Params(), {"model": "axle4dof"})
+    nominal = band_reference(bifurcation_diagram(base, (10.0, 600.0), extend=False))
+    solver = FastBand((nominal,), speed_range_kmh=(10.0, 600.0))
+    values = [CASCADE_AXLE[k] for k in DEFAULT_KEYS]
+    spec = FleetSpec(samples=2, parameter=MARGINALS[:1], usage=[{"speed_kmh": 58.0, "share": 1.0}])
+    rows, outcomes = [], []
+    for i, usage in enumerate(((58.0,), (100.0,))):
+        out, outcome = FleetEvaluator(base, tuple(DEFAULT_KEYS), solver, usage)((i, values))
+        assert outcome.path == "full" and outcome.fallback == "hopf_signature"
+        rows.append(out)
+        outcomes.append(outcome)
+    (gap_lo, gap_hi), = [g for g in solver(with_updates(base, CASCADE_AXLE)).gaps_after_pd_ns_kmh if g[0] < 58.0 < g[1]]
+    assert gap_lo == pytest.approx(56.55, abs=0.01) and gap_hi == pytest.approx(59.75, abs=0.01)
+    at_risk, gap = OUTPUTS.index("at_risk"), OUTPUTS.index("usage_in_gap_after_pd_ns")
+    assert (rows[0][at_risk], rows[0][gap]) == (0.0, 1.0) and (rows[1][at_risk], rows[1][gap]) == (1.0, 0.0)
+    s = FleetResult(base, spec, np.zeros((2, 1)), np.array(rows), outcomes).summary()
+    assert s["gap_after_pd_ns_share"] == 0.5 and s["gap_after_pd_ns_ci"][0] < 0.5 < s["gap_after_pd_ns_ci"][1]

@@ -93,7 +93,6 @@ def operating_verdict(diagram, params: Params, speed_kmh: float) -> dict:
 
     from .analysis.attractor import reached_attractors
     from .analysis.bifurcation import statically_divergent
-    from .analysis.points import PointKind
     from .analysis.wear import wear_indicators
     from .models import get_model
     from .models.base import kmh_to_ms
@@ -107,10 +106,7 @@ def operating_verdict(diagram, params: Params, speed_kmh: float) -> dict:
     divergent = statically_divergent(lam)
     sev = diagram.sev_band_kmh
     in_sev = any(a <= speed_kmh <= b for a, b in sev)
-    # a gap of the band in a diagram whose period-1 cycles lose stability by period doubling
-    # or torus bifurcation: the motions beyond those (period-multiplied, chaotic) may fill it
-    in_gap = (not in_sev and bool(sev) and sev[0][0] < speed_kmh < sev[-1][1]
-              and any(s.kind in (PointKind.PD, PointKind.NS) for s in diagram.special))
+    in_gap = any(a < speed_kmh < b for a, b in diagram.gaps_after_pd_ns_kmh)
     cycles = diagram.cycles_at(speed_kmh) if (in_sev or not rolling_stable) else []
     stable = [c for c in cycles if c.stable]
     unstable = [c for c in cycles if not c.stable]

@@ -191,6 +191,17 @@ class BifurcationDiagram(Result):
         return subtract(self.sev_band_kmh, self.linear_band_kmh)
 
     @property
+    def gaps_after_pd_ns_kmh(self) -> list[tuple[float, float]]:
+        """Gaps of the SEV band [km/h] (between two of its intervals) in a diagram with period
+        doublings or torus bifurcations: the band counts period-1 cycles only, and the motion
+        past those bifurcations (period-multiplied, quasi-periodic, chaotic) can persist in
+        such a gap with steady rolling stable; only a simulation tells (the verdict runs one)."""
+        if not any(s.kind in (PointKind.PD, PointKind.NS) for s in self.special):
+            return []
+        sev = self.sev_band_kmh
+        return [(b, c) for (_, b), (c, _) in zip(sev[:-1], sev[1:])]
+
+    @property
     def open_edges(self) -> list[str]:
         """Ends of the analysed range that the SEV band runs into (``"lower"``, ``"upper"``):
         there the band edge is the range limit, not a bifurcation speed."""
@@ -286,6 +297,7 @@ class BifurcationDiagram(Result):
             "first_bifurcation_speed_kmh": sev[0][0] if sev and "lower" not in open_at else None,
             "second_bifurcation_speed_kmh": sev[-1][1] if sev and "upper" not in open_at else None,
             "hard_regions_kmh": self.open_bounds(self.hard_regions_kmh),
+            "gaps_after_pd_ns_kmh": [list(g) for g in self.gaps_after_pd_ns_kmh],
             "trigger_amplitude": [{**t, "speed_range_kmh": self.open_bounds([t["speed_range_kmh"]])[0]}
                                   for t in self.trigger_amplitude("x")],
             "branches": self.branch_info,

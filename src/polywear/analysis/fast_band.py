@@ -149,6 +149,10 @@ class Band(Result):
     path: BandPath = BandPath.FULL
     reason: FallbackReason | None = None
     detail: str = ""
+    gaps_after_pd_ns_kmh: tuple[tuple[float, float], ...] = ()
+    """Gaps of the SEV band [km/h] in a diagram with period doublings or torus bifurcations,
+    where motions past those can persist with steady rolling stable (full path only:
+    ``BifurcationDiagram.gaps_after_pd_ns_kmh``; the fast path's references have none)."""
 
     def _dataset(self):
         """Hopf points, folds and amplitudes [m] along their own dimensions; bands [km/h] as (n, 2)."""
@@ -167,6 +171,7 @@ class Band(Result):
                 "linear_band_kmh": (("linear_band", "end"), bands(self.linear_band_kmh), {"units": "km/h"}),
                 "sev_band_kmh": (("sev_band", "end"), bands(self.sev_band_kmh), {"units": "km/h"}),
                 "hard_regions_kmh": (("hard_region", "end"), bands(self.hard_regions_kmh), {"units": "km/h"}),
+                "gaps_after_pd_ns_kmh": (("gap", "end"), bands(self.gaps_after_pd_ns_kmh), {"units": "km/h"}),
             },
             coords={"amplitude_speed_kmh": np.array(self.amplitude_speeds_kmh, dtype=float), "end": ["low", "high"]},
             attrs={"path": str(self.summary()["path"]), "reason": str(self.summary()["reason"] or "")},
@@ -208,6 +213,7 @@ class Band(Result):
             "linear_band_kmh": [list(b) for b in self.linear_band_kmh],
             "sev_band_kmh": [list(b) for b in self.sev_band_kmh],
             "hard_regions_kmh": [list(b) for b in self.hard_regions_kmh],
+            "gaps_after_pd_ns_kmh": [list(b) for b in self.gaps_after_pd_ns_kmh],
             "amplitude_speeds_kmh": list(self.amplitude_speeds_kmh),
             "amplitude_x_m": list(self.amplitude_x_m),
             "path": self.path.value,
@@ -239,6 +245,7 @@ def band_from_diagram(diagram, amplitude_speeds_kmh=(), fallback=None) -> Band:
         path=BandPath.FULL,
         reason=None if fallback is None else fallback.reason,
         detail="" if fallback is None else fallback.detail,
+        gaps_after_pd_ns_kmh=tuple(tuple(g) for g in diagram.gaps_after_pd_ns_kmh),
     )
 
 

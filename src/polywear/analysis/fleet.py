@@ -16,7 +16,11 @@ evenly spaced cars of the sample (one per 32, at most 32) by the full continuati
 cars keep their full diagrams as their results (path ``"pilot"``). A car is *at risk* when its SEV
 band (hard regions included) contains a speed of the usage profile with a positive
 share; it has *hard excitation* when such a speed lies in a hard region (stable rolling
-there, but a disturbance starts SEV). The risk probability gets an exact binomial
+there, but a disturbance starts SEV). A car whose band (full path) has a gap holding a
+usage speed, in a diagram with period doublings or torus bifurcations, is counted apart
+(``gap_after_pd_ns_share``): the band counts period-1 cycles only, and the motion past
+those bifurcations can persist in such a gap (a simulation decides; the risk does not
+count it). The risk probability gets an exact binomial
 (Clopper-Pearson) interval over the cars that were evaluated. With ``mileage_km`` the
 linear wear map (:func:`~polywear.analysis.wear_map.wear_map`) of every car at the usage
 speeds gives the shortest e-folding distance of any polygon order where rolling is
@@ -57,7 +61,7 @@ __all__ = ["CarOutcome", "FleetParameter", "FleetUsage", "FleetSpec", "load_flee
            "FleetResult", "fleet_risk"]
 
 OUTPUTS = ("first_bifurcation_kmh", "second_bifurcation_kmh", "at_risk", "hard_at_usage", "fast_path",
-           "wear_efold_km")
+           "wear_efold_km", "usage_in_gap_after_pd_ns")
 N_BINS = 20
 """Equal-probability bins of the main-effect estimator."""
 PATHS = ("hopf", "fast", "full", "pilot")
@@ -304,14 +308,15 @@ class FleetEvaluator:
             return (np.nan,) * len(OUTPUTS), efold
         if verdict is not None:  # Hopf points alone decided: no second speed for this car
             at_risk, hard, first = verdict
-            return (first, np.nan, float(at_risk), float(hard), 1.0, efold), CarOutcome(path="hopf")
+            return (first, np.nan, float(at_risk), float(hard), 1.0, efold, 0.0), CarOutcome(path="hopf")
         inside = lambda intervals: any(a <= v <= b for v in self.usage_speeds_kmh for a, b in intervals)
         if solved is not None or band.path == "fast":
             outcome = CarOutcome(path="fast" if solved is None else "pilot")
         else:  # the fast path was tried first, so the reason is set
             outcome = CarOutcome(path="full", fallback=band.reason.value, fallback_detail=band.detail)
         return (band.first_bifurcation_kmh, band.second_bifurcation_kmh, float(inside(band.sev_band_kmh)),
-                float(inside(band.hard_regions_kmh)), float(band.path == "fast"), efold), outcome
+                float(inside(band.hard_regions_kmh)), float(band.path == "fast"), efold,
+                float(inside(band.gaps_after_pd_ns_kmh))), outcome
 
 
     def _efold(self, params) -> float | CarOutcome:
@@ -378,14 +383,10 @@ class FleetResult(Result):
 
     def risk_ci(self, mask=None) -> tuple[int, int, float, float]:
         """(cars at risk, cars evaluated, Clopper-Pearson lower, upper) among ``mask``."""
-        from scipy.stats import binomtest
-
         sel = self.ok if mask is None else self.ok & mask
-        n, k = int(sel.sum()), int(np.nansum(self.values[sel, 2]))
-        if n == 0:
-            return 0, 0, np.nan, np.nan
-        ci = binomtest(k, n).proportion_ci(self.confidence, method="exact")
-        return k, n, float(ci.low), float(ci.high)
+        n = int(sel.sum())
+        k, (lo, hi) = self._share(self.values[sel, 2], n)
+        return k, n, lo, hi
 
     def risk_against_tolerance(self, key: str, n: int = 8) -> list[dict]:
         """Risk among the cars whose ``key`` lies within +-tol of its centre, for growing tol.
@@ -410,13 +411,8 @@ class FleetResult(Result):
             out = {f"p{q}": float(np.percentile(x, q)) for q in (5, 50, 95)} if x.size else {}
             return out | {"n": int(x.size), "n_at_range_end": at_end}
 
-        hard = int(np.nansum(v[:, 3])) if n else 0
-        hard_ci = (np.nan, np.nan)
-        if n:
-            from scipy.stats import binomtest
-
-            c = binomtest(hard, n).proportion_ci(self.confidence, method="exact")
-            hard_ci = (float(c.low), float(c.high))
+        hard, hard_ci = self._share(v[:, 3], n)
+        gap, gap_ci = self._share(v[:, 6], n)
         drivers = main_effects(self.samples[ok], v[:, 2]) if n > 2 * N_BINS else np.full(len(self.keys), np.nan)
         failures: dict[str, int] = {}
         for c in self.outcomes:
@@ -435,6 +431,8 @@ class FleetResult(Result):
             "confidence": self.confidence,
             "hard_excitation_share": hard / n if n else None,
             "hard_excitation_ci": list(hard_ci),
+            "gap_after_pd_ns_share": gap / n if n else None,
+            "gap_after_pd_ns_ci": list(gap_ci),
             "first_bifurcation_kmh": quantiles(0),
             "second_bifurcation_kmh": quantiles(1),
             "fast_path_share": float(np.mean(v[:, 4])) if n else None,
@@ -445,6 +443,16 @@ class FleetResult(Result):
             **self._wear_summary(v, n),
             "settings": self.settings,
         }
+
+    def _share(self, flags, n) -> tuple[int, tuple[float, float]]:
+        """(cars flagged, exact binomial interval of their share at ``confidence``) among ``n`` evaluated."""
+        k = int(np.nansum(flags)) if n else 0
+        if not n:
+            return k, (np.nan, np.nan)
+        from scipy.stats import binomtest
+
+        c = binomtest(k, n).proportion_ci(self.confidence, method="exact")
+        return k, (float(c.low), float(c.high))
 
     def _path_summary(self) -> dict:
         """Cars per path (:data:`PATHS`) and the fallbacks to the full path by reason tag."""
@@ -470,11 +478,8 @@ class FleetResult(Result):
         mileage = self.spec.mileage_km
         if mileage is None or n == 0:
             return {"wear_share": None}
-        from scipy.stats import binomtest
-
-        k = int(np.sum(v[:, 5] < mileage))
-        ci = binomtest(k, n).proportion_ci(self.confidence, method="exact")
-        return {"wear_share": k / n, "wear_ci": [float(ci.low), float(ci.high)], "mileage_km": mileage}
+        k, ci = self._share(v[:, 5] < mileage, n)
+        return {"wear_share": k / n, "wear_ci": list(ci), "mileage_km": mileage}
 
     def _dataset(self):
         """Every car: sampled parameters, outputs, status and path (``fleet_spec_json`` attr)."""
@@ -587,6 +592,9 @@ def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", w
             raise ParameterError(f"{ckpt}: checkpoint of an older polywear (no per-car outcomes); remove it or drop --resume")
         if "pilot" not in data.files:
             raise ParameterError(f"{ckpt}: checkpoint of an older polywear (no pilot stage); remove it or drop --resume")
+        if data["values"].shape[1] != len(OUTPUTS):
+            raise ParameterError(f"{ckpt}: checkpoint of an older polywear (other outputs per car); "
+                                 "remove it or drop --resume")
     done = int(data["done"]) if data is not None else 0
     nominal = reference if reference is not None else sample_params(params, keys, [q.center for q in spec.parameter])
     stage = pilot_stage(params, keys, X if pilot else X[:0], nominal, spec.speed_range_kmh, backend=backend,

@@ -91,6 +91,9 @@ def fleet(
         typer.echo(f"risk probability {s['risk_probability']:.4f}, {s['confidence']:.0%} CI "
                    f"[{s['risk_ci'][0]:.4f}, {s['risk_ci'][1]:.4f}] (Clopper-Pearson)")
         typer.echo(f"hard excitation at a usage speed: {s['hard_excitation_share']:.4f}")
+        if s["gap_after_pd_ns_share"]:
+            typer.echo(f"usage speed in a gap of the band after a period doubling or torus bifurcation "
+                       f"(not counted at risk; SEV there only by simulation): {s['gap_after_pd_ns_share']:.4f}")
         for name in ("first_bifurcation_kmh", "second_bifurcation_kmh"):
             q = s[name]
             if "p50" in q:  # some cars have that speed inside the range
