@@ -349,6 +349,17 @@ def test_gap_of_the_band_after_a_period_doubling_is_decided_by_simulation(cascad
     assert "quasi-periodic or chaotic SEV" in _sentence(verdict) and "steady rolling is stable" in _sentence(verdict)
 
 
+def test_gap_after_a_period_doubling_is_listed_in_json_and_text(cascade_axle, capsys):
+    from polywear.cli.bifurcation_cmd import _print_summary
+
+    _, diagram = cascade_axle
+    s = diagram.summary()
+    gap = next(g for g in s["gaps_after_pd_ns_kmh"] if g[0] < 58.0 < g[1])
+    assert gap == pytest.approx([56.548, 59.755], abs=1e-3) and gap in [list(g) for g in diagram.gaps_after_pd_ns_kmh]
+    _print_summary(s)
+    assert "gap after PD/NS (period-1)      56.548 ..    59.755 km/h" in capsys.readouterr().out
+
+
 @pytest.mark.slow
 def test_a_motion_decayed_to_rounding_noise_is_no_sev(cascade_axle):
     """At 57 km/h the same start decays (by ~1e-3 per 1.5 s piece): later pieces see only the

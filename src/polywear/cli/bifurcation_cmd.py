@@ -139,6 +139,9 @@ def _print_summary(s: dict) -> None:
         typer.echo(f"  of which static divergence   {_bound(lo)} .. {_bound(hi)} km/h")
     for lo, hi in s.get("sev_band_kmh", []):
         typer.echo(f"  SEV after large disturbance  {_bound(lo)} .. {_bound(hi)} km/h")
+    for lo, hi in s.get("gaps_after_pd_ns_kmh", []):
+        typer.echo(f"  gap after PD/NS (period-1)   {_bound(lo)} .. {_bound(hi)} km/h: motions past the period "
+                   "doublings may persist here; polywear report at such a speed simulates")
     first, second = s.get("first_bifurcation_speed_kmh"), s.get("second_bifurcation_speed_kmh")
     if s.get("sev_band_kmh"):
         typer.echo(f"  first / second bifurcation speed: {_bound(first).strip()} / {_bound(second).strip()} km/h")
