@@ -506,7 +506,9 @@ def test_a_usage_speed_in_a_gap_after_a_period_doubling_is_counted():
     """The cascade car of tests/test_verdict.py (four Hopf points, a gap of its band from the
     period doubling at 56.55 to the Hopf point at 59.75 km/h, where a simulation reaches
     chaotic SEV): at a usage speed of 58 km/h it is not at risk by its band, but counted in
-    ``gap_after_pd_ns_share``; at 100 km/h (inside the band) it is at risk and not counted."""
+    ``gap_after_pd_ns_share``, and with ``simulate_gaps`` the simulation reaches SEV there
+    (``gap_sev_share``); at 57 km/h (in the gap, back to rest) counted but not SEV; at
+    100 km/h (inside the band) at risk and not counted."""
     from polywear.analysis.fast_band import FastBand, band_reference
     from polywear.analysis.global_sensitivity import DEFAULT_KEYS
 
@@ -516,16 +518,22 @@ def test_a_usage_speed_in_a_gap_after_a_period_doubling_is_counted():
     nominal = band_reference(bifurcation_diagram(base, (10.0, 600.0), extend=False))
     solver = FastBand((nominal,), speed_range_kmh=(10.0, 600.0))
     values = [CASCADE_AXLE[k] for k in DEFAULT_KEYS]
-    spec = FleetSpec(samples=2, parameter=MARGINALS[:1], usage=[{"speed_kmh": 58.0, "share": 1.0}])
+    spec = FleetSpec(samples=3, parameter=MARGINALS[:1], usage=[{"speed_kmh": 58.0, "share": 1.0}])
     rows, outcomes = [], []
-    for i, usage in enumerate(((58.0,), (100.0,))):
-        out, outcome = FleetEvaluator(base, tuple(DEFAULT_KEYS), solver, usage)((i, values))
+    for i, usage in enumerate(((58.0,), (100.0,), (57.0,))):
+        out, outcome = FleetEvaluator(base, tuple(DEFAULT_KEYS), solver, usage, simulate_gaps=True)((i, values))
         assert outcome.path == "full" and outcome.fallback == "hopf_signature"
         rows.append(out)
         outcomes.append(outcome)
     (gap_lo, gap_hi), = [g for g in solver(with_updates(base, CASCADE_AXLE)).gaps_after_pd_ns_kmh if g[0] < 58.0 < g[1]]
     assert gap_lo == pytest.approx(56.55, abs=0.01) and gap_hi == pytest.approx(59.75, abs=0.01)
-    at_risk, gap = OUTPUTS.index("at_risk"), OUTPUTS.index("usage_in_gap_after_pd_ns")
-    assert (rows[0][at_risk], rows[0][gap]) == (0.0, 1.0) and (rows[1][at_risk], rows[1][gap]) == (1.0, 0.0)
-    s = FleetResult(base, spec, np.zeros((2, 1)), np.array(rows), outcomes).summary()
-    assert s["gap_after_pd_ns_share"] == 0.5 and s["gap_after_pd_ns_ci"][0] < 0.5 < s["gap_after_pd_ns_ci"][1]
+    at_risk, gap, sev = (OUTPUTS.index(k) for k in ("at_risk", "usage_in_gap_after_pd_ns", "gap_sev_by_simulation"))
+    # 58 km/h: chaotic SEV from the window's cycle; 57 km/h: both starts return to rest
+    assert [(r[at_risk], r[gap], r[sev]) for r in rows] == [(0.0, 1.0, 1.0), (1.0, 0.0, pytest.approx(np.nan, nan_ok=True)),
+                                                            (0.0, 1.0, 0.0)]
+    s = FleetResult(base, spec, np.zeros((3, 1)), np.array(rows), outcomes).summary()
+    assert s["gap_after_pd_ns_share"] == 2 / 3 and s["gap_after_pd_ns_ci"][0] < 2 / 3 < s["gap_after_pd_ns_ci"][1]
+    assert s["gap_sev_share"] is None  # the spec did not ask for the simulations
+    spec = spec.model_copy(update={"simulate_gaps": True})
+    s = FleetResult(base, spec, np.zeros((3, 1)), np.array(rows), outcomes).summary()
+    assert s["gap_sev_share"] == 1 / 3 and s["gap_sev_ci"][0] < 1 / 3 < s["gap_sev_ci"][1]

@@ -61,7 +61,7 @@ __all__ = ["CarOutcome", "FleetParameter", "FleetUsage", "FleetSpec", "load_flee
            "FleetResult", "fleet_risk"]
 
 OUTPUTS = ("first_bifurcation_kmh", "second_bifurcation_kmh", "at_risk", "hard_at_usage", "fast_path",
-           "wear_efold_km", "usage_in_gap_after_pd_ns")
+           "wear_efold_km", "usage_in_gap_after_pd_ns", "gap_sev_by_simulation")
 N_BINS = 20
 """Equal-probability bins of the main-effect estimator."""
 PATHS = ("hopf", "fast", "full", "pilot")
@@ -197,6 +197,11 @@ class FleetSpec(_Spec):
     mileage_km: float | None = Field(None, gt=0.0)
     """With it, the share of cars with a polygon order whose wear grows by e within this
     distance at a usage speed where rolling is stable (linear wear map)."""
+    simulate_gaps: bool = False
+    """Decide a car with a usage speed in a gap of its band after a period doubling or torus
+    bifurcation by simulation, as the verdict does (its diagram again, then runs from its
+    nearest stable cycle and from steady rolling disturbed, a few seconds per car): the
+    share where the tread ends in SEV is ``gap_sev_share``."""
 
     @model_validator(mode="after")
     def _consistent(self):
@@ -287,6 +292,8 @@ class FleetEvaluator:
     usage_speeds_kmh: tuple[float, ...]
     wear: bool = False
     band_every: int = 1
+    simulate_gaps: bool = False
+    """Decide usage speeds in gaps after PD/NS by simulation (:attr:`FleetSpec.simulate_gaps`)."""
     pilot: dict = field(default_factory=dict)
     """Car index -> its :class:`~polywear.analysis.fast_band.Band` from the pilot stage (its full diagram)."""
 
@@ -308,15 +315,34 @@ class FleetEvaluator:
             return (np.nan,) * len(OUTPUTS), efold
         if verdict is not None:  # Hopf points alone decided: no second speed for this car
             at_risk, hard, first = verdict
-            return (first, np.nan, float(at_risk), float(hard), 1.0, efold, 0.0), CarOutcome(path="hopf")
+            return (first, np.nan, float(at_risk), float(hard), 1.0, efold, 0.0, np.nan), CarOutcome(path="hopf")
         inside = lambda intervals: any(a <= v <= b for v in self.usage_speeds_kmh for a, b in intervals)
         if solved is not None or band.path == "fast":
             outcome = CarOutcome(path="fast" if solved is None else "pilot")
         else:  # the fast path was tried first, so the reason is set
             outcome = CarOutcome(path="full", fallback=band.reason.value, fallback_detail=band.detail)
+        in_gap = [v for v in self.usage_speeds_kmh if any(a < v < b for a, b in band.gaps_after_pd_ns_kmh)]
+        gap_sev = np.nan
+        if in_gap and self.simulate_gaps:
+            gap_sev = self._gap_sev(params, in_gap)
+            if isinstance(gap_sev, CarOutcome):
+                return (np.nan,) * len(OUTPUTS), gap_sev
         return (band.first_bifurcation_kmh, band.second_bifurcation_kmh, float(inside(band.sev_band_kmh)),
-                float(inside(band.hard_regions_kmh)), float(band.path == "fast"), efold,
-                float(inside(band.gaps_after_pd_ns_kmh))), outcome
+                float(inside(band.hard_regions_kmh)), float(band.path == "fast"), efold, float(bool(in_gap)),
+                gap_sev), outcome
+
+    def _gap_sev(self, params, speeds_kmh) -> float | CarOutcome:
+        """1.0 if a simulation (:func:`~polywear.analysis.attractor.reached_attractors`, from the
+        car's diagram computed again) ends in SEV at one of these speeds [km/h], else 0.0; or the failure."""
+        from .attractor import reached_attractors
+        from .bifurcation import bifurcation_diagram
+        from .fast_band import _FIXED_RANGE
+
+        try:
+            diagram = bifurcation_diagram(params, self.solver.speed_range_kmh, self.solver.settings, **_FIXED_RANGE)
+            return float(any(a.oscillating for v in speeds_kmh for a in reached_attractors(diagram, v)))
+        except Exception as exc:
+            return CarOutcome(failure="gap simulation", detail=f"{type(exc).__name__}: {exc}")
 
 
     def _efold(self, params) -> float | CarOutcome:
@@ -413,6 +439,7 @@ class FleetResult(Result):
 
         hard, hard_ci = self._share(v[:, 3], n)
         gap, gap_ci = self._share(v[:, 6], n)
+        gap_sev, gap_sev_ci = self._share(v[:, 7], n)
         drivers = main_effects(self.samples[ok], v[:, 2]) if n > 2 * N_BINS else np.full(len(self.keys), np.nan)
         failures: dict[str, int] = {}
         for c in self.outcomes:
@@ -433,6 +460,8 @@ class FleetResult(Result):
             "hard_excitation_ci": list(hard_ci),
             "gap_after_pd_ns_share": gap / n if n else None,
             "gap_after_pd_ns_ci": list(gap_ci),
+            "gap_sev_share": gap_sev / n if n and self.spec.simulate_gaps else None,
+            "gap_sev_ci": list(gap_sev_ci) if self.spec.simulate_gaps else None,
             "first_bifurcation_kmh": quantiles(0),
             "second_bifurcation_kmh": quantiles(1),
             "fast_path_share": float(np.mean(v[:, 4])) if n else None,
@@ -607,7 +636,8 @@ def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", w
     solver = FastBand(stage.references, speed_range_kmh=tuple(spec.speed_range_kmh))
     usage = tuple(u.speed_kmh for u in spec.usage if u.share > 0)
     evaluator = FleetEvaluator(params, keys, solver, usage, wear=spec.mileage_km is not None,
-                               band_every=spec.band_every, pilot={i: r.band for i, r in stage.samples.items()})
+                               band_every=spec.band_every, simulate_gaps=spec.simulate_gaps,
+                               pilot={i: r.band for i, r in stage.samples.items()})
     values = np.full((spec.samples, len(OUTPUTS)), np.nan)
     outcomes: list[CarOutcome] = []
     if data is not None:

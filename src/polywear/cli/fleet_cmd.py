@@ -93,7 +93,12 @@ def fleet(
         typer.echo(f"hard excitation at a usage speed: {s['hard_excitation_share']:.4f}")
         if s["gap_after_pd_ns_share"]:
             typer.echo(f"usage speed in a gap of the band after a period doubling or torus bifurcation "
-                       f"(not counted at risk; SEV there only by simulation): {s['gap_after_pd_ns_share']:.4f}")
+                       f"(not counted at risk): {s['gap_after_pd_ns_share']:.4f}")
+            if s["gap_sev_share"] is None:
+                typer.echo("  whether SEV is reached there: simulate_gaps = true in [fleet] decides it by simulation")
+            else:
+                typer.echo(f"  of the fleet, a simulation ends in SEV there: {s['gap_sev_share']:.4f}, "
+                           f"{s['confidence']:.0%} CI [{s['gap_sev_ci'][0]:.4f}, {s['gap_sev_ci'][1]:.4f}]")
         for name in ("first_bifurcation_kmh", "second_bifurcation_kmh"):
             q = s[name]
             if "p50" in q:  # some cars have that speed inside the range
