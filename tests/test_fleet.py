@@ -23,6 +23,7 @@ from polywear.analysis.fleet import (
     FleetEvaluator,
     FleetResult,
     FleetSpec,
+    classifier_importances,
     fleet_risk,
     load_fleet_spec,
     main_effects,
@@ -537,3 +538,19 @@ def test_a_usage_speed_in_a_gap_after_a_period_doubling_is_counted():
     spec = spec.model_copy(update={"simulate_gaps": True})
     s = FleetResult(base, spec, np.zeros((3, 1)), np.array(rows), outcomes).summary()
     assert s["gap_sev_share"] == 1 / 3 and s["gap_sev_ci"][0] < 1 / 3 < s["gap_sev_ci"][1]
+
+
+def test_classifier_importances_see_what_main_effects_miss():
+    """Risk where exactly one of two parameters is high (an interaction, XOR): neither has a
+    main effect (E[y | x_i] = 1/2 in every bin: closed form), the third parameter none at
+    all. The classifier's permutation importances credit both and not the third; the
+    classifier separates the held-out cars (AUC near 1) and is deterministic for a seed."""
+    rng = np.random.default_rng(7)
+    X = rng.random((3000, 3))
+    y = ((X[:, 0] > 0.5) ^ (X[:, 1] > 0.5)).astype(float)
+    assert np.all(main_effects(X, y) < 0.01)
+    out = classifier_importances(X, y, seed=1)
+    assert out["auc"] > 0.98 and out["n_fit"] + out["n_test"] == 3000
+    assert out["importance"][0] > 0.3 and out["importance"][1] > 0.3 and abs(out["importance"][2]) < 0.02
+    np.testing.assert_array_equal(classifier_importances(X, y, seed=1)["importance"], out["importance"])
+    assert classifier_importances(X, (X[:, 0] > 0.995).astype(float), seed=1) is None  # 15 cars at risk: too few

@@ -105,3 +105,7 @@ def fleet(
                 typer.echo(f"{name}: 5 % {q['p5']:.1f}, median {q['p50']:.1f}, 95 % {q['p95']:.1f}")
         typer.echo("drivers (main effect on the risk): " + ", ".join(
             f"{k} {v:.3f}" for k, v in s["drivers_main_effect"].items() if v is not None))
+        if s["drivers_importance"] is not None:
+            c = s["drivers_classifier"]
+            typer.echo(f"drivers (drop of a classifier's held-out ROC AUC {c['held_out_auc']:.3f} when shuffled, "
+                       "interactions included): " + ", ".join(f"{k} {v:.3f}" for k, v in s["drivers_importance"].items()))
