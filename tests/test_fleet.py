@@ -554,3 +554,14 @@ def test_classifier_importances_see_what_main_effects_miss():
     assert out["importance"][0] > 0.3 and out["importance"][1] > 0.3 and abs(out["importance"][2]) < 0.02
     np.testing.assert_array_equal(classifier_importances(X, y, seed=1)["importance"], out["importance"])
     assert classifier_importances(X, (X[:, 0] > 0.995).astype(float), seed=1) is None  # 15 cars at risk: too few
+
+    spec = FleetSpec(samples=3000, seed=1, parameter=MARGINALS[:3], usage=[{"speed_kmh": 100.0, "share": 1.0}])
+    values = np.zeros((3000, len(OUTPUTS)))
+    values[:, OUTPUTS.index("at_risk")] = y
+    result = FleetResult(Params(), spec, X, values, [CarOutcome(path="fast")] * 3000)
+    s = result.summary()
+    np.testing.assert_array_equal(list(s["drivers_importance"].values()), out["importance"])
+    assert s["drivers_classifier"]["held_out_auc"] == out["auc"]
+    main, importance = result.plot_drivers()  # two sets of bars, one bar per parameter
+    assert len(main) == len(importance) == 3 and importance[0].get_width() > 0.3
+    assert len(result.figure().axes) == 3

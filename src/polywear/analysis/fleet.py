@@ -596,13 +596,38 @@ class FleetResult(Result):
         ax.legend(fontsize=8)
         return artists
 
+    def plot_drivers(self, ax=None):
+        """Bars per parameter: main effect on the risk and the classifier's importance (where
+        there is one). Returns artists."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(5, 3.5))
+        s = self.summary()
+        names = [k.split(".")[-1] for k in self.keys]
+        y = np.arange(len(names))
+        main = [np.nan if v is None else v for v in s["drivers_main_effect"].values()]
+        artists = [ax.barh(y - 0.2, main, height=0.4, label="main effect")]
+        if s["drivers_importance"] is not None:
+            auc = s["drivers_classifier"]["held_out_auc"]
+            artists.append(ax.barh(y + 0.2, list(s["drivers_importance"].values()), height=0.4,
+                                   label=f"importance (AUC drop; classifier AUC {auc:.2f})"))
+        ax.set_yticks(y, names, fontsize=8)
+        ax.invert_yaxis()
+        ax.set_xlabel("share of the risk's variance / AUC drop")
+        ax.set_title("what drives the risk", fontsize=10)
+        ax.legend(fontsize=7)
+        return artists
+
     def figure(self, tolerance_key: str | None = None):
-        """Speed histograms, and the risk against the tolerance of ``tolerance_key`` (toe if varied)."""
+        """Speed histograms, the risk against the tolerance of ``tolerance_key`` (toe if
+        varied), and the drivers of the risk (:meth:`plot_drivers`)."""
         import matplotlib.pyplot as plt
 
         key = tolerance_key or next((k for k in self.keys if "toe" in k), self.keys[0])
-        fig, (a, b) = plt.subplots(1, 2, figsize=(11, 3.8))
+        fig, (a, b, c) = plt.subplots(1, 3, figsize=(16, 3.8), width_ratios=(1.2, 1.0, 0.9))
         self.plot(a)
+        self.plot_drivers(c)
         rows = self.risk_against_tolerance(key)
         tol = [r["tolerance"] for r in rows]
         b.errorbar(tol, [r["risk"] for r in rows],
