@@ -541,6 +541,9 @@ class FastBand:
         fold speeds agree with the continuation's to ~1e-12 without it, on both models).
     fold_newton : Newton iterations of one fold solve before its step is halved [-]
         (from folds 10 % away in the parameters they took 5-10).
+    fold_tangent : start each fold solve from the last fold moved along its tangent in the
+        parameters (:func:`~polywear.solvers.continuation.fold_parameter_tangent`: the orbit
+        to first order) rather than only recentred on the new steady state.
     """
 
     references: tuple[BandReference, ...]
@@ -551,6 +554,7 @@ class FastBand:
     min_fold_amplitude: float = 0.1
     adapt_mesh: bool = False
     fold_newton: int = 12
+    fold_tangent: bool = True
     settings: ContinuationSettings = field(default_factory=ContinuationSettings)
 
     def __call__(self, params: Params) -> Band:
@@ -674,7 +678,7 @@ class FastBand:
             nxt = min(1.0, theta + h)
             V_pred = fold.orbit.speed + (nxt - theta) * slope
             new = fold_at(model, fold, ref.p + theta * direction, ref.p + nxt * direction, V_pred, scales,
-                          self.settings, ref.fold_curvatures[j], self.fold_newton)
+                          self.settings, ref.fold_curvatures[j], self.fold_newton, self.fold_tangent)
             change = abs(V_pred - fold.orbit.speed)
             if new is None or abs(new.orbit.speed - V_pred) > change + 1e-3 * fold.orbit.speed:
                 halvings += 1

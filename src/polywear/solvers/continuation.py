@@ -1150,32 +1150,14 @@ def solve_fold(model: Model, p: np.ndarray, guess: BranchPoint, speed: float, sc
     X = c.pack(orbit)
     X[-1] = speed
     border = np.vstack([c.phase_row(orbit), stepper.weights * stepper.unit(guess.tangent)])
-    rhs = np.zeros((c.size, 2))
-    rhs[-1, 1] = 1.0
     previous, slow = np.inf, 0
     for iterations in range(1, (max_newton or settings.max_newton) + 1):
         res, blocks, tcol, vcol = c.evaluate(X)
         if not (np.all(np.isfinite(res)) and np.all(np.isfinite(blocks))):
             return None
-        rhs[:-2, 0], rhs[-2, 0] = -res, -(border[0] @ X)
-        out = c.solve_system(blocks, tcol, vcol, border, rhs)
-        if out is None:
+        dX = _fold_newton_step(stepper, X, border, (res, blocks, tcol, vcol), -res, -(border[0] @ X))
+        if dX is None:
             return None
-        t = out[0][:, 1]
-        g = float(t[-1])
-        y = out[0][:, 0] - g * t  # M^-1 [-F; -phase; -g]
-        e = FOLD_DIFFERENCE / float(np.max(np.abs(t * stepper.inv_scale)))
-        _, plus_b, plus_t, plus_v = c.evaluate(X + e * t)
-        difference = ((plus_b - blocks) / e, (plus_t - tcol) / e, (plus_v - vcol) / e)
-        products = np.zeros((c.size, 2))
-        products[:-2, 0], products[:-2, 1] = c.product(*difference, y), c.product(*difference, t)
-        z = c.solve_system(blocks, tcol, vcol, border, products)
-        if z is None:
-            return None
-        grad_y, grad_t = -z[0][-1, 0], -z[0][-1, 1]
-        if grad_t == 0.0:
-            return None
-        dX = y - t * ((grad_y + g) / grad_t)
         size = float(np.max(np.abs(dX * stepper.inv_scale)))
         if not np.isfinite(size):
             return None
@@ -1196,6 +1178,74 @@ def solve_fold(model: Model, p: np.ndarray, guess: BranchPoint, speed: float, sc
     return None
 
 
+def _fold_newton_step(stepper: _Stepper, X: np.ndarray, border: np.ndarray, system: tuple, r_F: np.ndarray,
+                      r_phase: float, parameter_blocks: tuple | None = None) -> np.ndarray | None:
+    """The solution dX of the fold's minimally augmented system linearized at X (see
+    :func:`solve_fold`): ``F_X dX = r_F``, ``phase . dX = r_phase`` and ``grad g . dX = -g``;
+    or, with ``parameter_blocks`` (the derivative of the collocation Jacobian along a
+    parameter direction, in the parts ``evaluate`` gives), ``grad g . dX = -g_theta``, minus
+    the change of g along that direction (with ``r_F = -F_theta`` dX is then the fold's
+    tangent in the parameters). ``system`` is ``evaluate(X)``. None where a solve fails."""
+    c = stepper.coll
+    _, blocks, tcol, vcol = system
+    rhs = np.zeros((c.size, 2))
+    rhs[:-2, 0], rhs[-2, 0], rhs[-1, 1] = r_F, r_phase, 1.0
+    out = c.solve_system(blocks, tcol, vcol, border, rhs)
+    if out is None:
+        return None
+    t = out[0][:, 1]  # M^-1 e_last: g is its speed component
+    if parameter_blocks is None:
+        g = float(t[-1])
+    else:
+        column = np.zeros((c.size, 1))
+        column[:-2, 0] = c.product(*parameter_blocks, t)
+        w = c.solve_system(blocks, tcol, vcol, border, column)
+        if w is None:
+            return None
+        g = -float(w[0][-1, 0])  # g_theta = -(M^-1 [(dF_X/dtheta) t; 0; 0])_V
+    y = out[0][:, 0] - g * t  # M^-1 [r_F; r_phase; -g]
+    e = FOLD_DIFFERENCE / float(np.max(np.abs(t * stepper.inv_scale)))
+    _, plus_b, plus_t, plus_v = c.evaluate(X + e * t)
+    difference = ((plus_b - blocks) / e, (plus_t - tcol) / e, (plus_v - vcol) / e)
+    products = np.zeros((c.size, 2))
+    products[:-2, 0], products[:-2, 1] = c.product(*difference, y), c.product(*difference, t)
+    z = c.solve_system(blocks, tcol, vcol, border, products)
+    if z is None:
+        return None
+    grad_y, grad_t = -z[0][-1, 0], -z[0][-1, 1]
+    if grad_t == 0.0:
+        return None
+    return y - t * ((grad_y + g) / grad_t)
+
+
+PARAMETER_DIFFERENCE = 1e-7
+"""Relative change of the parameters in the forward difference of :func:`fold_parameter_tangent` [-]."""
+
+
+def fold_parameter_tangent(model: Model, p: np.ndarray, fold: BranchPoint, direction: np.ndarray,
+                           scales: np.ndarray, settings: ContinuationSettings) -> np.ndarray | None:
+    """dX/dtheta of the fold of cycles ``fold`` (converged at ``p``) along ``p + theta direction``:
+    the orbit, period and speed of the fold to first order in the parameters, from the
+    fold's minimally augmented system differentiated (``G_X dX = -G_theta``, one Newton
+    step's solves; ``G_theta`` by a forward difference in the parameters). Its speed
+    component is the fold speed's derivative. ``scales`` are the state scales of the
+    fold's branch. None where a solve fails."""
+    orbit = fold.orbit
+    stepper = _Stepper.near(model, p, orbit, orbit.speed, scales, settings)
+    c = stepper.coll
+    X = c.pack(orbit)
+    finite = np.isfinite(p) & (direction != 0.0)
+    if not finite.any():
+        return np.zeros_like(X)
+    eps = PARAMETER_DIFFERENCE / float(np.max(np.abs(direction[finite]) / (np.abs(p[finite]) + 1e-300)))
+    system = c.evaluate(X)
+    shifted = Collocation(model, p + eps * direction, orbit.mesh, orbit.m).evaluate(X)
+    F_theta = (shifted[0] - system[0]) / eps
+    blocks = tuple((a - b) / eps for a, b in zip(shifted[1:], system[1:]))
+    border = np.vstack([c.phase_row(orbit), stepper.weights * stepper.unit(fold.tangent)])
+    return _fold_newton_step(stepper, X, border, system, -F_theta, 0.0, blocks)
+
+
 def recentred(model: Model, orbit: PeriodicOrbit, p_from: np.ndarray, p_to: np.ndarray,
               speed: float) -> PeriodicOrbit:
     """``orbit`` (a cycle at ``p_from``) as a Newton guess at ``p_to`` and ``speed`` [m/s]: its
@@ -1209,16 +1259,26 @@ def recentred(model: Model, orbit: PeriodicOrbit, p_from: np.ndarray, p_to: np.n
 
 def fold_at(model: Model, fold: BranchPoint, p_from: np.ndarray, p_to: np.ndarray, speed: float,
             scales: np.ndarray, settings: ContinuationSettings, curvature: float | Callable[[], float] = np.nan,
-            max_newton: int = 12) -> BranchPoint | None:
+            max_newton: int = 12, tangent: bool = False) -> BranchPoint | None:
     """The fold of cycles at ``p_to`` near ``fold`` (one at ``p_from``), its speed predicted as
-    ``speed`` [m/s]: :func:`solve_fold` from the :func:`recentred` guess; where that Newton
-    fails (its basin is smaller: e.g. a fold of tiny amplitude next to its Hopf point), the
-    marching :func:`locate_fold`. ``curvature`` is the fold's d(dV/ds)/ds for the march (a
-    number, or a function evaluated only when the march is needed); ``scales`` the state
-    scales of its branch; ``max_newton`` the iterations of :func:`solve_fold` (from folds
-    10 % away in the parameters it takes 5-10). None if neither finds the fold."""
+    ``speed`` [m/s]: :func:`solve_fold` from the :func:`recentred` guess, or with ``tangent``
+    from the fold moved along its tangent in the parameters (:func:`fold_parameter_tangent`,
+    the whole orbit to first order; its speed replaces ``speed``); where that Newton fails
+    (its basin is smaller: e.g. a fold of tiny amplitude next to its Hopf point), the
+    marching :func:`locate_fold` from the recentred guess. ``curvature`` is the fold's
+    d(dV/ds)/ds for the march (a number, or a function evaluated only when the march is
+    needed); ``scales`` the state scales of its branch; ``max_newton`` the iterations of
+    :func:`solve_fold` (from folds 10 % away in the parameters it takes 5-10 from the
+    recentred guess, 3-7 along the tangent). None if neither finds the fold."""
     guess = replace(fold, orbit=recentred(model, fold.orbit, p_from, p_to, speed))
-    new = solve_fold(model, p_to, guess, speed, scales, settings, max_newton)
+    first = guess
+    direction = np.where(np.isfinite(p_to) & np.isfinite(p_from), p_to - p_from, 0.0)  # NaN: no parameter
+    dX = fold_parameter_tangent(model, p_from, fold, direction, scales, settings) if tangent else None
+    if dX is not None and np.all(np.isfinite(dX)):
+        X = np.concatenate([fold.orbit.nodes.ravel(), [fold.orbit.period, fold.orbit.speed]]) + dX
+        first = replace(fold, orbit=replace(fold.orbit, nodes=X[:-2].reshape(fold.orbit.nodes.shape),
+                                            period=float(X[-2]), speed=float(X[-1])))
+    new = solve_fold(model, p_to, first, first.orbit.speed, scales, settings, max_newton)
     if new is None:
         new = locate_fold(model, p_to, guess, speed, scales, settings, curvature() if callable(curvature) else curvature)
     return new
