@@ -12,7 +12,9 @@ continues whole branches; the fast path solves the defining systems directly:
    followed in the parameters along the straight line ``p(theta) = p_ref + theta (p -
    p_ref)`` from ``theta = 0`` to 1. Predictor: the exact fold-speed gradient of the
    reference (left null vector of the collocation system,
-   :func:`~polywear.analysis.sensitivity.fold_speed_derivative`), then secants.
+   :func:`~polywear.analysis.sensitivity.fold_speed_derivative`), then secants; the
+   Newton guess is the last fold moved along its tangent in the parameters (the whole
+   orbit to first order, :func:`~polywear.solvers.continuation.fold_parameter_tangent`).
    Corrector (:func:`~polywear.solvers.continuation.solve_fold`): Newton on the fold's
    minimally augmented system (the collocation equations, the phase condition and the
    vanishing speed component of the bordered Jacobian's null vector), so the fold is
