@@ -4,6 +4,7 @@ Sobol and fleet extrapolations, Dask 1 -> 2 workers, cost growth (nothing is ass
     .venv/bin/python benchmarks/bench_fleet.py agreement --model axle4dof --samples 200 --pilot 32
     .venv/bin/python benchmarks/bench_fleet.py agreement --model axle4dof --samples 40 --amplitude-speeds
     .venv/bin/python benchmarks/bench_fleet.py sobol --samples 16
+    .venv/bin/python benchmarks/bench_fleet.py sobol --samples 64 --mode fast --spread 0.05
     .venv/bin/python benchmarks/bench_fleet.py fleet --samples 400
     .venv/bin/python benchmarks/bench_fleet.py fleet --samples 100000 --backend processes
     .venv/bin/python benchmarks/bench_fleet.py fleet --model axle4dof --samples 3000 --backend serial
@@ -113,9 +114,10 @@ def _cpu() -> float:
     return time.process_time() + kids.ru_utime + kids.ru_stime
 
 
-def sobol(n_base: int, modes=("fast", "full")) -> None:
+def sobol(n_base: int, modes=("fast", "full"), spread: float = 0.1) -> None:
     """Sobol study of axle4dof, N = n_base (first-order layout: 9 runs per base sample),
-    7 parameters, both bifurcation speeds, 2 local processes, with the fast band path (and
+    the paper's 7 parameters uniform within +-spread of the defaults (0.1: the default
+    study ranges), both bifurcation speeds, 2 local processes, with the fast band path (and
     its pilot stage) and/or the continuation only. CPU time (this process and the pool's
     workers) and wall time; N = 1024 extrapolated linearly from the CPU time on 2 cores."""
     from polywear.analysis.fast_band import pilot_size
@@ -123,14 +125,18 @@ def sobol(n_base: int, modes=("fast", "full")) -> None:
 
     for mode in modes:
         params = with_updates(Params(), {"model": "axle4dof"})
+        ranges = [sorted((get_value(params, k) * (1 - spread), get_value(params, k) * (1 + spread)))
+                  for k in DEFAULT_KEYS]
         study = StudySpec().with_updates({"method": "sobol", "outputs": "bifurcation", "n_base": n_base,
-                                          "second_order": False, "bootstrap": 100})
+                                          "second_order": False, "bootstrap": 100,
+                                          "parameters": [{"key": k, "low": lo, "high": hi}
+                                                         for k, (lo, hi) in zip(DEFAULT_KEYS, ranges)]})
         c, t = _cpu(), time.perf_counter()
         result = global_sensitivity(params, study, backend="processes", workers=2, fast_band=mode == "fast")
         dt, dc = time.perf_counter() - t, _cpu() - c
         runs = len(result.status)
         pilot = pilot_size(runs) if mode == "fast" else 0
-        print(f"axle4dof Sobol N = {n_base} ({runs} runs), {mode}: wall {dt:.1f} s, CPU {dc:.1f} s "
+        print(f"axle4dof Sobol N = {n_base} ({runs} runs, +-{spread:.0%}), {mode}: wall {dt:.1f} s, CPU {dc:.1f} s "
               f"({1e3 * dc / runs:.0f} ms per run incl. {pilot} pilot diagrams), "
               f"{result.settings.get('fast_band_samples', 0)} on the fast path, failures {result.failures()}; "
               f"N = 1024 ({1024 * 9} runs) on 2 free cores: ~{dc / runs * 1024 * 9 / 2 / 60:.1f} min")
@@ -264,11 +270,12 @@ def main() -> None:
     parser.add_argument("--amplitude-speeds", type=float, nargs="*", default=[80.0, 130.0],
                         help="agreement: speeds [km/h] of the amplitudes (none: the bands alone, as fleets need)")
     parser.add_argument("--band-every", type=int, default=1, help="pilot: whole bands for every k-th car")
+    parser.add_argument("--spread", type=float, default=0.1, help="sobol: parameter ranges +-spread of the defaults")
     args = parser.parse_args()
     if args.what == "agreement":
         agreement(args.model, args.samples, args.seed, args.pilot, tuple(args.amplitude_speeds))
     elif args.what == "sobol":
-        sobol(args.samples, args.mode or ("fast", "full"))
+        sobol(args.samples, args.mode or ("fast", "full"), args.spread)
     elif args.what == "fleet":
         fleet(args.samples, args.backend or ("serial", "processes"), args.model)
     elif args.what == "pilot":

@@ -1179,7 +1179,8 @@ def solve_fold(model: Model, p: np.ndarray, guess: BranchPoint, speed: float, sc
 
 
 def _fold_newton_step(stepper: _Stepper, X: np.ndarray, border: np.ndarray, system: tuple, r_F: np.ndarray,
-                      r_phase: float, parameter_blocks: tuple | None = None) -> np.ndarray | None:
+                      r_phase: float, parameter_blocks: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+                      ) -> np.ndarray | None:
     """The solution dX of the fold's minimally augmented system linearized at X (see
     :func:`solve_fold`): ``F_X dX = r_F``, ``phase . dX = r_phase`` and ``grad g . dX = -g``;
     or, with ``parameter_blocks`` (the derivative of the collocation Jacobian along a
@@ -1241,7 +1242,7 @@ def fold_parameter_tangent(model: Model, p: np.ndarray, fold: BranchPoint, direc
     system = c.evaluate(X)
     shifted = Collocation(model, p + eps * direction, orbit.mesh, orbit.m).evaluate(X)
     F_theta = (shifted[0] - system[0]) / eps
-    blocks = tuple((a - b) / eps for a, b in zip(shifted[1:], system[1:]))
+    blocks = ((shifted[1] - system[1]) / eps, (shifted[2] - system[2]) / eps, (shifted[3] - system[3]) / eps)
     border = np.vstack([c.phase_row(orbit), stepper.weights * stepper.unit(fold.tangent)])
     return _fold_newton_step(stepper, X, border, system, -F_theta, 0.0, blocks)
 
