@@ -621,10 +621,13 @@ class FastBand:
 
     def full(self, params: Params, fallback: Fallback | None = None) -> Band:
         """The full continuation's band (the fallback, with its reason)."""
+        return band_from_diagram(self.diagram(params), self.amplitude_speeds_kmh, fallback)
+
+    def diagram(self, params: Params):
+        """The full bifurcation diagram of ``params`` on the solver's speed range (not widened)."""
         from .bifurcation import bifurcation_diagram
 
-        diagram = bifurcation_diagram(params, self.speed_range_kmh, self.settings, **_FIXED_RANGE)
-        return band_from_diagram(diagram, self.amplitude_speeds_kmh, fallback)
+        return bifurcation_diagram(params, self.speed_range_kmh, self.settings, **_FIXED_RANGE)
 
     def _nearest(self, p, criticality: tuple) -> BandReference:
         """The nearest usable reference with these Hopf criticalities (relative distance)."""

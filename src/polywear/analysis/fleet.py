@@ -200,8 +200,8 @@ class FleetSpec(_Spec):
     distance at a usage speed where rolling is stable (linear wear map)."""
     simulate_gaps: bool = False
     """Decide a car with a usage speed in a gap of its band after a period doubling or torus
-    bifurcation by simulation, as the verdict does (its diagram again, then runs from its
-    nearest stable cycle and from steady rolling disturbed, a few seconds per car): the
+    bifurcation by simulation, as the verdict does (runs from the stable cycle of its diagram
+    nearest in speed and from steady rolling disturbed, a few seconds per car): the
     share where the tread ends in SEV is ``gap_sev_share``."""
 
     @model_validator(mode="after")
@@ -308,7 +308,7 @@ class FleetEvaluator:
             params = sample_params(self.params, self.keys, values)
             whole = solved is not None or index % self.band_every == 0
             verdict = None if whole else self.solver.usage_verdict(params, self.usage_speeds_kmh)
-            band = solved if solved is not None or verdict is not None else self.solver(params)
+            band, diagram = (solved, None) if solved is not None or verdict is not None else self._band(params)
         except Exception as exc:  # invalid parameters or a numerical failure: recorded, never dropped
             return (np.nan,) * len(OUTPUTS), CarOutcome(failure=type(exc).__name__, detail=str(exc))
         efold = self._efold(params) if self.wear else np.nan
@@ -325,22 +325,32 @@ class FleetEvaluator:
         in_gap = [v for v in self.usage_speeds_kmh if any(a < v < b for a, b in band.gaps_after_pd_ns_kmh)]
         gap_sev = np.nan
         if in_gap and self.simulate_gaps:
-            gap_sev = self._gap_sev(params, in_gap)
+            gap_sev = self._gap_sev(params, in_gap, diagram)
             if isinstance(gap_sev, CarOutcome):
                 return (np.nan,) * len(OUTPUTS), gap_sev
         return (band.first_bifurcation_kmh, band.second_bifurcation_kmh, float(inside(band.sev_band_kmh)),
                 float(inside(band.hard_regions_kmh)), float(band.path == "fast"), efold, float(bool(in_gap)),
                 gap_sev), outcome
 
-    def _gap_sev(self, params, speeds_kmh) -> float | CarOutcome:
+    def _band(self, params):
+        """(band, full diagram or None): the fast path, else the full continuation, whose
+        diagram is kept for the simulations of :meth:`_gap_sev`."""
+        from .fast_band import Band, band_from_diagram
+
+        band = self.solver.try_fast(params)
+        if isinstance(band, Band):
+            return band, None
+        diagram = self.solver.diagram(params)
+        return band_from_diagram(diagram, self.solver.amplitude_speeds_kmh, band), diagram
+
+    def _gap_sev(self, params, speeds_kmh, diagram=None) -> float | CarOutcome:
         """1.0 if a simulation (:func:`~polywear.analysis.attractor.reached_attractors`, from the
-        car's diagram computed again) ends in SEV at one of these speeds [km/h], else 0.0; or the failure."""
+        car's ``diagram``, computed again for a pilot car) ends in SEV at one of these speeds
+        [km/h], else 0.0; or the failure."""
         from .attractor import reached_attractors
-        from .bifurcation import bifurcation_diagram
-        from .fast_band import _FIXED_RANGE
 
         try:
-            diagram = bifurcation_diagram(params, self.solver.speed_range_kmh, self.solver.settings, **_FIXED_RANGE)
+            diagram = diagram if diagram is not None else self.solver.diagram(params)
             return float(any(a.oscillating for v in speeds_kmh for a in reached_attractors(diagram, v)))
         except Exception as exc:
             return CarOutcome(failure="gap simulation", detail=f"{type(exc).__name__}: {exc}")
