@@ -1271,16 +1271,21 @@ def fold_at(model: Model, fold: BranchPoint, p_from: np.ndarray, p_to: np.ndarra
     needed); ``scales`` the state scales of its branch; ``max_newton`` the iterations of
     :func:`solve_fold` (from folds 10 % away in the parameters it takes 5-10 from the
     recentred guess, 3-7 along the tangent). None if neither finds the fold."""
-    guess = replace(fold, orbit=recentred(model, fold.orbit, p_from, p_to, speed))
-    first = guess
-    direction = np.where(np.isfinite(p_to) & np.isfinite(p_from), p_to - p_from, 0.0)  # NaN: no parameter
-    dX = fold_parameter_tangent(model, p_from, fold, direction, scales, settings) if tangent else None
-    if dX is not None and np.all(np.isfinite(dX)):
-        X = np.concatenate([fold.orbit.nodes.ravel(), [fold.orbit.period, fold.orbit.speed]]) + dX
-        first = replace(fold, orbit=replace(fold.orbit, nodes=X[:-2].reshape(fold.orbit.nodes.shape),
-                                            period=float(X[-2]), speed=float(X[-1])))
-    new = solve_fold(model, p_to, first, first.orbit.speed, scales, settings, max_newton)
+    guess = None
+    if tangent:
+        direction = np.where(np.isfinite(p_to) & np.isfinite(p_from), p_to - p_from, 0.0)  # NaN: no parameter
+        dX = fold_parameter_tangent(model, p_from, fold, direction, scales, settings)
+        if dX is not None and np.all(np.isfinite(dX)):
+            o = fold.orbit
+            guess = replace(fold, orbit=replace(o, nodes=o.nodes + dX[:-2].reshape(o.nodes.shape),
+                                                period=o.period + float(dX[-2]), speed=o.speed + float(dX[-1])))
+    def recentred_guess() -> BranchPoint:  # the march's start; solve_fold's without the tangent
+        return replace(fold, orbit=recentred(model, fold.orbit, p_from, p_to, speed))
+
+    guess = guess if guess is not None else recentred_guess()
+    new = solve_fold(model, p_to, guess, guess.orbit.speed, scales, settings, max_newton)
     if new is None:
+        guess = recentred_guess() if tangent else guess
         new = locate_fold(model, p_to, guess, speed, scales, settings, curvature() if callable(curvature) else curvature)
     return new
 
