@@ -225,3 +225,41 @@ def test_stable_window_of_the_heavy_axle_is_what_long_integration_reaches():
     span = np.maximum(hi - lo, 1e-12)
     assert np.all(np.abs(u.max(axis=0) - hi) <= 1e-4 * span)
     assert np.all(np.abs(u.min(axis=0) - lo) <= 1e-4 * span)
+
+
+JUMPING_AXLE = {"tread.lateral_stiffness_n_per_m": 953447.4845440579, "tread.lateral_damping_ns_per_m": 80.49267920041996,
+                "operating.toe_deg": 0.47355793896833975, "operating.camber_deg": -0.9180200117829176,
+                "friction.mu_static": 0.9655564730471576, "tread.mass_kg": 1.0263428330113955,
+                "operating.vertical_load_n": 4301.326092282348}
+"""An axle4dof car of a Sobol study at +-10 % (four Hopf points) whose branch from the Hopf
+point at 65.93 km/h, in steps of full length, crosses at a sharp bend near 64.6 km/h onto
+an isola of cycles and runs round it (63-72.5 km/h) until ``max_steps``, while the branch
+from 96.13 km/h comes back to 65.93 km/h; the isola's stable cycles added a band interval
+at 63.03-63.20 km/h."""
+
+
+@pytest.mark.slow
+def test_a_branch_that_crossed_onto_another_is_continued_again_with_turn_limited_steps():
+    """The diagram notices the lost branch and the Hopf point that two branches end at, and
+    continues all branches again with steps that turn by at most 0.2 rad: the branch from
+    65.93 km/h then reaches 96.13 km/h. Check: the same SEV band as continuation in steps at
+    most a fifth as long (ds_max 0.1) without any turn limit, which does not jump here."""
+    params = load_params(overrides=["model=axle4dof", *(f"{k}={v!r}" for k, v in JUMPING_AXLE.items())])
+    d = bifurcation_diagram(params, (20.0, 300.0), extend=False)
+    (note,) = d.continuation_notes
+    assert "from 65.931 km/h was lost" in note and "two branches end at the Hopf point at 65.931 km/h" in note
+    assert note.endswith("which resolved it") and d.settings.max_turn == 0.2
+    assert not any(i["failed"] for i in d.branch_info)
+    assert [(round(i["from_hopf_kmh"], 2), round(i["to_hopf_kmh"], 2)) for i in d.branch_info] == [
+        (65.93, 96.13), (98.78, 174.47)]
+    short = bifurcation_diagram(params, (20.0, 300.0), ContinuationSettings(ds_max=0.1), extend=False)
+    assert short.continuation_notes == [] and not any(i["failed"] for i in short.branch_info)
+    band, reference = np.array(d.sev_band_kmh), np.array(short.sev_band_kmh)
+    assert band.shape == reference.shape == (2, 2)
+    np.testing.assert_allclose(band, reference, rtol=1e-6)
+    assert not any(a < 63.1 < b for a, b in band)  # the isola's interval is gone
+
+
+def test_max_turn_must_be_positive():
+    with pytest.raises(ValueError, match="max_turn"):
+        ContinuationSettings(max_turn=0.0)

@@ -369,7 +369,7 @@ def _html(params: Params, summary: dict, verdict: dict, files: dict) -> str:
         )
         for v in b.get(key, [])
     )
-    notes = "".join(f"<li>{e(n)}</li>" for n in [*b.get("range_notes", []), *b.get("warnings", [])])
+    notes = "".join(f"<li>{e(n)}</li>" for n in [*b.get("range_notes", []), *b.get("continuation_notes", []), *b.get("warnings", [])])
     sens_notes = "".join(f"<li>{e(n)}</li>" for n in summary["sensitivity"].get("notes", []))
     design_html = _design_html(summary["design"])
     figures = "".join(

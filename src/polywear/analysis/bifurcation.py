@@ -41,6 +41,9 @@ __all__ = [
     "SPEED_CEILING_KMH",
 ]
 
+RESCUE_TURN = 0.2
+"""Largest turn [rad] of a step (``ContinuationSettings.max_turn``) when the branches of a
+diagram are continued again because one was lost or two ended at one Hopf point."""
 SPEED_FLOOR_KMH = 1.0
 """Lowest speed [km/h] the analysed range is extended to when the SEV band runs into its lower end."""
 SPEED_CEILING_KMH = MAX_SPEED_KMH
@@ -94,6 +97,8 @@ class BifurcationDiagram(Result):
     """The range [km/h] that was asked for (None: the analysed one)."""
     range_notes: list[str] = field(default_factory=list)
     """Why the analysed range differs from the requested one."""
+    continuation_notes: list[str] = field(default_factory=list)
+    """Why the cycle branches were continued a second time (with turn-limited steps)."""
 
     # -- bands ---------------------------------------------------------------------------
     @property
@@ -277,6 +282,7 @@ class BifurcationDiagram(Result):
             "speed_range_kmh": list(self.speed_range_kmh),
             "requested_speed_range_kmh": list(self.requested_range_kmh or self.speed_range_kmh),
             "range_notes": list(self.range_notes),
+            "continuation_notes": list(self.continuation_notes),
             "open_at": _open_at(open_at),
             "warnings": [_open_warning(edge, self.speed_range_kmh) for edge in open_at] + self.branch_warnings(),
             "hopf_points": [h.summary() for h in self.hopf_points],
@@ -652,7 +658,7 @@ def bifurcation_diagram(
             kind = PointKind(label)
             if not any(s.kind is kind and same_special_point(pt.orbit, s.orbit) for s in special):
                 special.append(_special_point(b, kind, pt))
-    return BifurcationDiagram(
+    diagram = BifurcationDiagram(
         params=params,
         stability=stab,
         cycles=cycles,
@@ -662,6 +668,30 @@ def bifurcation_diagram(
         settings=settings,
         speed_range_kmh=(lo, hi),
     )
+    trouble = _branch_trouble(info)
+    if not trouble or settings.max_turn is not None:
+        return diagram
+    # typically a long step across a sharp bend that landed on another branch passing close
+    # by: all branches again with turn-limited steps, the better of the two kept
+    again = bifurcation_diagram(params, (lo, hi), replace(settings, max_turn=RESCUE_TURN), stability_settings,
+                                step.relay if progress else None, extend=False)
+    left = _branch_trouble(again.branch_info)
+    kept = again if len(left) <= len(trouble) else diagram
+    kept.continuation_notes = [
+        f"{'; '.join(trouble)}: all cycle branches continued again with steps that turn by at most "
+        f"{RESCUE_TURN:g} rad, " + ("which resolved it" if not left else f"after which {'; '.join(left)}"
+                                    + ("" if kept is again else " (the first continuation is kept)"))]
+    return kept
+
+
+def _branch_trouble(info: list[dict]) -> list[str]:
+    """What is wrong with a diagram's branches (``branch_info``), in words: branches lost,
+    and Hopf points that two branches start or end at."""
+    out = [f"the branch from {i['from_hopf_kmh']:.3f} km/h was lost after {i['at_speed_kmh']:.3f} km/h"
+           for i in info if i["failed"]]
+    ends = [i["from_hopf_kmh"] for i in info] + [i["to_hopf_kmh"] for i in info if i["to_hopf_kmh"] is not None]
+    out += [f"two branches end at the Hopf point at {v:.3f} km/h" for v in sorted(set(ends)) if ends.count(v) > 1]
+    return out
 
 
 def _extended_diagram(params, speed_range_kmh, settings, stability_settings, progress) -> BifurcationDiagram:

@@ -114,7 +114,7 @@ def _sweep(params, speed_range, n_speeds, quiet):
 
 def _print_summary(s: dict) -> None:
     """The summary as text on stdout; range notes and open-band warnings on stderr."""
-    for note in s.get("range_notes", []):
+    for note in [*s.get("range_notes", []), *s.get("continuation_notes", [])]:
         typer.echo(f"note: {note}", err=True)
     for warning in s.get("warnings", []):
         typer.echo(f"warning: {warning}", err=True)
