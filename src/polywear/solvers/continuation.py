@@ -465,8 +465,10 @@ def continue_from_hopf(
             break
         prev, prev_harmonic = point, harmonic
         X0, t0, phase_ref = X, t, orbit
-        ds_turn = np.inf if turn == 0.0 else max(0.5 * settings.max_turn * ds / turn, settings.turn_floor)
-        ds = min(next_step(ds, iterations, settings.ds_max, grow=1.5, shrink_after=5), ds_turn)
+        ds_next = next_step(ds, iterations, settings.ds_max, grow=1.5, shrink_after=5)
+        if settings.max_turn is not None and turn > 0.0:  # sized to turn by about max_turn / 2
+            ds_next = min(ds_next, max(0.5 * settings.max_turn * ds / turn, settings.turn_floor))
+        ds = ds_next
         steps_since_adapt += 1
         if settings.adapt_every and steps_since_adapt >= settings.adapt_every:
             steps_since_adapt = 0
