@@ -260,6 +260,7 @@ def test_a_branch_that_crossed_onto_another_is_continued_again_with_turn_limited
     assert not any(a < 63.1 < b for a, b in band)  # the isola's interval is gone
 
 
-def test_max_turn_must_be_positive():
+@pytest.mark.parametrize("turn", [0.0, -0.1, 4.0, float("nan")])
+def test_max_turn_must_be_an_angle_in_0_pi(turn):
     with pytest.raises(ValueError, match="max_turn"):
-        ContinuationSettings(max_turn=0.0)
+        ContinuationSettings(max_turn=turn)

@@ -133,8 +133,8 @@ class ContinuationSettings:
         check_positive(self, "ds_initial", "ds_min", "ds_max", "newton_tol", "fold_tol", "crossing_tol",
                        "min_amplitude", "hopf_approach_step", "max_correction",
                        "turn_floor")
-        if self.max_turn is not None:
-            check_positive(self, "max_turn")
+        if self.max_turn is not None and not 0.0 < self.max_turn <= np.pi:
+            raise ValueError(f"ContinuationSettings: max_turn = {self.max_turn!r}: must be None or lie in (0, pi] [rad]")
         check_positive(self, "max_amplitude", "multiplier_tol", "max_period_factor", finite=False)
         check_order(self, "ds_min", "ds_initial", "ds_max")
         check_order(self, "min_amplitude", "max_amplitude")
