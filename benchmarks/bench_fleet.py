@@ -140,6 +140,9 @@ def sobol(n_base: int, modes=("fast", "full"), spread: float = 0.1) -> None:
               f"({1e3 * dc / runs:.0f} ms per run incl. {pilot} pilot diagrams), "
               f"{result.settings.get('fast_band_samples', 0)} on the fast path, failures {result.failures()}; "
               f"N = 1024 ({1024 * 9} runs) on 2 free cores: ~{dc / runs * 1024 * 9 / 2 / 60:.1f} min")
+        for values, outcome in zip(result.samples, result.status):
+            if outcome.status.value == "failed":  # the parameter values to reproduce it
+                print(f"  failed: {outcome.detail}\n    {dict(zip(DEFAULT_KEYS, values.tolist()))}")
 
 
 TOE_LOAD = [

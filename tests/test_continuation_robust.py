@@ -120,16 +120,20 @@ def test_every_branch_ends_with_a_reason_and_failures_are_flagged(diagram):
 
 
 def test_failed_branch_in_the_text_output(capsys):
-    """A branch cut by the step limit is printed as FAILED, with where and why."""
+    """A branch cut by the step limit is printed as FAILED, with where and why; the note says
+    that the branches were continued again, in vain (the same step limit)."""
     params = params_of("tread1dof", "stick-slip")
     d = bifurcation_diagram(params, RANGE_KMH, ContinuationSettings(max_steps=15), StabilitySettings(n_speeds=100),
                             extend=False)
     (branch,) = d.branches
     assert branch.end is BranchEnd.MAX_STEPS and branch.failed
     _print_summary(d.summary())
-    out = capsys.readouterr().out
+    out, err = capsys.readouterr()
     line = next(l for l in out.splitlines() if "cycle branch 0" in l)
     assert "FAILED" in line and f"{branch.end_speed * 3.6:.3f} km/h" in line and "maximum number of steps" in line
+    assert d.settings.max_turn is None
+    (note,) = d.continuation_notes
+    assert f"note: {note}" in err and "continued again" in note and note.endswith("(the first continuation is kept)")
 
 
 @pytest.mark.parametrize("overrides, fold_kmh", [
@@ -237,27 +241,64 @@ an isola of cycles and runs round it (63-72.5 km/h) until ``max_steps``, while t
 from 96.13 km/h comes back to 65.93 km/h; the isola's stable cycles added a band interval
 at 63.03-63.20 km/h."""
 
+TWICE_LOST_AXLE = {"tread.lateral_stiffness_n_per_m": 956229.0106202218,
+                   "tread.lateral_damping_ns_per_m": 84.73566841422199, "operating.toe_deg": 0.49595832101378945,
+                   "operating.camber_deg": -0.9044809135254164, "friction.mu_static": 0.9451092503813172,
+                   "tread.mass_kg": 1.0037907260920007, "operating.vertical_load_n": 4182.986528200778}
+"""Another such car: the branches from 71.18 and 84.21 km/h (one branch, from both ends)
+both cross onto other cycles and run until ``max_steps``."""
+
+
+def axle(values):
+    return load_params(overrides=["model=axle4dof", *(f"{k}={v!r}" for k, v in values.items())])
+
+
+def short_steps(params):
+    """The diagram in steps at most a fifth as long (``ds_max`` 0.1) without a turn limit:
+    on these cars it does not cross onto other branches."""
+    d = bifurcation_diagram(params, (20.0, 300.0), ContinuationSettings(ds_max=0.1), extend=False)
+    assert d.continuation_notes == [] and not any(i["failed"] for i in d.branch_info)
+    return d
+
 
 @pytest.mark.slow
-def test_a_branch_that_crossed_onto_another_is_continued_again_with_turn_limited_steps():
-    """The diagram notices the lost branch and the Hopf point that two branches end at, and
-    continues all branches again with steps that turn by at most 0.2 rad: the branch from
-    65.93 km/h then reaches 96.13 km/h. Check: the same SEV band as continuation in steps at
-    most a fifth as long (ds_max 0.1) without any turn limit, which does not jump here."""
-    params = load_params(overrides=["model=axle4dof", *(f"{k}={v!r}" for k, v in JUMPING_AXLE.items())])
+def test_a_branch_lost_from_a_hopf_point_another_branch_ends_at_is_that_branch():
+    """The branch lost from 65.93 km/h is the one the branch from 96.13 km/h followed to
+    65.93 km/h: the lost attempt (with its isola) is dropped, not reported as a failure.
+    Check: the same SEV band as continuation in short steps, which follows the branch from
+    65.93 km/h to 96.13 km/h itself."""
+    params = axle(JUMPING_AXLE)
     d = bifurcation_diagram(params, (20.0, 300.0), extend=False)
     (note,) = d.continuation_notes
-    assert "from 65.931 km/h was lost" in note and "two branches end at the Hopf point at 65.931 km/h" in note
-    assert note.endswith("which resolved it") and d.settings.max_turn == 0.2
-    assert not any(i["failed"] for i in d.branch_info)
+    assert "from 65.931 km/h was lost" in note and "it is the branch from 96.129 km/h" in note
+    assert not any(i["failed"] for i in d.branch_info) and d.settings.max_turn is None
     assert [(round(i["from_hopf_kmh"], 2), round(i["to_hopf_kmh"], 2)) for i in d.branch_info] == [
+        (96.13, 65.93), (98.78, 174.47)]
+    reference = short_steps(params)
+    assert [(round(i["from_hopf_kmh"], 2), round(i["to_hopf_kmh"], 2)) for i in reference.branch_info] == [
         (65.93, 96.13), (98.78, 174.47)]
-    short = bifurcation_diagram(params, (20.0, 300.0), ContinuationSettings(ds_max=0.1), extend=False)
-    assert short.continuation_notes == [] and not any(i["failed"] for i in short.branch_info)
-    band, reference = np.array(d.sev_band_kmh), np.array(short.sev_band_kmh)
-    assert band.shape == reference.shape == (2, 2)
-    np.testing.assert_allclose(band, reference, rtol=1e-6)
+    band = np.array(d.sev_band_kmh)
+    assert band.shape == (2, 2)
+    np.testing.assert_allclose(band, np.array(reference.sev_band_kmh), rtol=1e-6)
     assert not any(a < 63.1 < b for a, b in band)  # the isola's interval is gone
+
+
+@pytest.mark.slow
+def test_branches_lost_from_both_ends_are_continued_again_with_turn_limited_steps():
+    """Both ends of a branch lost: all branches are continued again with steps that turn by
+    at most 0.2 rad, which follows the branch from 71.18 to 84.21 km/h. Check: the same SEV
+    band as continuation in short steps (the lost attempts had added a band interval at
+    65.04-65.54 km/h and cut a gap at 69.04-69.78 km/h)."""
+    params = axle(TWICE_LOST_AXLE)
+    d = bifurcation_diagram(params, (20.0, 300.0), extend=False)
+    (note,) = d.continuation_notes
+    assert "from 71.183 km/h was lost" in note and "from 84.214 km/h was lost" in note
+    assert note.endswith("which resolved it") and d.settings.max_turn == 0.2
+    assert [(round(i["from_hopf_kmh"], 2), round(i["to_hopf_kmh"], 2)) for i in d.branch_info] == [
+        (71.18, 84.21), (89.18, 164.31)]
+    band = np.array(d.sev_band_kmh)
+    assert band.shape == (2, 2)
+    np.testing.assert_allclose(band, np.array(short_steps(params).sev_band_kmh), rtol=1e-6)
 
 
 @pytest.mark.parametrize("turn", [0.0, -0.1, 4.0, float("nan")])

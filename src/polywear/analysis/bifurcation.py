@@ -613,25 +613,58 @@ def bifurcation_diagram(
     model = get_model(params.model)
     p = model.pack(params)
     bounds = (kmh_to_ms(lo), kmh_to_ms(hi))
-    branches: list[Branch] = []
-    info: list[dict] = []
-    cycles: list[CyclePoint] = []
-    special: list[SpecialPoint] = []
+    runs: list[tuple[int, Branch, int | None]] = []  # (start, branch, end): indices of Hopf points
     reached: set[int] = set()
     step = StepCounter(progress)
     for k, hopf in enumerate(stab.hopf_points):
         if k in reached:
             continue
-        b = len(branches)
         callback = None if progress is None else (
-            lambda br, b=b: step(f"branch {b}: {ms_to_kmh(br.points[-1].orbit.speed):.1f} km/h"))
+            lambda br, b=len(runs): step(f"branch {b}: {ms_to_kmh(br.points[-1].orbit.speed):.1f} km/h"))
         branch = continue_from_hopf(model, p, hopf, bounds, settings, on_step=callback)
-        branches.append(branch)
         end_hopf = None
         if branch.end is BranchEnd.HOPF_REACHED and branch.points:
             end_hopf = _nearest_hopf(stab.hopf_points, branch.points[-1], exclude=k)
             if end_hopf is not None:
                 reached.add(end_hopf)
+        runs.append((k, branch, end_hopf))
+    # a branch lost from a Hopf point that a later branch ends at is that branch, known from its other end
+    notes: list[str] = []
+    lost: set[int] = set()
+    for start, branch, _ in runs:
+        other = next((a for a, _, e in runs if e == start), None)
+        if branch.failed and other is not None:
+            lost.add(start)
+            notes.append(f"the branch from {stab.hopf_points[start].speed_kmh:.3f} km/h was lost after "
+                         f"{ms_to_kmh(branch.end_speed):.3f} km/h ({branch.end_reason}); it is the branch from "
+                         f"{stab.hopf_points[other].speed_kmh:.3f} km/h, followed to it from its other end")
+    diagram = _assembled(params, stab, [r for r in runs if r[0] not in lost], settings, (lo, hi))
+    diagram.continuation_notes = notes
+    trouble = _branch_trouble(diagram.branch_info)
+    if not trouble or settings.max_turn is not None:
+        return diagram
+    # typically a long step across a sharp bend that landed on another branch passing close
+    # by: all branches again with turn-limited steps, kept if that lost fewer
+    again = bifurcation_diagram(params, (lo, hi), replace(settings, max_turn=RESCUE_TURN), stability_settings,
+                                step.relay if progress else None, extend=False)
+    left = _branch_trouble(again.branch_info)
+    kept = again if len(left) < len(trouble) else diagram
+    kept.continuation_notes = [
+        f"{'; '.join(trouble)}: all cycle branches continued again with steps that turn by at most "
+        f"{RESCUE_TURN:g} rad, " + ("which resolved it" if not left else f"after which {'; '.join(left)}"
+                                    + ("" if kept is again else " (the first continuation is kept)")),
+        *kept.continuation_notes]
+    return kept
+
+
+def _assembled(params: Params, stab: StabilityResult, runs: list[tuple[int, Branch, int | None]],
+               settings: ContinuationSettings, speed_range_kmh: tuple[float, float]) -> BifurcationDiagram:
+    """The diagram of the branches ``runs`` (start, branch, end: indices of Hopf points)."""
+    info: list[dict] = []
+    cycles: list[CyclePoint] = []
+    special: list[SpecialPoint] = []
+    for b, (k, branch, end_hopf) in enumerate(runs):
+        hopf = stab.hopf_points[k]
         info.append(
             {
                 "branch": b,
@@ -658,30 +691,16 @@ def bifurcation_diagram(
             kind = PointKind(label)
             if not any(s.kind is kind and same_special_point(pt.orbit, s.orbit) for s in special):
                 special.append(_special_point(b, kind, pt))
-    diagram = BifurcationDiagram(
+    return BifurcationDiagram(
         params=params,
         stability=stab,
         cycles=cycles,
-        branches=branches,
+        branches=[branch for _, branch, _ in runs],
         branch_info=info,
         special=special,
         settings=settings,
-        speed_range_kmh=(lo, hi),
+        speed_range_kmh=speed_range_kmh,
     )
-    trouble = _branch_trouble(info)
-    if not trouble or settings.max_turn is not None:
-        return diagram
-    # typically a long step across a sharp bend that landed on another branch passing close
-    # by: all branches again with turn-limited steps, the better of the two kept
-    again = bifurcation_diagram(params, (lo, hi), replace(settings, max_turn=RESCUE_TURN), stability_settings,
-                                step.relay if progress else None, extend=False)
-    left = _branch_trouble(again.branch_info)
-    kept = again if len(left) <= len(trouble) else diagram
-    kept.continuation_notes = [
-        f"{'; '.join(trouble)}: all cycle branches continued again with steps that turn by at most "
-        f"{RESCUE_TURN:g} rad, " + ("which resolved it" if not left else f"after which {'; '.join(left)}"
-                                    + ("" if kept is again else " (the first continuation is kept)"))]
-    return kept
 
 
 def _branch_trouble(info: list[dict]) -> list[str]:
