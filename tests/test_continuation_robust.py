@@ -11,6 +11,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
 
 from polywear.analysis.bifurcation import bifurcation_diagram
 from polywear.analysis.points import PointKind
@@ -131,7 +132,6 @@ def test_failed_branch_in_the_text_output(capsys):
     out, err = capsys.readouterr()
     line = next(l for l in out.splitlines() if "cycle branch 0" in l)
     assert "FAILED" in line and f"{branch.end_speed * 3.6:.3f} km/h" in line and "maximum number of steps" in line
-    assert d.settings.max_turn is None
     (note,) = d.continuation_notes
     assert f"note: {note}" in err and "continued again" in note and note.endswith("(the first continuation is kept)")
 
@@ -245,8 +245,17 @@ TWICE_LOST_AXLE = {"tread.lateral_stiffness_n_per_m": 956229.0106202218,
                    "tread.lateral_damping_ns_per_m": 84.73566841422199, "operating.toe_deg": 0.49595832101378945,
                    "operating.camber_deg": -0.9044809135254164, "friction.mu_static": 0.9451092503813172,
                    "tread.mass_kg": 1.0037907260920007, "operating.vertical_load_n": 4182.986528200778}
-"""Another such car: the branches from 71.18 and 84.21 km/h (one branch, from both ends)
-both cross onto other cycles and run until ``max_steps``."""
+"""Another such car: without a turn limit the branches from 71.18 and 84.21 km/h (one
+branch, from both ends) both cross onto other cycles and run until ``max_steps``."""
+
+WINDOW_AXLE = {"tread.lateral_stiffness_n_per_m": 928874.9175077785, "tread.lateral_damping_ns_per_m": 77.0427761049412,
+               "operating.toe_deg": 0.48531479128936084, "operating.camber_deg": -0.9160898465853442,
+               "friction.mu_static": 0.9764914282574093, "tread.mass_kg": 0.9515963750653677,
+               "operating.vertical_load_n": 4032.02576584682}
+"""A car (four Hopf points) with a stable window of cycles at 63.23-63.36 km/h, below its
+first Hopf point (68.20 km/h): without a turn limit the steps passed it."""
+
+NO_LIMIT = ContinuationSettings(max_turn=None)
 
 
 def axle(values):
@@ -256,49 +265,93 @@ def axle(values):
 def short_steps(params):
     """The diagram in steps at most a fifth as long (``ds_max`` 0.1) without a turn limit:
     on these cars it does not cross onto other branches."""
-    d = bifurcation_diagram(params, (20.0, 300.0), ContinuationSettings(ds_max=0.1), extend=False)
+    d = bifurcation_diagram(params, (20.0, 300.0), ContinuationSettings(ds_max=0.1, max_turn=None), extend=False)
     assert d.continuation_notes == [] and not any(i["failed"] for i in d.branch_info)
     return d
 
 
+def ends(diagram):
+    return [(round(i["from_hopf_kmh"], 2), round(i["to_hopf_kmh"], 2)) for i in diagram.branch_info]
+
+
 @pytest.mark.slow
 def test_a_branch_lost_from_a_hopf_point_another_branch_ends_at_is_that_branch():
-    """The branch lost from 65.93 km/h is the one the branch from 96.13 km/h followed to
-    65.93 km/h: the lost attempt (with its isola) is dropped, not reported as a failure.
-    Check: the same SEV band as continuation in short steps, which follows the branch from
-    65.93 km/h to 96.13 km/h itself."""
+    """Without a turn limit the branch from 65.93 km/h is lost (onto an isola); it is the
+    branch that the one from 96.13 km/h followed to 65.93 km/h, so the lost attempt is
+    dropped, not reported as a failure. Check: the same SEV band as continuation in short
+    steps, which follows the branch from 65.93 km/h to 96.13 km/h itself, and as the
+    default (turn-limited) steps, which do too."""
     params = axle(JUMPING_AXLE)
-    d = bifurcation_diagram(params, (20.0, 300.0), extend=False)
+    d = bifurcation_diagram(params, (20.0, 300.0), NO_LIMIT, extend=False)
     (note,) = d.continuation_notes
     assert "from 65.931 km/h was lost" in note and "it is the branch from 96.129 km/h" in note
-    assert not any(i["failed"] for i in d.branch_info) and d.settings.max_turn is None
-    assert [(round(i["from_hopf_kmh"], 2), round(i["to_hopf_kmh"], 2)) for i in d.branch_info] == [
-        (96.13, 65.93), (98.78, 174.47)]
-    reference = short_steps(params)
-    assert [(round(i["from_hopf_kmh"], 2), round(i["to_hopf_kmh"], 2)) for i in reference.branch_info] == [
-        (65.93, 96.13), (98.78, 174.47)]
+    assert not any(i["failed"] for i in d.branch_info)
+    assert ends(d) == [(96.13, 65.93), (98.78, 174.47)]
     band = np.array(d.sev_band_kmh)
     assert band.shape == (2, 2)
-    np.testing.assert_allclose(band, np.array(reference.sev_band_kmh), rtol=1e-6)
     assert not any(a < 63.1 < b for a, b in band)  # the isola's interval is gone
+    reference = short_steps(params)
+    assert ends(reference) == [(65.93, 96.13), (98.78, 174.47)]
+    np.testing.assert_allclose(band, np.array(reference.sev_band_kmh), rtol=1e-6)
+    default = bifurcation_diagram(params, (20.0, 300.0), extend=False)
+    assert default.continuation_notes == [] and ends(default) == ends(reference)
+    np.testing.assert_allclose(np.array(default.sev_band_kmh), band, rtol=1e-6)
 
 
 @pytest.mark.slow
-def test_branches_lost_from_both_ends_are_continued_again_with_turn_limited_steps():
-    """Both ends of a branch lost: all branches are continued again with steps that turn by
-    at most 0.2 rad, which follows the branch from 71.18 to 84.21 km/h. Check: the same SEV
-    band as continuation in short steps (the lost attempts had added a band interval at
-    65.04-65.54 km/h and cut a gap at 69.04-69.78 km/h)."""
+def test_turn_limited_steps_follow_a_branch_that_steps_of_full_length_lose_from_both_ends():
+    """Without a turn limit both ends of the branch 71.18-84.21 km/h are lost, and the lost
+    attempts add a band interval at 65.04-65.54 km/h and a gap at 69.04-69.78 km/h; the
+    default steps follow it. Check: the same SEV band as continuation in short steps."""
     params = axle(TWICE_LOST_AXLE)
+    lost = bifurcation_diagram(params, (20.0, 300.0), NO_LIMIT, extend=False)
+    assert sum(i["failed"] for i in lost.branch_info) == 2 and len(lost.sev_band_kmh) == 4
     d = bifurcation_diagram(params, (20.0, 300.0), extend=False)
-    (note,) = d.continuation_notes
-    assert "from 71.183 km/h was lost" in note and "from 84.214 km/h was lost" in note
-    assert note.endswith("which resolved it") and d.settings.max_turn == 0.2
-    assert [(round(i["from_hopf_kmh"], 2), round(i["to_hopf_kmh"], 2)) for i in d.branch_info] == [
-        (71.18, 84.21), (89.18, 164.31)]
+    assert d.continuation_notes == [] and ends(d) == [(71.18, 84.21), (89.18, 164.31)]
     band = np.array(d.sev_band_kmh)
     assert band.shape == (2, 2)
     np.testing.assert_allclose(band, np.array(short_steps(params).sev_band_kmh), rtol=1e-6)
+
+
+@pytest.mark.slow
+def test_a_stable_window_below_the_first_hopf_point_is_not_stepped_over():
+    """The default steps find the window 63.23-63.36 km/h, so the first bifurcation speed is
+    63.23 km/h, not the Hopf point at 68.20 km/h that steps without a turn limit gave.
+    Check: the Floquet multipliers of the cycle at 63.30 km/h from the variational equation
+    (Radau, independent of the collocation): all inside the unit circle but the trivial one."""
+    params = axle(WINDOW_AXLE)
+    d = bifurcation_diagram(params, (20.0, 300.0), extend=False)
+    (lo, hi), rest = d.sev_band_kmh[0], d.sev_band_kmh[1:]
+    assert lo == pytest.approx(63.2298, abs=1e-3) and hi == pytest.approx(63.3649, abs=1e-3)
+    assert rest[0][0] == pytest.approx(min(h.speed_kmh for h in d.hopf_points)) == pytest.approx(68.2004, abs=1e-3)
+    coarse = bifurcation_diagram(params, (20.0, 300.0), NO_LIMIT, extend=False)
+    assert coarse.sev_band_kmh[0][0] == pytest.approx(68.2004, abs=1e-3)
+    (stable,) = [c for c in d.cycles_at(63.30) if c.stable]
+    model = get_model("axle4dof")
+    p, orbit = model.pack(params), stable.orbit
+
+    def variational(tau, y):
+        return (orbit.period * model.jacobian(orbit.evaluate(tau)[0], orbit.speed, p) @ y.reshape(9, 9)).ravel()
+
+    sol = solve_ivp(variational, (0.0, 1.0), np.eye(9).ravel(), method="Radau", rtol=1e-10, atol=1e-12)
+    mu = np.linalg.eigvals(sol.y[:, -1].reshape(9, 9))
+    nontrivial = np.delete(mu, np.argmin(np.abs(mu - 1.0)))
+    assert np.all(np.abs(nontrivial) < 1.0), np.sort(np.abs(nontrivial))
+
+
+@pytest.mark.slow
+def test_a_diagram_with_a_branch_lost_is_continued_again_with_finer_steps():
+    """The default tread1dof diagram with a step budget too small (85 of the ~140 steps its
+    branch takes): both ends lost; continued again (0.1 rad, 170 steps) it is resolved,
+    with the SEV band of the default diagram."""
+    params = load_params(overrides=[])
+    d = bifurcation_diagram(params, (20.0, 300.0), ContinuationSettings(max_steps=85), extend=False)
+    assert "continued again with steps that turn by at most 0.1 rad (up to 170 steps), which resolved it" in (
+        d.continuation_notes[0])
+    assert d.settings.max_turn == 0.1 and not any(i["failed"] for i in d.branch_info)
+    reference = bifurcation_diagram(params, (20.0, 300.0), extend=False)
+    assert reference.continuation_notes == []
+    np.testing.assert_allclose(np.array(d.sev_band_kmh), np.array(reference.sev_band_kmh), rtol=1e-9)
 
 
 @pytest.mark.parametrize("turn", [0.0, -0.1, 4.0, float("nan")])

@@ -41,9 +41,10 @@ __all__ = [
     "SPEED_CEILING_KMH",
 ]
 
-RESCUE_TURN = 0.2
-"""Largest turn [rad] of a step (``ContinuationSettings.max_turn``) when the branches of a
-diagram are continued again because one was lost or two ended at one Hopf point."""
+FINEST_TURN = 0.1
+"""A diagram whose branch was lost, or two of whose branches end at one Hopf point, is
+continued again, once, with half the largest turn of a step (``ContinuationSettings.max_turn``)
+and twice the steps, unless the turn would fall below this [rad]."""
 SPEED_FLOOR_KMH = 1.0
 """Lowest speed [km/h] the analysed range is extended to when the SEV band runs into its lower end."""
 SPEED_CEILING_KMH = MAX_SPEED_KMH
@@ -641,18 +642,20 @@ def bifurcation_diagram(
     diagram = _assembled(params, stab, [r for r in runs if r[0] not in lost], settings, (lo, hi))
     diagram.continuation_notes = notes
     trouble = _branch_trouble(diagram.branch_info)
-    if not trouble or settings.max_turn is not None:
+    if not trouble or settings.max_turn is None or settings.max_turn / 2 < FINEST_TURN:
         return diagram
-    # typically a long step across a sharp bend that landed on another branch passing close
-    # by: all branches again with turn-limited steps, kept if that lost fewer
-    again = bifurcation_diagram(params, (lo, hi), replace(settings, max_turn=RESCUE_TURN), stability_settings,
-                                step.relay if progress else None, extend=False)
+    # e.g. a step across a sharp bend that landed on another branch passing close by: all
+    # branches again in steps that turn half as much, kept if that lost fewer
+    finer = replace(settings, max_turn=settings.max_turn / 2, max_steps=2 * settings.max_steps)
+    again = bifurcation_diagram(params, (lo, hi), finer, stability_settings, step.relay if progress else None,
+                                extend=False)
     left = _branch_trouble(again.branch_info)
     kept = again if len(left) < len(trouble) else diagram
     kept.continuation_notes = [
         f"{'; '.join(trouble)}: all cycle branches continued again with steps that turn by at most "
-        f"{RESCUE_TURN:g} rad, " + ("which resolved it" if not left else f"after which {'; '.join(left)}"
-                                    + ("" if kept is again else " (the first continuation is kept)")),
+        f"{finer.max_turn:g} rad (up to {finer.max_steps} steps), "
+        + ("which resolved it" if not left else f"after which {'; '.join(left)}"
+           + ("" if kept is again else " (the first continuation is kept)")),
         *kept.continuation_notes]
     return kept
 

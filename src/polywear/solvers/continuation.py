@@ -108,17 +108,15 @@ class ContinuationSettings:
     predictor (scaled norm) has left the branch, e.g. past a Hopf point onto other cycles
     far away: it counts as failed, and is retried shorter (on the default diagrams the
     correctors end within 0.7 step lengths)."""
-    max_turn: float | None = None
+    max_turn: float | None = 0.2
     """Largest angle [rad] between the tangents at the ends of one step (scaled norm), or None
     (no limit: step lengths follow the Newton iterations alone). A step that turns by more
-    is retried shorter, and the next step is sized to turn by about half of it. A step of
-    full length across a sharp bend of a branch can land on another branch passing close
-    by: seen on axle4dof cars with four Hopf points, where the branch then ran round an
-    isola of cycles until ``max_steps`` or was lost, and the SEV band gained intervals
-    of the other branch's stable cycles. The diagram
-    (:func:`polywear.analysis.bifurcation.bifurcation_diagram`) continues its branches
-    again with a limit where that happened; with a limit always on, all branches take
-    more steps (0.2 rad: ~1.3x the CPU time on 80 random axle4dof cars, the same bands)."""
+    is retried shorter, and the next step is sized to turn by about half of it. Without
+    it, steps of full length across sharp bends of a branch stepped over narrow stable
+    windows next to folds (14 of 100 random axle4dof cars with four Hopf points at +-10 %,
+    e.g. a window at 63.23-63.37 km/h below a first Hopf point at 68.2 km/h) or landed on
+    another branch passing close by. 0.2 rad costs ~1.3-1.4x the steps' CPU time of no
+    limit; 0.1 rad gave the same bands on those 14 cars."""
     turn_floor: float = 1e-3
     """Steps this short are never rejected or shortened for their turn: at a corner of a
     branch (grazing of a kink of the vector field) the tangent jumps however short the step."""
