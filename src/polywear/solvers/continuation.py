@@ -961,12 +961,15 @@ def _crossing_in_bracket(start: _Step, ds: float, prev: BranchPoint, point: Bran
         (s_a, g_a, z_a), (s_b, g_b, z_b) = ends
         s = _secant_in_bracket((s_a, g_a), (s_b, g_b), s_a, s_b)
         out = stepper.correct(X0, t0, s, phase_ref)
+        solved_on = stepper
+        if out is not None and stepper.settings.align_kinks:  # as the branch's points: kinks on mesh points
+            solved_on, *_, out = _align_to_kinks(start, s, out)
         if out is None:
             break
         X, t, iterations, multipliers = out
         g, z, residual = value(multipliers, z_a + (s - s_a) / (s_b - s_a) * (z_b - z_a))
         if residual < best_residual:
-            best, best_residual = BranchPoint(stepper.coll.unpack(X), multipliers, t, iterations), residual
+            best, best_residual = BranchPoint(solved_on.coll.unpack(X), multipliers, t, iterations), residual
         if residual < tol:
             break
         side = 0 if np.sign(g) == np.sign(g_a) else 1
