@@ -18,7 +18,7 @@ import timeit
 
 import numpy as np
 
-from polywear.analysis.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation_diagram
 from polywear.models.base import kmh_to_ms
 from polywear.params import Params
 from polywear.validation.auto07p import AUTO_MODELS, SPEED_INDEX, model_diagram

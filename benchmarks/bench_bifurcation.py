@@ -10,7 +10,7 @@ Measured in one process, on the same machine:
 * AUTO-07p on the same problem (bifpy native path; total wall time, and AUTO's own
   solver time without compiling and output parsing) - skipped if AUTO-07p is missing;
 * the paper's way: a speed sweep with small/large disturbances up and down
-  (``polywear.analysis.sweep``), which resolves the band edges only to the grid spacing;
+  (``polywear.dynamics.sweep``), which resolves the band edges only to the grid spacing;
 * the full axle4dof diagram.
 
 Prints seconds and the ratios; the accuracy columns compare Hopf and fold speeds.
@@ -23,8 +23,8 @@ import time
 
 import numpy as np
 
-from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.sweep import sweep, sweep_bands
+from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.sweep import sweep, sweep_bands
 from polywear.params import Params, load_params
 
 

@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from polywear.analysis.calibration import Observation, calibrate, predict
+from polywear.measured.calibration import Observation, calibrate, predict
 from polywear.params import Params, get_value, with_updates
 
 KEYS = {

@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from polywear.analysis.campbell import Run, campbell, order_frequency_hz
+from polywear.measured.campbell import Run, campbell, order_frequency_hz
 from polywear.params import Params
 
 

@@ -30,10 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
-from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.fast_band import _FIXED_RANGE, FastBand, band_reference, pilot_references
-from polywear.analysis.fleet import FleetSpec, fleet_risk
-from polywear.analysis.global_sensitivity import DEFAULT_KEYS, sample_params
+from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.studies.fast_band import _FIXED_RANGE, FastBand, band_reference, pilot_references
+from polywear.studies.fleet import FleetSpec, fleet_risk
+from polywear.studies.global_sensitivity import DEFAULT_KEYS, sample_params
 from polywear.params import Params, StudySpec, get_value, with_updates
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -120,8 +120,8 @@ def sobol(n_base: int, modes=("fast", "full"), spread: float = 0.1) -> None:
     study ranges), both bifurcation speeds, 2 local processes, with the fast band path (and
     its pilot stage) and/or the continuation only. CPU time (this process and the pool's
     workers) and wall time; N = 1024 extrapolated linearly from the CPU time on 2 cores."""
-    from polywear.analysis.fast_band import pilot_size
-    from polywear.analysis.global_sensitivity import global_sensitivity
+    from polywear.studies.fast_band import pilot_size
+    from polywear.studies.global_sensitivity import global_sensitivity
 
     for mode in modes:
         params = with_updates(Params(), {"model": "axle4dof"})

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 import polywear
-from polywear.analysis.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation_diagram
 from polywear.models import get_model
 from polywear.params import load_params
 from polywear.solvers.collocation import Collocation, PeriodicOrbit

@@ -27,8 +27,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from bench_fleet import _samples
 
-from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.fast_band import _FIXED_RANGE
+from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.studies.fast_band import _FIXED_RANGE
 from polywear.params import Params, with_updates
 from polywear.solvers import continuation
 

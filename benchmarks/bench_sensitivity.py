@@ -33,8 +33,8 @@ def _timed(fn, *args, **kwargs):
 
 
 def bench_local() -> None:
-    from polywear.analysis.bifurcation import bifurcation_diagram
-    from polywear.analysis.sensitivity import PAPER_PARAMETERS, local_sensitivity
+    from polywear.dynamics.bifurcation import bifurcation_diagram
+    from polywear.dynamics.sensitivity import PAPER_PARAMETERS, local_sensitivity
 
     params = with_updates(Params(), {"model": "axle4dof"})
     bifurcation_diagram(params)  # compile / load caches
@@ -77,9 +77,9 @@ def _study_params(model: str, n_base: int) -> tuple[Params, StudySpec]:
 
 
 def bench_sobol(model: str, n_base: int) -> None:
-    from polywear.analysis.global_sensitivity import global_sensitivity
-    from polywear.analysis.stability import fast_linear_band
-    from polywear.analysis.stability import stability_analysis
+    from polywear.studies.global_sensitivity import global_sensitivity
+    from polywear.dynamics.stability import fast_linear_band
+    from polywear.dynamics.stability import stability_analysis
 
     params, study = _study_params(model, n_base)
     base = with_updates(Params(), {"model": model})
@@ -106,7 +106,7 @@ def bench_sobol(model: str, n_base: int) -> None:
 
 
 def _warm() -> None:
-    from polywear.analysis.stability import fast_linear_band
+    from polywear.dynamics.stability import fast_linear_band
 
     fast_linear_band(Params())
     fast_linear_band(with_updates(Params(), {"model": "axle4dof"}))
@@ -123,7 +123,7 @@ def _burn(_) -> float:
 def bench_dask(model: str, n_base: int) -> None:
     from distributed import Client, LocalCluster
 
-    from polywear.analysis.global_sensitivity import global_sensitivity
+    from polywear.studies.global_sensitivity import global_sensitivity
 
     params, study = _study_params(model, n_base)
     times, ideal = {}, {}

@@ -30,9 +30,9 @@ import time
 
 import numpy as np
 
-import polywear.analysis.wear_evolution as wear_evolution
-from polywear.analysis.wear_evolution import evolve, initial_roughness, window_wear
-from polywear.analysis.wear_map import load_to_power, wear_map
+import polywear.wear.evolution as wear_evolution
+from polywear.wear.evolution import evolve, initial_roughness, window_wear
+from polywear.wear.map import load_to_power, wear_map
 from polywear.models import get_model
 from polywear.models.profile import coupled_model, profile_vector
 from polywear.params import Params, with_updates

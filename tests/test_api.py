@@ -24,34 +24,34 @@ EXPECTED = {
     "Params": "polywear.params:Params",
     "load_params": "polywear.params:load_params",
     "ParameterError": "polywear.params:ParameterError",
-    "stability": "polywear.analysis.stability:stability_analysis",
-    "StabilitySettings": "polywear.analysis.stability:StabilitySettings",
+    "stability": "polywear.dynamics.stability:stability_analysis",
+    "StabilitySettings": "polywear.dynamics.stability:StabilitySettings",
     "ContinuationSettings": "polywear.solvers.continuation:ContinuationSettings",
-    "SimulationSettings": "polywear.analysis.simulation:SimulationSettings",
-    "MapSettings": "polywear.analysis.stability_map:MapSettings",
-    "bifurcation": "polywear.analysis.bifurcation:bifurcation_diagram",
-    "simulate": "polywear.analysis.simulation:simulate",
-    "sensitivity": "polywear.analysis.sensitivity:local_sensitivity",
-    "stability_map": "polywear.analysis.stability_map:stability_map",
-    "study": "polywear.analysis.global_sensitivity:global_sensitivity",
+    "SimulationSettings": "polywear.dynamics.simulation:SimulationSettings",
+    "MapSettings": "polywear.dynamics.stability_map:MapSettings",
+    "bifurcation": "polywear.dynamics.bifurcation:bifurcation_diagram",
+    "simulate": "polywear.dynamics.simulation:simulate",
+    "sensitivity": "polywear.dynamics.sensitivity:local_sensitivity",
+    "stability_map": "polywear.dynamics.stability_map:stability_map",
+    "study": "polywear.studies.global_sensitivity:global_sensitivity",
     "StudySpec": "polywear.params:StudySpec",
     "load_study": "polywear.params:load_study",
-    "design": "polywear.analysis.design:clear_operating_range",
-    "excitation": "polywear.analysis.excitation:excitation_portraits",
-    "report": "polywear.report:run_report",
-    "wear_map": "polywear.analysis.wear_map:wear_map",
-    "calibrate": "polywear.analysis.calibration:calibrate",
-    "read_observations": "polywear.analysis.calibration:read_observations",
-    "read_tir": "polywear.tir:read_tir",
-    "load_with_tir": "polywear.tir:load_with_tir",
-    "wear_evolution": "polywear.analysis.wear_evolution:evolve",
-    "fleet": "polywear.analysis.fleet:fleet_risk",
-    "load_fleet_spec": "polywear.analysis.fleet:load_fleet_spec",
-    "campbell": "polywear.analysis.campbell:campbell",
-    "SpecialPoint": "polywear.analysis.points:SpecialPoint",
-    "PointKind": "polywear.analysis.points:PointKind",
-    "read_run": "polywear.analysis.campbell:read_run",
-    "friction": "polywear.analysis.friction",
+    "design": "polywear.dynamics.design:clear_operating_range",
+    "excitation": "polywear.dynamics.excitation:excitation_portraits",
+    "report": "polywear.report.main:run_report",
+    "wear_map": "polywear.wear.map:wear_map",
+    "calibrate": "polywear.measured.calibration:calibrate",
+    "read_observations": "polywear.measured.calibration:read_observations",
+    "read_tir": "polywear.measured.tir:read_tir",
+    "load_with_tir": "polywear.measured.tir:load_with_tir",
+    "wear_evolution": "polywear.wear.evolution:evolve",
+    "fleet": "polywear.studies.fleet:fleet_risk",
+    "load_fleet_spec": "polywear.studies.fleet:load_fleet_spec",
+    "campbell": "polywear.measured.campbell:campbell",
+    "SpecialPoint": "polywear.dynamics.points:SpecialPoint",
+    "PointKind": "polywear.dynamics.points:PointKind",
+    "read_run": "polywear.measured.campbell:read_run",
+    "friction": "polywear.friction",
     "models": "polywear.models",
     "solvers": "polywear.solvers",
 }
@@ -95,10 +95,10 @@ def test_unknown_name_is_an_attribute_error():
 
 
 def test_report_function_survives_import_of_the_report_module():
-    import polywear.report  # noqa: F401  (the submodule of the same name)
+    import polywear.report.main  # noqa: F401  (the submodule of the same name)
 
     assert callable(pw.report) and not isinstance(pw.report, types.ModuleType)
-    assert sys.modules["polywear.report"].run_report is pw.report
+    assert sys.modules["polywear.report.main"].run_report is pw.report
 
 
 def test_import_is_lazy_and_dir_imports_nothing():

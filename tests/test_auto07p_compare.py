@@ -9,8 +9,8 @@ AUTO's refinement and a long time integration give the third opinion there.
 import numpy as np
 import pytest
 
-from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.points import PointKind
+from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.points import PointKind
 from polywear.models.base import kmh_to_ms
 from polywear.params import Params
 from polywear.validation.auto07p import auto07p_available, special_points

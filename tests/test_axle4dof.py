@@ -521,7 +521,7 @@ def test_default_linear_band_and_tread_mode_match_model_md():
 def test_bushing_damping_alone_lets_the_toe_mode_self_excite():
     """docs/model.md section 7: with toe/camber damping 144/83 the toe mode near 25 Hz goes
     unstable from about 40 km/h, besides the tread mode."""
-    from polywear.analysis.stability import mode_label
+    from polywear.dynamics.stability import mode_label
 
     p = pack(**{"axle.toe_damping_nms_per_rad": 144.0, "axle.camber_damping_nms_per_rad": 83.0})
     toe_mode = lambda kmh: _max_growth(p, kmh, fmin=10.0, fmax=40.0)  # noqa: E731

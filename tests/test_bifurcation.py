@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.points import PointKind
+from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.points import PointKind
 from polywear.models import get_model
 from polywear.params import Params, load_params
 from polywear.solvers.continuation import ContinuationSettings, switching_times
@@ -158,7 +158,7 @@ def test_sweep_agrees_with_continuation_on_stable_branches_and_in_the_hard_regio
     """The paper's brute-force way as a cross-check: steady amplitudes from large
     disturbances match the stable cycles within 0.5 %, SEV persists beyond the subcritical
     Hopf point exactly up to the fold, and small disturbances die out in the hard region."""
-    from polywear.analysis.sweep import sweep
+    from polywear.dynamics.sweep import sweep
 
     speeds = [100.0, 150.0, 215.0, 235.0, 250.0, 253.5, 256.0, 270.0]
     result = sweep(Params(), speeds)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from polywear.analysis.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation_diagram
 from polywear.models import get_model
 from polywear.params import load_params
 from polywear.solvers.integrate import integrate
@@ -47,7 +47,7 @@ def test_axle_cycle_agrees_with_long_time_integration(diagram):
 
 @pytest.mark.slow
 def test_axle_sweep_agrees_in_the_soft_and_hard_regions(diagram):
-    from polywear.analysis.sweep import sweep
+    from polywear.dynamics.sweep import sweep
 
     fold = diagram.folds[0].speed_kmh
     h2 = diagram.hopf_points[1].speed_kmh

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from polywear.analysis.calibration import (
+from polywear.measured.calibration import (
     CalibrationError,
     CalibrationSettings,
     Observation,

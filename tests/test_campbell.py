@@ -12,9 +12,9 @@ import sys
 import numpy as np
 import pytest
 
-from polywear.analysis.campbell import MeasurementError, _remove_orders, campbell, order_frequency_hz, read_run
-from polywear.analysis.runup import simulate_ramp
-from polywear.analysis.stability import stability_analysis
+from polywear.measured.campbell import MeasurementError, _remove_orders, campbell, order_frequency_hz, read_run
+from polywear.measured.runup import simulate_ramp
+from polywear.dynamics.stability import stability_analysis
 from polywear.params import Params
 
 from .cli_runner import run_main

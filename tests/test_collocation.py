@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from polywear.analysis.stability import equilibrium_eigenvalues, locate_hopf
+from polywear.dynamics.stability import equilibrium_eigenvalues, locate_hopf
 from polywear.solvers.bordered import solve_bordered
 from polywear.solvers.collocation import Collocation, PeriodicOrbit, monodromy, scheme
 from polywear.solvers.continuation import ContinuationSettings, continue_from_hopf

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.points import PointKind
-from polywear.analysis.stability import StabilitySettings
+from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.points import PointKind
+from polywear.dynamics.stability import StabilitySettings
 from polywear.cli.bifurcation_cmd import _print_summary
 from polywear.models import get_model
 from polywear.params import load_params

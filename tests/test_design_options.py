@@ -14,9 +14,9 @@ import pytest
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from polywear.analysis.bifurcation import bifurcation_diagram  # noqa: E402
-from polywear.analysis.design import clear_operating_range  # noqa: E402
-from polywear.analysis.sensitivity import local_sensitivity, perturbed  # noqa: E402
+from polywear.dynamics.bifurcation import bifurcation_diagram  # noqa: E402
+from polywear.dynamics.design import clear_operating_range  # noqa: E402
+from polywear.dynamics.sensitivity import local_sensitivity, perturbed  # noqa: E402
 from polywear.params import Params, with_updates  # noqa: E402
 
 from .cli_runner import run_main  # noqa: E402

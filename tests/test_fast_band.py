@@ -11,11 +11,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.fast_band import (_FIXED_RANGE, BandPath, Fallback, FallbackReason, FastBand, band_from_diagram,
+from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.studies.fast_band import (_FIXED_RANGE, BandPath, Fallback, FallbackReason, FastBand, band_from_diagram,
                                          band_reference, pilot_indices, pilot_references)
-from polywear.analysis.global_sensitivity import DEFAULT_KEYS, sample_params
-from polywear.analysis.stability import stability_analysis
+from polywear.studies.global_sensitivity import DEFAULT_KEYS, sample_params
+from polywear.dynamics.stability import stability_analysis
 from polywear.models import get_model
 from polywear.models.base import kmh_to_ms
 from polywear.params import Params, get_value, with_updates
@@ -135,7 +135,7 @@ def test_hard_region_the_continuation_missed_is_confirmed_by_simulation(tread_so
     stepped over the fold and reported no hard region (until 613c3bb): the fast path finds
     the fold at 218.68 km/h. Time integration at 210 km/h decides: a 0.1 mm start decays to steady
     rolling, a 2 mm start settles on the stable cycle whose amplitude the fast path gives."""
-    from polywear.analysis.simulation import simulate
+    from polywear.dynamics.simulation import simulate
 
     base, _ = tread_solver
     car = with_updates(base, {

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.fast_band import _FIXED_RANGE, FastBand, band_reference
-from polywear.analysis.fleet import (
+from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.studies.fast_band import _FIXED_RANGE, FastBand, band_reference
+from polywear.studies.fleet import (
     CAR_FIELDS,
     OUTPUTS,
     CarOutcome,
@@ -274,8 +274,8 @@ def test_same_numbers_on_serial_processes_and_dask(tmp_path, reference):
 @pytest.mark.slow
 def test_wear_share_from_the_wear_map(tmp_path, reference):
     """Per car: the shortest e-folding distance over the usage speeds, each speed's map taken alone."""
-    from polywear.analysis.global_sensitivity import sample_params
-    from polywear.analysis.wear_map import wear_map
+    from polywear.studies.global_sensitivity import sample_params
+    from polywear.wear.map import wear_map
 
     text = TOE_SPEC.replace("[[fleet.parameter]]", "mileage_km = 50000.0\n[[fleet.parameter]]", 1)
     spec = _spec(tmp_path, samples=3, every=3, text=text)
@@ -415,8 +415,8 @@ def test_a_pilot_car_serves_its_hopf_signature():
     path gives it), and the other cars of its Hopf signature start from it: cars 8 and 16
     (whole bands, band_every = 8) take the fast path, where the nominal reference alone has
     none of their signature (every such car fell back with hopf_signature)."""
-    from polywear.analysis.global_sensitivity import sample_params
-    from polywear.analysis.stability import stability_analysis
+    from polywear.studies.global_sensitivity import sample_params
+    from polywear.dynamics.stability import stability_analysis
 
     base = with_updates(Params(), {"model": "axle4dof"})
     spec = FleetSpec(samples=32, seed=6, band_every=8, speed_range_kmh=(10.0, 600.0), usage=[
@@ -489,7 +489,7 @@ def test_dask_fleet_survives_a_killed_worker(tmp_path, reference):
 def test_stacked_eigenvalues_are_those_of_one_call_each(model):
     """The fleet's Hopf grid stacks the Jacobians into one LAPACK call; the eigenvalues are
     bit for bit those of one call per speed (so the fleet's numbers did not change)."""
-    from polywear.analysis.stability import equilibrium_eigenvalues
+    from polywear.dynamics.stability import equilibrium_eigenvalues
     from polywear.models import get_model
     from polywear.params import with_updates
 
@@ -510,8 +510,8 @@ def test_a_usage_speed_in_a_gap_after_a_period_doubling_is_counted():
     ``gap_after_pd_ns_share``, and with ``simulate_gaps`` the simulation reaches SEV there
     (``gap_sev_share``); at 57 km/h (in the gap, back to rest) counted but not SEV; at
     100 km/h (inside the band) at risk and not counted."""
-    from polywear.analysis.fast_band import FastBand, band_reference
-    from polywear.analysis.global_sensitivity import DEFAULT_KEYS
+    from polywear.studies.fast_band import FastBand, band_reference
+    from polywear.studies.global_sensitivity import DEFAULT_KEYS
 
     from .test_verdict import CASCADE_AXLE
 

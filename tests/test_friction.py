@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from polywear.analysis.friction import (
+from polywear.friction import (
     STEADY_PARAMETERS,
     FrictionDataError,
     bristle_response,
@@ -542,7 +542,7 @@ def test_loop_fit_recovers_sigma0_and_sigma1_from_independent_loops():
 
 
 def test_fourier_velocity_reproduces_a_trigonometric_polynomial():
-    from polywear.analysis.friction.fits import _fourier_velocity
+    from polywear.friction.fits import _fourier_velocity
 
     t = np.linspace(0.0, 0.5, 37, endpoint=False)
     v = lambda t: 0.3 + 0.2 * np.sin(4 * np.pi * t) - 0.05 * np.cos(12 * np.pi * t + 0.4)  # noqa: E731

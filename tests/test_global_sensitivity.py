@@ -14,8 +14,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import brentq
 
-from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.global_sensitivity import (
+from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.studies.global_sensitivity import (
     SampleOutcome,
     SampleStatus,
     StudyEvaluator,
@@ -23,8 +23,8 @@ from polywear.analysis.global_sensitivity import (
     max_stable_amplitude,
     sample_params,
 )
-from polywear.analysis.sensitivity import local_sensitivity
-from polywear.analysis.stability import fast_linear_band, stability_analysis
+from polywear.dynamics.sensitivity import local_sensitivity
+from polywear.dynamics.stability import fast_linear_band, stability_analysis
 from polywear.models import get_model
 from polywear.params import ParameterError, Params, StudySpec, load_params, load_study, with_updates
 
@@ -399,7 +399,7 @@ def test_salib_problem_follows_the_distributions():
     """Samples honour the declared distributions (bounds, modes, means)."""
     study = StudySpec().with_updates({"n_base": 256, "second_order": False, "bootstrap": 10,
                                      "parameters": STUDY_PARAMETERS})
-    from polywear.analysis.global_sensitivity import _salib_problem, study_parameters
+    from polywear.studies.global_sensitivity import _salib_problem, study_parameters
     from SALib.sample import sobol as sobol_sample
 
     X = sobol_sample.sample(_salib_problem(study_parameters(Params(), study)), 256, calc_second_order=False, seed=1)

@@ -1,6 +1,6 @@
-"""Speed-interval helpers (analysis.intervals) on cases worked by hand."""
+"""Speed-interval helpers (dynamics.intervals) on cases worked by hand."""
 
-from polywear.analysis.intervals import runs_of, subtract, union
+from polywear.dynamics.intervals import runs_of, subtract, union
 
 
 def test_runs_of_consecutive_flags_including_the_ends():

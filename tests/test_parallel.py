@@ -17,7 +17,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from polywear.analysis.global_sensitivity import global_sensitivity
+from polywear.studies.global_sensitivity import global_sensitivity
 from polywear.parallel import default_batch_size, map_batched
 from polywear.params import Params, StudySpec
 

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.global_sensitivity import DEFAULT_KEYS, sample_params
+from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.studies.global_sensitivity import DEFAULT_KEYS, sample_params
 from polywear.models import get_model
 from polywear.params import Params, get_value, with_updates
 from polywear.solvers.continuation import (BranchPoint, ContinuationSettings, _collisions_only, _ns_pair,

@@ -12,11 +12,15 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-import polywear.analysis
+import polywear.dynamics
+import polywear.friction
+import polywear.measured
+import polywear.studies
 import polywear.validation
-from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.points import PointKind, SpecialPoint
-from polywear.analysis.stability_map import MapSettings, stability_map
+import polywear.wear
+from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.points import PointKind, SpecialPoint
+from polywear.dynamics.stability_map import MapSettings, stability_map
 from polywear.params import Params, with_updates
 from polywear.validation.auto07p import AUTO_KINDS, point_kind, special_points
 
@@ -29,9 +33,10 @@ NOT_SPEEDS = {
 
 
 def _public_dataclasses():
-    """Every public dataclass defined in polywear.analysis, polywear.validation and the report."""
-    names = ["polywear.report", "polywear.report_wear"]
-    for package in (polywear.analysis, polywear.validation):
+    """Every public dataclass defined in the analysis packages, polywear.validation and the report."""
+    names = ["polywear.report.main", "polywear.report.wear"]
+    for package in (polywear.dynamics, polywear.wear, polywear.studies, polywear.measured, polywear.friction,
+                    polywear.validation):
         names += [f"{package.__name__}.{m.name}" for m in pkgutil.walk_packages(package.__path__)]
     found = []
     for name in names:

@@ -14,23 +14,23 @@ from polywear.params import Params
 from polywear.progress import StepCounter, report, shifted
 
 ENTRY_POINTS = [
-    "polywear.analysis.bifurcation:bifurcation_diagram",
-    "polywear.analysis.calibration:calibrate",
-    "polywear.analysis.design:clear_operating_range",
-    "polywear.analysis.excitation:excitation_portraits",
-    "polywear.analysis.fleet:fleet_risk",
-    "polywear.analysis.friction.fits:fit_loops",
-    "polywear.analysis.friction.loops:hysteresis_loops",
-    "polywear.analysis.global_sensitivity:global_sensitivity",
-    "polywear.analysis.sensitivity:local_sensitivity",
-    "polywear.analysis.simulation:simulate_disturbances",
-    "polywear.analysis.simulation:simulate_values",
-    "polywear.analysis.stability_map:stability_map",
-    "polywear.analysis.sweep:sweep",
-    "polywear.analysis.wear_evolution:evolve",
+    "polywear.dynamics.bifurcation:bifurcation_diagram",
+    "polywear.measured.calibration:calibrate",
+    "polywear.dynamics.design:clear_operating_range",
+    "polywear.dynamics.excitation:excitation_portraits",
+    "polywear.studies.fleet:fleet_risk",
+    "polywear.friction.fits:fit_loops",
+    "polywear.friction.loops:hysteresis_loops",
+    "polywear.studies.global_sensitivity:global_sensitivity",
+    "polywear.dynamics.sensitivity:local_sensitivity",
+    "polywear.dynamics.simulation:simulate_disturbances",
+    "polywear.dynamics.simulation:simulate_values",
+    "polywear.dynamics.stability_map:stability_map",
+    "polywear.dynamics.sweep:sweep",
+    "polywear.wear.evolution:evolve",
     "polywear.parallel:map_batched",
-    "polywear.report:run_report",
-    "polywear.report_wear:wear_section",
+    "polywear.report.main:run_report",
+    "polywear.report.wear:wear_section",
 ]
 
 
@@ -72,7 +72,7 @@ def test_relay_detail_and_shifted_forward_a_sub_task():
 
 
 def test_simulations_report_runs_done_of_all_runs():
-    from polywear.analysis.simulation import simulate_disturbances
+    from polywear.dynamics.simulation import simulate_disturbances
 
     calls, progress = _recorder()
     result = simulate_disturbances(Params(), [1e-5, 1e-4, 1e-3], 110.0, 0.01, progress=progress)
@@ -81,7 +81,7 @@ def test_simulations_report_runs_done_of_all_runs():
 
 
 def test_bifurcation_counts_continuation_steps():
-    from polywear.analysis.bifurcation import bifurcation_diagram
+    from polywear.dynamics.bifurcation import bifurcation_diagram
 
     calls, progress = _recorder()
     diagram = bifurcation_diagram(Params(), progress=progress)
@@ -91,7 +91,7 @@ def test_bifurcation_counts_continuation_steps():
 
 
 def test_friction_loops_report_each_frequency():
-    from polywear.analysis.friction.loops import LoopSettings, hysteresis_loops
+    from polywear.friction.loops import LoopSettings, hysteresis_loops
 
     calls, progress = _recorder()
     hysteresis_loops(Params().friction, 0.05, 0.04, [1.0, 10.0], settings=LoopSettings(points_per_period=16),

@@ -27,7 +27,7 @@ RANGE = (20.0, 300.0)
 
 @pytest.fixture(scope="module")
 def diagram():
-    from polywear.analysis.bifurcation import bifurcation_diagram
+    from polywear.dynamics.bifurcation import bifurcation_diagram
 
     return bifurcation_diagram(Params(), RANGE)
 
@@ -41,31 +41,31 @@ def _bifurcation(d):
 
 
 def _simulation(d):
-    from polywear.analysis.simulation import simulate
+    from polywear.dynamics.simulation import simulate
 
     return simulate(Params(), 120.0, 0.2)
 
 
 def _simulation_set(d):
-    from polywear.analysis.simulation import simulate_disturbances
+    from polywear.dynamics.simulation import simulate_disturbances
 
     return simulate_disturbances(Params(), [1e-5, 1e-3], speed_kmh=120.0, duration_s=0.2)
 
 
 def _sweep(d):
-    from polywear.analysis.sweep import SweepSettings, sweep
+    from polywear.dynamics.sweep import SweepSettings, sweep
 
     return sweep(Params(), [60.0, 120.0], settings=SweepSettings(max_duration_s=0.5))
 
 
 def _sensitivity(d):
-    from polywear.analysis.sensitivity import local_sensitivity
+    from polywear.dynamics.sensitivity import local_sensitivity
 
     return local_sensitivity(Params(), keys=("operating.toe_deg",), diagram=d)
 
 
 def _study(d):
-    from polywear.analysis.global_sensitivity import global_sensitivity
+    from polywear.studies.global_sensitivity import global_sensitivity
 
     from polywear.params import StudySpec
 
@@ -74,58 +74,58 @@ def _study(d):
 
 
 def _design(d):
-    from polywear.analysis.design import clear_operating_range
+    from polywear.dynamics.design import clear_operating_range
 
     return clear_operating_range(Params(), (80.0, 130.0), speed_range_kmh=RANGE, keys=("operating.toe_deg",),
                                  diagram=d)
 
 
 def _excitation(d):
-    from polywear.analysis.excitation import ExcitationSettings, default_speeds, excitation_portraits
+    from polywear.dynamics.excitation import ExcitationSettings, default_speeds, excitation_portraits
 
     return excitation_portraits(d, default_speeds(d, 120.0)[:1], ExcitationSettings(duration_s=0.2))[0]
 
 
 def _attractor(d):
-    from polywear.analysis.attractor import reached_attractors
+    from polywear.dynamics.attractor import reached_attractors
 
     return reached_attractors(d, 120.0, duration_s=0.3)[0]
 
 
 def _stability_map(d):
-    from polywear.analysis.stability_map import stability_map
+    from polywear.dynamics.stability_map import stability_map
 
     return stability_map(Params(), "operating.toe_deg", (0.1, 0.4), operating_range_kmh=(80.0, 130.0), folds=False)
 
 
 def _wear_map(d):
-    from polywear.analysis.wear_map import wear_map
+    from polywear.wear.map import wear_map
 
     return wear_map(Params(), np.linspace(40.0, 200.0, 9))
 
 
 def _wear_design(d):
-    from polywear.analysis.wear_design import wear_design
+    from polywear.wear.design import wear_design
 
     return wear_design(Params(), keys=("operating.toe_deg",), grid=6)
 
 
 def _wear_evolution(d):
-    from polywear.analysis.wear_evolution import EvolutionSettings, evolve
+    from polywear.wear.evolution import EvolutionSettings, evolve
 
     return evolve(Params(), 2000.0, cycle=((60.0, 1.0),), settings=EvolutionSettings(step_km=1000.0))
 
 
 def _band(d):
-    from polywear.analysis.fast_band import band_from_diagram
+    from polywear.studies.fast_band import band_from_diagram
 
     return band_from_diagram(d, (120.0,))
 
 
 def _fleet(d, tmp_path_factory):
-    from polywear.analysis.bifurcation import bifurcation_diagram
-    from polywear.analysis.fast_band import _FIXED_RANGE, band_reference
-    from polywear.analysis.fleet import fleet_risk, load_fleet_spec
+    from polywear.dynamics.bifurcation import bifurcation_diagram
+    from polywear.studies.fast_band import _FIXED_RANGE, band_reference
+    from polywear.studies.fleet import fleet_risk, load_fleet_spec
 
     path = tmp_path_factory.mktemp("fleet") / "fleet.toml"
     path.write_text('[fleet]\nsamples = 3\nseed = 3\nspeed_range_kmh = [10.0, 600.0]\n'
@@ -136,7 +136,7 @@ def _fleet(d, tmp_path_factory):
 
 
 def _campbell(d, tmp_path_factory):
-    from polywear.analysis.campbell import campbell, order_frequency_hz, read_run
+    from polywear.measured.campbell import campbell, order_frequency_hz, read_run
 
     fs, radius = 1000.0, Params().operating.rolling_radius_m
     t = np.arange(0.0, 4.0, 1.0 / fs)
@@ -150,7 +150,7 @@ def _campbell(d, tmp_path_factory):
 
 
 def _calibration(d):
-    from polywear.analysis.calibration import Observation, calibrate, predict
+    from polywear.measured.calibration import Observation, calibrate, predict
 
     obs = [Observation("first_hopf_kmh", 0.0, 1.0), Observation("hopf_frequency_hz", 0.0, 0.5)]
     values, _ = predict(Params(), obs, ["friction.mu_static"])
@@ -159,25 +159,25 @@ def _calibration(d):
 
 
 def _steady_curve(d):
-    from polywear.analysis.friction import steady_curve
+    from polywear.friction import steady_curve
 
     return steady_curve(Params().friction, np.linspace(-1.0, 1.0, 41))
 
 
 def _loops(d):
-    from polywear.analysis.friction import LoopSettings, hysteresis_loops
+    from polywear.friction import LoopSettings, hysteresis_loops
 
     return hysteresis_loops(Params().friction, 0.3, 0.2, [1.0, 10.0], settings=LoopSettings(points_per_period=64))
 
 
 def _friction_fit(d):
-    from polywear.analysis.friction import fit_steady_curve, read_steady_csv, sample_path
+    from polywear.friction import fit_steady_curve, read_steady_csv, sample_path
 
     return fit_steady_curve(*read_steady_csv(sample_path("steady")))
 
 
 def _loop_fit(d):
-    from polywear.analysis.friction import fit_loops, read_loops_csv, sample_path
+    from polywear.friction import fit_loops, read_loops_csv, sample_path
 
     return fit_loops(*read_loops_csv(sample_path("loops")))
 
@@ -209,17 +209,18 @@ def results(diagram, tmp_path_factory):
 
 
 def test_every_public_result_class_is_covered():
-    """The public result classes of the analysis package derive from Result, and each is a case here."""
+    """The public result classes of the analysis packages derive from Result, and each is a case here."""
     import importlib
     import pkgutil
 
-    import polywear.analysis as analysis
-
     found = set()
-    for info in pkgutil.walk_packages(analysis.__path__, "polywear.analysis."):
-        module = importlib.import_module(info.name)
+    packages = ["polywear.dynamics", "polywear.wear", "polywear.studies", "polywear.measured", "polywear.friction"]
+    names = [info.name for package in packages
+             for info in pkgutil.walk_packages(importlib.import_module(package).__path__, package + ".")]
+    for name in names:
+        module = importlib.import_module(name)
         for obj in vars(module).values():
-            if not (isinstance(obj, type) and obj.__module__ == info.name) or obj.__name__.startswith("_"):
+            if not (isinstance(obj, type) and obj.__module__ == name) or obj.__name__.startswith("_"):
                 continue
             if hasattr(obj, "summary") and hasattr(obj, "plot"):  # what makes a result
                 assert issubclass(obj, Result), obj
@@ -309,12 +310,12 @@ def test_save_is_atomic_and_leaves_no_partial_file(results, tmp_path):
 
 def test_report_holds_its_results(tmp_path):
     """The main job returns the result objects it computed; summary.json is derived from them."""
-    from polywear.analysis.bifurcation import BifurcationDiagram
-    from polywear.analysis.design import DesignResult
-    from polywear.analysis.sensitivity import SensitivityResult
-    from polywear.analysis.simulation import SimulationSet
-    from polywear.analysis.wear_map import WearMap
-    from polywear.report import run_report
+    from polywear.dynamics.bifurcation import BifurcationDiagram
+    from polywear.dynamics.design import DesignResult
+    from polywear.dynamics.sensitivity import SensitivityResult
+    from polywear.dynamics.simulation import SimulationSet
+    from polywear.wear.map import WearMap
+    from polywear.report.main import run_report
 
     report = run_report(Params(), tmp_path)
     assert isinstance(report.diagram, BifurcationDiagram) and report.stability is report.diagram.stability

@@ -12,8 +12,8 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.sensitivity import (ADHESION_SCALE, PAPER_PARAMETERS, SensitivitySettings, local_sensitivity,
+from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.sensitivity import (ADHESION_SCALE, PAPER_PARAMETERS, SensitivitySettings, local_sensitivity,
                                            perturbed)
 from polywear.params import ADHESION_SCALE as STUDY_ADHESION_SCALE
 from polywear.params import Params, with_updates

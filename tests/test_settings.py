@@ -9,17 +9,17 @@ import pickle
 
 import pytest
 
-from polywear.analysis.calibration import CalibrationSettings
-from polywear.analysis.campbell import CampbellSettings
-from polywear.analysis.design import DesignSettings
-from polywear.analysis.excitation import ExcitationSettings
-from polywear.analysis.friction import LoopFitSettings, LoopSettings
-from polywear.analysis.sensitivity import SensitivitySettings
-from polywear.analysis.simulation import SimulationSettings
-from polywear.analysis.stability import StabilitySettings
-from polywear.analysis.stability_map import MapSettings
-from polywear.analysis.sweep import SweepSettings
-from polywear.analysis.wear_evolution import EvolutionSettings
+from polywear.measured.calibration import CalibrationSettings
+from polywear.measured.campbell import CampbellSettings
+from polywear.dynamics.design import DesignSettings
+from polywear.dynamics.excitation import ExcitationSettings
+from polywear.friction import LoopFitSettings, LoopSettings
+from polywear.dynamics.sensitivity import SensitivitySettings
+from polywear.dynamics.simulation import SimulationSettings
+from polywear.dynamics.stability import StabilitySettings
+from polywear.dynamics.stability_map import MapSettings
+from polywear.dynamics.sweep import SweepSettings
+from polywear.wear.evolution import EvolutionSettings
 from polywear.solvers.continuation import ContinuationSettings
 from polywear.validation.auto07p import AutoSettings
 
@@ -158,7 +158,7 @@ def test_infinite_multiplier_tolerance_switches_the_check_off():
 def test_bifurcation_takes_its_stability_grid_as_settings():
     """bifurcation_diagram(stability_settings=...) is the grid of the Hopf bracketing (was n_speeds=);
     a widened range keeps the grid spacing (at most four times the points) and the other fields."""
-    from polywear.analysis.bifurcation import bifurcation_diagram
+    from polywear.dynamics.bifurcation import bifurcation_diagram
     from polywear.params import Params
 
     fixed = bifurcation_diagram(Params(), (20.0, 300.0), stability_settings=StabilitySettings(n_speeds=50), extend=False)
@@ -176,9 +176,9 @@ def test_bifurcation_takes_its_stability_grid_as_settings():
 def test_design_and_excitation_follow_their_settings():
     """DesignSettings.margin_kmh is the margin the design keeps and reports; the default
     simulated time of a portrait lies within ExcitationSettings' settling bounds."""
-    from polywear.analysis.bifurcation import bifurcation_diagram
-    from polywear.analysis.design import clear_operating_range
-    from polywear.analysis.excitation import settling_time
+    from polywear.dynamics.bifurcation import bifurcation_diagram
+    from polywear.dynamics.design import clear_operating_range
+    from polywear.dynamics.excitation import settling_time
     from polywear.params import Params
 
     d = bifurcation_diagram(Params())

@@ -10,7 +10,7 @@ import matplotlib
 import numpy as np
 import pytest
 
-from polywear.analysis.simulation import (
+from polywear.dynamics.simulation import (
     SimulationSettings,
     phase_pairs,
     polygon_order,

@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.fast_band import _FIXED_RANGE, _difference, band_reference
+from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.studies.fast_band import _FIXED_RANGE, _difference, band_reference
 from polywear.models import get_model
 from polywear.params import Params, with_updates
 from polywear.solvers.continuation import (ContinuationSettings, fold_curvature, locate_fold, newton_converged,

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from polywear.analysis.stability import StabilitySettings, stability_analysis
+from polywear.dynamics.stability import StabilitySettings, stability_analysis
 from polywear.models import get_model
 from polywear.params import Params, with_updates
 from polywear.solvers.continuation import continue_from_hopf
@@ -117,7 +117,7 @@ class _RealCrossing:
 
 
 def test_real_eigenvalue_crossing_is_located_not_a_hopf_point():
-    from polywear.analysis.stability import _hopf_in_bracket, equilibrium_eigenvalues
+    from polywear.dynamics.stability import _hopf_in_bracket, equilibrium_eigenvalues
 
     model = _RealCrossing()
     _, eig = equilibrium_eigenvalues(model, None, [0.5, 1.7])

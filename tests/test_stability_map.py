@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.points import PointKind
-from polywear.analysis.sensitivity import perturbed
-from polywear.analysis.stability import stability_analysis
-from polywear.analysis.stability_map import stability_map
+from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.points import PointKind
+from polywear.dynamics.sensitivity import perturbed
+from polywear.dynamics.stability import stability_analysis
+from polywear.dynamics.stability_map import stability_map
 from polywear.models import get_model
 from polywear.params import Params, with_updates
 
@@ -190,7 +190,7 @@ def test_cli_bad_input(args, fragment):
 
 def test_failed_rows_are_noted_grey_and_never_safe(monkeypatch):
     """Where the linear band cannot be computed (e.g. no equilibrium), the row is unknown, not stable."""
-    import polywear.analysis.stability as stab
+    import polywear.dynamics.stability as stab
 
     real = stab.fast_linear_band
 

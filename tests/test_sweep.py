@@ -9,8 +9,8 @@ import matplotlib
 import numpy as np
 import pytest
 
-from polywear.analysis.simulation import SimulationSettings, simulate
-from polywear.analysis.sweep import START_TYPES, SweepSettings, settle, sweep
+from polywear.dynamics.simulation import SimulationSettings, simulate
+from polywear.dynamics.sweep import START_TYPES, SweepSettings, settle, sweep
 from polywear.models import get_model
 from polywear.parallel import map_batched
 from polywear.params import Params

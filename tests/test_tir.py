@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from polywear.params import Params, StudySpec, load_params, load_study
-from polywear.tir import TirError, load_with_tir, read_tir, tir_parameters
+from polywear.measured.tir import TirError, load_with_tir, read_tir, tir_parameters
 
 from .cli_runner import run_main
 

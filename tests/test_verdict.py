@@ -14,14 +14,14 @@ import math
 import numpy as np
 import pytest
 
-from polywear.analysis.attractor import PERIOD_MULTIPLIED, QUASI_PERIODIC, reached_attractors
-from polywear.analysis.bifurcation import SPEED_CEILING_KMH, bifurcation_diagram, statically_divergent
-from polywear.analysis.design import clear_operating_range
-from polywear.analysis.sensitivity import local_sensitivity
-from polywear.analysis.simulation import simulate
+from polywear.dynamics.attractor import PERIOD_MULTIPLIED, QUASI_PERIODIC, reached_attractors
+from polywear.dynamics.bifurcation import SPEED_CEILING_KMH, bifurcation_diagram, statically_divergent
+from polywear.dynamics.design import clear_operating_range
+from polywear.dynamics.sensitivity import local_sensitivity
+from polywear.dynamics.simulation import simulate
 from polywear.models import get_model
 from polywear.params import Params, with_updates
-from polywear.report import _sentence, operating_verdict
+from polywear.report.main import _sentence, operating_verdict
 
 from .cli_runner import run_main
 
@@ -234,7 +234,7 @@ def test_divergence_listed_in_bifurcation_text(divergent_axle, capsys):
 def test_failed_extension_keeps_the_edge_open(monkeypatch):
     """If the wider diagram cannot be computed (e.g. no equilibrium at the new low speeds),
     the last diagram is kept and its cut end is reported open, never as a bifurcation speed."""
-    import polywear.analysis.bifurcation as bif
+    import polywear.dynamics.bifurcation as bif
 
     real = bif.stability_analysis
 
@@ -256,7 +256,7 @@ def test_sweep_band_reaching_the_grid_end_is_open():
     bifurcation speed (null, open_at "upper"), one inside the grid keeps both."""
     from types import SimpleNamespace
 
-    from polywear.analysis.sweep import sweep_bands
+    from polywear.dynamics.sweep import sweep_bands
 
     speeds = [20.0, 40.0, 60.0, 80.0]
 

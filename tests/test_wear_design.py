@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from polywear.analysis.bifurcation import bifurcation_diagram
-from polywear.analysis.design import clear_operating_range
-from polywear.analysis.sensitivity import perturbed
-from polywear.analysis.simulation import simulate
-from polywear.analysis.wear import wear_indicators
+from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.design import clear_operating_range
+from polywear.dynamics.sensitivity import perturbed
+from polywear.dynamics.simulation import simulate
+from polywear.wear.indicators import wear_indicators
 from polywear.units import wheel_rotation_frequency_hz
 from polywear.models import get_model
 from polywear.params import Params

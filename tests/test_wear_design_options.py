@@ -1,13 +1,13 @@
-"""Wear design options (analysis/wear_design.py): criterion met, least change, verified by evolution."""
+"""Wear design options (wear/design.py): criterion met, least change, verified by evolution."""
 
 from __future__ import annotations
 
 import pytest
 
-from polywear.analysis.sensitivity import perturbed
-from polywear.analysis.wear_design import verify_option, wear_design
-from polywear.analysis.wear_evolution import EvolutionSettings, initial_roughness, peak_to_valley
-from polywear.analysis.wear_map import wear_map
+from polywear.dynamics.sensitivity import perturbed
+from polywear.wear.design import verify_option, wear_design
+from polywear.wear.evolution import EvolutionSettings, initial_roughness, peak_to_valley
+from polywear.wear.map import wear_map
 from polywear.params import Params
 
 CYCLE = ((40.0, 0.5), (50.0, 0.5))  # stable rolling: the linear criterion applies

@@ -1,4 +1,4 @@
-"""Nonlinear wear evolution (analysis/wear_evolution.py): independent checks of the
+"""Nonlinear wear evolution (wear/evolution.py): independent checks of the
 bookkeeping, the coherence treatment, the linear limit, scalings and convergence."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from polywear.analysis.wear_evolution import (
+from polywear.wear.evolution import (
     MAX_WINDOW,
     SEPARATED_BEATS,
     SETTLED_PHASE,
@@ -23,8 +23,8 @@ from polywear.analysis.wear_evolution import (
     initial_roughness,
     window_wear,
 )
-from polywear.analysis.wear_law import written_harmonics
-from polywear.analysis.wear_map import wear_map
+from polywear.wear.law import written_harmonics
+from polywear.wear.map import wear_map
 from polywear.models import get_model
 from polywear.models.base import kmh_to_ms
 from polywear.models.profile import coupled_model, profile_vector
@@ -173,7 +173,7 @@ def halved_vibrating_runs():
     before 5500 km) over 6000 km, when the polygon has grown twentyfold: 1000 km steps and
     the default limit on the change per step, then every step halved (the nominal step and
     the adaptive limit MAX_CHANGE, which sets most steps here)."""
-    import polywear.analysis.wear_evolution as we
+    import polywear.wear.evolution as we
 
     params = Params()
     coarse = evolve(params, 6000.0, cycle=((120.0, 1.0),), settings=EvolutionSettings(step_km=1000.0))

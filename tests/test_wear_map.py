@@ -1,4 +1,4 @@
-"""Linear wear-stability map (analysis/wear_map.py) against independent checks:
+"""Linear wear-stability map (wear/map.py) against independent checks:
 brute-force time simulation of the coupled model at small amplitude, the mean wear
 rate by hand, the k_e scaling and Sueoka's two findings."""
 
@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from polywear.analysis.wear_law import friction_power, written_harmonics
-from polywear.analysis.wear_map import VIBRATING_NOTE, load_to_power, wear_map
+from polywear.wear.law import friction_power, written_harmonics
+from polywear.wear.map import VIBRATING_NOTE, load_to_power, wear_map
 from polywear.models import get_model
 from polywear.models.profile import coupled_model, patch_sinc, profile_vector
 from polywear.params import Params, with_updates

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from polywear.analysis.wear_evolution import EvolutionSettings
+from polywear.wear.evolution import EvolutionSettings
 from polywear.params import Params, with_updates
-from polywear.report_wear import wear_html, wear_section, wear_sentences
+from polywear.report.wear import wear_html, wear_section, wear_sentences
 
 
 def test_sentences_say_sides_distance_and_locking():

@@ -13,26 +13,26 @@ The entry points are reachable from the top level and imported on first use, so
 Entry points (each is the function or class named in brackets):
 
 - ``Params``, ``load_params``, ``ParameterError`` [polywear.params]
-- ``stability`` [analysis.stability.stability_analysis]
-- ``bifurcation`` [analysis.bifurcation.bifurcation_diagram]
-- ``simulate`` [analysis.simulation.simulate]
-- ``sensitivity`` [analysis.sensitivity.local_sensitivity]
-- ``stability_map`` [analysis.stability_map.stability_map]
-- ``study`` [analysis.global_sensitivity.global_sensitivity], ``StudySpec``, ``load_study``
+- ``stability`` [dynamics.stability.stability_analysis]
+- ``bifurcation`` [dynamics.bifurcation.bifurcation_diagram]
+- ``simulate`` [dynamics.simulation.simulate]
+- ``sensitivity`` [dynamics.sensitivity.local_sensitivity]
+- ``stability_map`` [dynamics.stability_map.stability_map]
+- ``study`` [studies.global_sensitivity.global_sensitivity], ``StudySpec``, ``load_study``
   [polywear.params]: the study specification (the ``[study]`` table), not a parameter
-- ``design`` [analysis.design.clear_operating_range]
-- ``excitation`` [analysis.excitation.excitation_portraits]
+- ``design`` [dynamics.design.clear_operating_range]
+- ``excitation`` [dynamics.excitation.excitation_portraits]
 - ``report`` [report.run_report]
-- ``wear_map`` [analysis.wear_map.wear_map]: linear wear stability over speed and order
-- ``calibrate``, ``read_observations`` [analysis.calibration]: fit parameters to observations
+- ``wear_map`` [wear.map.wear_map]: linear wear stability over speed and order
+- ``calibrate``, ``read_observations`` [measured.calibration]: fit parameters to observations
 - ``read_tir``, ``load_with_tir`` [tir]: tyre property files (.tir) and parameters from them
-- ``wear_evolution`` [analysis.wear_evolution.evolve]: the worn profile over distance
-- ``fleet``, ``load_fleet_spec`` [analysis.fleet]: SEV risk over a fleet of cars
-- ``campbell``, ``read_run`` [analysis.campbell]: Campbell maps of measured run-ups
+- ``wear_evolution`` [wear.evolution.evolve]: the worn profile over distance
+- ``fleet``, ``load_fleet_spec`` [studies.fleet]: SEV risk over a fleet of cars
+- ``campbell``, ``read_run`` [measured.campbell]: Campbell maps of measured run-ups
 - ``StabilitySettings``, ``ContinuationSettings``, ``SimulationSettings``, ``MapSettings``:
   validated frozen numerical settings of ``stability``, ``bifurcation``, ``simulate``,
   ``stability_map`` (a bad value raises ``ValueError`` naming the field)
-- ``SpecialPoint``, ``PointKind`` [analysis.points]: the special points of diagrams,
+- ``SpecialPoint``, ``PointKind`` [dynamics.points]: the special points of diagrams,
   stability maps and the AUTO-07p reference (Hopf, fold, period doubling, ...)
 - ``friction`` (LuGre curves, loops and fits), ``models``, ``solvers``: modules.
 """
@@ -48,34 +48,34 @@ _ENTRY_POINTS: dict[str, tuple[str, str | None]] = {
     "Params": ("polywear.params", "Params"),
     "load_params": ("polywear.params", "load_params"),
     "ParameterError": ("polywear.params", "ParameterError"),
-    "stability": ("polywear.analysis.stability", "stability_analysis"),
-    "StabilitySettings": ("polywear.analysis.stability", "StabilitySettings"),
+    "stability": ("polywear.dynamics.stability", "stability_analysis"),
+    "StabilitySettings": ("polywear.dynamics.stability", "StabilitySettings"),
     "ContinuationSettings": ("polywear.solvers.continuation", "ContinuationSettings"),
-    "SimulationSettings": ("polywear.analysis.simulation", "SimulationSettings"),
-    "MapSettings": ("polywear.analysis.stability_map", "MapSettings"),
-    "bifurcation": ("polywear.analysis.bifurcation", "bifurcation_diagram"),
-    "simulate": ("polywear.analysis.simulation", "simulate"),
-    "sensitivity": ("polywear.analysis.sensitivity", "local_sensitivity"),
-    "stability_map": ("polywear.analysis.stability_map", "stability_map"),
-    "study": ("polywear.analysis.global_sensitivity", "global_sensitivity"),
+    "SimulationSettings": ("polywear.dynamics.simulation", "SimulationSettings"),
+    "MapSettings": ("polywear.dynamics.stability_map", "MapSettings"),
+    "bifurcation": ("polywear.dynamics.bifurcation", "bifurcation_diagram"),
+    "simulate": ("polywear.dynamics.simulation", "simulate"),
+    "sensitivity": ("polywear.dynamics.sensitivity", "local_sensitivity"),
+    "stability_map": ("polywear.dynamics.stability_map", "stability_map"),
+    "study": ("polywear.studies.global_sensitivity", "global_sensitivity"),
     "StudySpec": ("polywear.params", "StudySpec"),
     "load_study": ("polywear.params", "load_study"),
-    "design": ("polywear.analysis.design", "clear_operating_range"),
-    "excitation": ("polywear.analysis.excitation", "excitation_portraits"),
+    "design": ("polywear.dynamics.design", "clear_operating_range"),
+    "excitation": ("polywear.dynamics.excitation", "excitation_portraits"),
     "report": ("polywear.report", "run_report"),
-    "wear_map": ("polywear.analysis.wear_map", "wear_map"),
-    "calibrate": ("polywear.analysis.calibration", "calibrate"),
-    "read_observations": ("polywear.analysis.calibration", "read_observations"),
-    "read_tir": ("polywear.tir", "read_tir"),
-    "load_with_tir": ("polywear.tir", "load_with_tir"),
-    "wear_evolution": ("polywear.analysis.wear_evolution", "evolve"),
-    "fleet": ("polywear.analysis.fleet", "fleet_risk"),
-    "load_fleet_spec": ("polywear.analysis.fleet", "load_fleet_spec"),
-    "campbell": ("polywear.analysis.campbell", "campbell"),
-    "SpecialPoint": ("polywear.analysis.points", "SpecialPoint"),
-    "PointKind": ("polywear.analysis.points", "PointKind"),
-    "read_run": ("polywear.analysis.campbell", "read_run"),
-    "friction": ("polywear.analysis.friction", None),
+    "wear_map": ("polywear.wear.map", "wear_map"),
+    "calibrate": ("polywear.measured.calibration", "calibrate"),
+    "read_observations": ("polywear.measured.calibration", "read_observations"),
+    "read_tir": ("polywear.measured.tir", "read_tir"),
+    "load_with_tir": ("polywear.measured.tir", "load_with_tir"),
+    "wear_evolution": ("polywear.wear.evolution", "evolve"),
+    "fleet": ("polywear.studies.fleet", "fleet_risk"),
+    "load_fleet_spec": ("polywear.studies.fleet", "load_fleet_spec"),
+    "campbell": ("polywear.measured.campbell", "campbell"),
+    "SpecialPoint": ("polywear.dynamics.points", "SpecialPoint"),
+    "PointKind": ("polywear.dynamics.points", "PointKind"),
+    "read_run": ("polywear.measured.campbell", "read_run"),
+    "friction": ("polywear.friction", None),
     "models": ("polywear.models", None),
     "solvers": ("polywear.solvers", None),
 }

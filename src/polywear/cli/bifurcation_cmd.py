@@ -70,15 +70,15 @@ def bifurcation(
     check_count(n_speeds, "--n-speeds", 3, MAX_SWEEP_SPEEDS if method is Method.sweep else MAX_GRID_POINTS)
     params = load(config, set_)
     if method is Method.sweep:
-        from ..analysis.bifurcation import OPERATING_MARGIN
-        from ..analysis.sweep import sweep_bands
+        from ..dynamics.bifurcation import OPERATING_MARGIN
+        from ..dynamics.sweep import sweep_bands
 
         op = params.operating.speed_kmh  # the grid holds the operating speed, as the continuation's range does
         result = _sweep(params, (min(lo, op / OPERATING_MARGIN), max(hi, op * OPERATING_MARGIN)), n_speeds or 30, quiet)
         summary = {**sweep_bands(result), **result.summary()}
     else:
-        from ..analysis.bifurcation import bifurcation_diagram
-        from ..analysis.stability import StabilitySettings
+        from ..dynamics.bifurcation import bifurcation_diagram
+        from ..dynamics.stability import StabilitySettings
         from ..solvers.continuation import ContinuationSettings
 
         with progress("continuation steps", enabled=not quiet) as update:
@@ -105,7 +105,7 @@ def bifurcation(
 def _sweep(params, speed_range, n_speeds, quiet):
     import numpy as np
 
-    from ..analysis.sweep import sweep
+    from ..dynamics.sweep import sweep
 
     speeds = np.linspace(speed_range[0], speed_range[1], n_speeds)
     with progress("sweep", enabled=not quiet) as update:

@@ -52,7 +52,7 @@ def calibrate(
     output_file(plot, "--plot", PLOT_SUFFIXES)
     lo, hi = check_speed_range(speed_range)
     params = load(config, set_)
-    from ..analysis.calibration import calibrate as fit, read_observations
+    from ..measured.calibration import calibrate as fit, read_observations
     from ..params import to_toml
 
     observations = read_observations(observed, params)

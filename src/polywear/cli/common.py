@@ -39,7 +39,7 @@ OperatingRangeOpt = Annotated[
     Optional[tuple[float, float]],
     typer.Option("--operating-range", help="Speeds to keep free of SEV [km/h] (default: operating speed -30/+20)."),
 ]
-"""``--operating-range LOW HIGH`` [km/h]; None: ``analysis.design.default_operating_range``."""
+"""``--operating-range LOW HIGH`` [km/h]; None: ``dynamics.design.default_operating_range``."""
 TirOpt = Annotated[
     Optional[Path],
     typer.Option("--tir", help="Tyre property file (.tir, Magic Formula): its values come before --config/--set."),
@@ -84,7 +84,7 @@ def load(config: Path | None, sets: list[str] | None):
     (if any), the TOML file, then ``--set`` overrides."""
     tir = _TIR_PATH.get()
     if tir is not None:
-        from ..tir import load_with_tir
+        from ..measured.tir import load_with_tir
 
         return load_with_tir(tir, config, sets or ())[0]
     from ..params import load_params

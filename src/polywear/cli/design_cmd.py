@@ -78,7 +78,7 @@ def design(
     if not (math.isfinite(margin) and 0.0 <= margin <= 100.0):
         raise UserError(f"--margin {margin:g}: must be in [0, 100] km/h")
     params = load(config, set_)
-    from ..analysis.design import DEFAULT_KEYS, DesignSettings, clear_operating_range, default_operating_range
+    from ..dynamics.design import DEFAULT_KEYS, DesignSettings, clear_operating_range, default_operating_range
 
     operating_range = operating_range or default_operating_range(params.operating.speed_kmh)
     keys = tuple(dict.fromkeys(param or DEFAULT_KEYS))

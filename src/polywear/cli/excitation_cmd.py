@@ -54,8 +54,8 @@ def excitation(
     if duration is not None and not duration <= MAX_DURATION_S:
         raise UserError(f"--duration {duration}: must be at most {MAX_DURATION_S:g} [s]")
     params = load(config, set_)
-    from ..analysis.bifurcation import bifurcation_diagram
-    from ..analysis.excitation import ExcitationSettings, default_speeds, excitation_portraits, portraits_figure
+    from ..dynamics.bifurcation import bifurcation_diagram
+    from ..dynamics.excitation import ExcitationSettings, default_speeds, excitation_portraits, portraits_figure
 
     info("excitation: bifurcation diagram ...", quiet)
     with progress("continuation steps", enabled=not quiet) as update:

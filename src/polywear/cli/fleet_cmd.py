@@ -56,7 +56,7 @@ def fleet(
     if checkpoint is not None and not checkpoint.is_dir():
         raise UserError(f"--checkpoint {checkpoint}: not a folder")
     params = load(config, set_)
-    from ..analysis.fleet import fleet_risk, load_fleet_spec
+    from ..studies.fleet import fleet_risk, load_fleet_spec
 
     fleet_spec = load_fleet_spec(spec, params)
     chosen = chosen_backend(backend, scheduler, 5.0)

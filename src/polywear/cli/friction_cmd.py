@@ -82,7 +82,7 @@ def curve(
     """Static (Stribeck) friction curve mu_ss(v), its falling branch and the operating point."""
     import numpy as np
 
-    from ..analysis.friction import steady_curve
+    from ..friction import steady_curve
     from ..physics.lugre import steady_friction, steady_friction_slope
 
     output_file(out, "--out", (".nc",))
@@ -158,7 +158,7 @@ def loops(
     quiet: QuietOpt = False,
 ) -> None:
     """Friction hysteresis loops for v_r = v_mean + v_amplitude sin(2 pi f t) (paper Fig. 1)."""
-    from ..analysis.friction import LoopSettings, hysteresis_loops
+    from ..friction import LoopSettings, hysteresis_loops
 
     output_file(out, "--out", (".nc",))
     output_file(plot, "--plot", PLOT_SUFFIXES)
@@ -198,7 +198,7 @@ FitOutOpt = Annotated[
 
 
 def _data_path(file: Path | None, sample: bool, kind: str) -> Path:
-    from ..analysis.friction import sample_path
+    from ..friction import sample_path
 
     if sample == (file is not None):
         raise UserError("give either a CSV FILE or --sample")
@@ -266,7 +266,7 @@ def fit(
     quiet: QuietOpt = False,
 ) -> None:
     """Fit mu_s, mu_c, v_s, delta, sigma2 of the static curve to measured steady mu(v) points."""
-    from ..analysis.friction import STEADY_PARAMETERS, FrictionDataError, fit_steady_curve, read_steady_csv
+    from ..friction import STEADY_PARAMETERS, FrictionDataError, fit_steady_curve, read_steady_csv
 
     path = _data_path(file, sample, "steady")
     _check_outputs(out, plot)
@@ -305,8 +305,8 @@ def fit_loops(
     quiet: QuietOpt = False,
 ) -> None:
     """Fit sigma0 and sigma1 to measured periodic loops (static-curve keys from -c/--set)."""
-    from ..analysis.friction import FrictionDataError, LoopFitSettings, read_loops_csv
-    from ..analysis.friction import fit_loops as fit_measured_loops
+    from ..friction import FrictionDataError, LoopFitSettings, read_loops_csv
+    from ..friction import fit_loops as fit_measured_loops
 
     path = _data_path(file, sample, "loops")
     _check_outputs(out, plot)

@@ -57,8 +57,8 @@ def map_(
     if operating_range is not None:
         operating_range = check_speed_range(operating_range, "--operating-range")
     params = load(config, set_)
-    from ..analysis.sensitivity import nominal_value
-    from ..analysis.stability_map import stability_map
+    from ..dynamics.sensitivity import nominal_value
+    from ..dynamics.stability_map import stability_map
 
     check_param_keys([param])
     if range_ is None:

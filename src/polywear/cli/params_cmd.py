@@ -58,7 +58,7 @@ def from_tir(
     """Read a .tir file and say, for every key, whether it came from the file (which tir
     keys, which formula), from --config/--set, or stays a default."""
     from ..params import flat_items, load_study, to_toml
-    from ..tir import load_with_tir, user_keys
+    from ..measured.tir import load_with_tir, user_keys
 
     output_file(out, "--out", (".toml",))
     params, mapping = load_with_tir(tir, config, set_ or (), belt_mode=belt_mode)

@@ -50,7 +50,7 @@ def report(
         raise UserError(f"--wear-km {wear_km:g}: must be in (0, 1e6]")
     params = load(config, set_)
     from ..io import fresh_directory
-    from ..report import run_report, text_summary
+    from ..report.main import run_report, text_summary
 
     # written into a new folder that replaces --out only when complete: never a mix of two runs
     with fresh_directory(out) as folder:

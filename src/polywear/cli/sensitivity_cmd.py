@@ -66,7 +66,7 @@ def sensitivity(
     if not 0.0 < step <= MAX_STEP:
         raise UserError(f"--step {step}: must be in (0, {MAX_STEP:g}]")
     params = load(config, set_)
-    from ..analysis.sensitivity import PAPER_PARAMETERS, SensitivitySettings, local_sensitivity, parameter_direction
+    from ..dynamics.sensitivity import PAPER_PARAMETERS, SensitivitySettings, local_sensitivity, parameter_direction
     from ..models import get_model
 
     keys = tuple(dict.fromkeys(param)) if param else PAPER_PARAMETERS
@@ -94,7 +94,7 @@ def sensitivity(
 
 
 def _print_rows(result) -> None:
-    from ..analysis.sensitivity import PARAMETER_LABELS
+    from ..dynamics.sensitivity import PARAMETER_LABELS
 
     typer.echo(f"model {result.params.model}, method {result.method}; S = (p/V) dV/dp, dV/dp in km/h per unit of p")
     quantities = list(dict.fromkeys(r["quantity"] for r in result.rows))

@@ -108,7 +108,7 @@ def simulate(
     if not RTOL_RANGE[0] <= rtol <= RTOL_RANGE[1]:
         raise UserError(f"--rtol {rtol!r}: must be between {RTOL_RANGE[0]:g} and {RTOL_RANGE[1]:g}")
     params = load(config, set_)
-    from ..analysis.simulation import SimulationSettings, simulate_disturbances, simulate_values
+    from ..dynamics.simulation import SimulationSettings, simulate_disturbances, simulate_values
 
     try:
         settings = SimulationSettings(method=method, rtol=rtol)

@@ -46,7 +46,7 @@ def stability(
     lo, hi = check_speed_range(speed_range)
     check_count(n_speeds, "--n-speeds", 3, MAX_GRID_POINTS)
     params = load(config, set_)
-    from ..analysis.stability import StabilitySettings, stability_analysis
+    from ..dynamics.stability import StabilitySettings, stability_analysis
 
     info(f"stability: eigenvalues at {n_speeds} speeds ...", quiet)
     try:

@@ -57,7 +57,7 @@ def study(
         raise UserError(f"--connect-timeout {connect_timeout}: must be in (0, 3600] [s]")
     params, study_ = load_with_study(config, set_)
     chosen = chosen_backend(backend, scheduler, connect_timeout)
-    from ..analysis.global_sensitivity import global_sensitivity, study_parameters
+    from ..studies.global_sensitivity import global_sensitivity, study_parameters
 
     D = len(study_parameters(params, study_))
     if study_.method == "sobol":

@@ -91,7 +91,7 @@ def map_(
         check_count(n_speeds, "--n-speeds", 2, MAX_GRID_POINTS)
         grid = [lo + (hi - lo) * i / (n_speeds - 1) for i in range(n_speeds)]
     params = load(config, set_)
-    from ..analysis.wear_map import wear_map
+    from ..wear.map import wear_map
 
     info(f"wear map: {len(grid)} speeds x {max_order or params.wear.max_order} orders ...", quiet)
     try:
@@ -134,7 +134,7 @@ def _write_rows(path: Path, rows: list[dict]) -> None:
 
 def _sev_band(params, speed_range, quiet) -> tuple[float, float] | None:
     """Outer bounds of the SEV band from the bifurcation diagram (None if there is none)."""
-    from ..analysis.bifurcation import bifurcation_diagram
+    from ..dynamics.bifurcation import bifurcation_diagram
 
     info("wear map: bifurcation diagram for the SEV band ...", quiet)
     bands = bifurcation_diagram(params, speed_range).sev_band_kmh
@@ -221,7 +221,7 @@ def evolve_(
             raise UserError(f"--polar-km {polar_km!r}: distances must lie in [0, --distance-km]")
     params = load(config, set_)
     pairs = ((float(speed), 1.0),) if speed is not None else (parse_cycle(cycle) if cycle else None)
-    from ..analysis.wear_evolution import EvolutionSettings, evolve
+    from ..wear.evolution import EvolutionSettings, evolve
     from .common import progress
 
     with progress("wear evolve [km]", enabled=not quiet) as update:
@@ -291,7 +291,7 @@ def design_(
         raise UserError(f"--verify-km {verify_km:g}: must be in (0, 1e6]")
     params = load(config, set_)
     pairs = parse_cycle(cycle) if cycle else None
-    from ..analysis.wear_design import verify_option, wear_design
+    from ..wear.design import verify_option, wear_design
 
     check_param_keys(keys or (), "--key")
     info("wear design: searching with the linear wear map ...", quiet)

@@ -6,7 +6,7 @@ The submodules are imported on first attribute access (``pw.solvers.integrate``)
 Solvers work in SI: a speed here is the model's ``V`` [m/s] (``PeriodicOrbit.speed``,
 ``Branch.end_speed``), labels of special points are AUTO-07p's strings (``"LP"``,
 ``"PD"``, ``"NS"``). The analysis layer turns them into results in km/h (a field in m/s
-there ends in ``_ms``) and into ``PointKind`` members (``polywear.analysis.points``).
+there ends in ``_ms``) and into ``PointKind`` members (``polywear.dynamics.points``).
 """
 
 from __future__ import annotations

@@ -39,7 +39,7 @@ from .arclength import correct, next_step, oriented
 from .collocation import Collocation, PeriodicOrbit, monodromy
 
 if TYPE_CHECKING:
-    from ..analysis.stability import HopfPoint
+    from ..dynamics.stability import HopfPoint
     from ..models.base import Model
 
 __all__ = [

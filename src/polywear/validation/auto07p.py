@@ -49,7 +49,7 @@ from typing import Any, Callable, Iterator
 
 import numpy as np
 
-from ..analysis.points import PointKind, SpecialPoint
+from ..dynamics.points import PointKind, SpecialPoint
 from ..models import get_model
 from ..models.base import Model, kmh_to_ms, ms_to_kmh
 from ..models.tread1dof import MODEL
@@ -112,7 +112,7 @@ AUTO_KINDS = {
 
 
 def point_kind(point) -> PointKind | None:
-    """The :class:`~polywear.analysis.points.PointKind` of an AUTO-07p solution point
+    """The :class:`~polywear.dynamics.points.PointKind` of an AUTO-07p solution point
     (None: a regular, end or user point)."""
     return AUTO_KINDS.get(point.point_type.name)
 
@@ -691,7 +691,7 @@ def headline_numbers(diagram: dict[str, Any]) -> dict[str, float]:
 
 def special_points(diagram: dict[str, Any]) -> list[SpecialPoint]:
     """The Hopf points (HB) and folds of cycles (LP) of a :func:`model_diagram` result as
-    :class:`~polywear.analysis.points.SpecialPoint`, by speed: comparable one to one with
+    :class:`~polywear.dynamics.points.SpecialPoint`, by speed: comparable one to one with
     ``BifurcationDiagram.special_points`` of the same parameters."""
     names = get_model(diagram["model"]).state_names
     points = [SpecialPoint(PointKind.HOPF, h["speed_kmh"], h["frequency_hz"]) for h in diagram["hopf"]]

@@ -33,8 +33,8 @@ from ..models.base import kmh_to_ms
 from ..models.profile import patch_sinc
 from ..params import Params
 from ..units import wheel_rotation_frequency_hz
-from .stability import mode_label, stability_analysis
-from .wear_law import energetic_rate
+from ..dynamics.stability import mode_label, stability_analysis
+from .law import energetic_rate
 
 __all__ = ["WearMap", "wear_map", "load_to_power", "VIBRATING_NOTE"]
 
@@ -101,7 +101,7 @@ class WearMap(Result):
     """(S,) uniform wear of steady rolling [mm per 1000 km]"""
     linear_band_kmh: list[tuple[float, float]]
     """Speed intervals where steady rolling is unstable [km/h], bounded by the located
-    Hopf speeds (``analysis.stability``) within the speeds of the map"""
+    Hopf speeds (``dynamics.stability``) within the speeds of the map"""
     settings: dict = field(default_factory=dict)
 
     # -- derived quantities ---------------------------------------------------------------

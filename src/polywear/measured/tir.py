@@ -19,7 +19,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from .params import ParameterError, load_params, parse_override, study_keys
+from ..params import ParameterError, load_params, parse_override, study_keys
 
 __all__ = ["TirError", "TirEntry", "TirFile", "TirMapping", "read_tir", "tir_parameters", "user_keys", "load_with_tir"]
 

@@ -12,9 +12,9 @@ from typing import Any
 
 import numpy as np
 
-from ...params import Friction
-from ...physics.lugre import steady_friction, steady_friction_slope
-from ...results import Result
+from ..params import Friction
+from ..physics.lugre import steady_friction, steady_friction_slope
+from ..results import Result
 
 __all__ = ["STEADY_PARAMETERS", "SteadyCurve", "falling_branch", "steady_curve"]
 

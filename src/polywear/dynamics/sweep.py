@@ -12,7 +12,7 @@ steady rolling and a stable cycle coexist (hard excitation) the small and large 
 end differently, and the up and down chains show the hysteresis.
 
 Each run (:func:`settle`) integrates in chunks, continuing from the end of the last, and
-stops when :func:`polywear.analysis.simulation.classify_window` finds the equilibrium or
+stops when :func:`polywear.dynamics.simulation.classify_window` finds the equilibrium or
 a cycle in the latest chunk, or when ``max_duration_s`` is used up (``steady`` False).
 :func:`settle` is a pure function of picklable inputs, so the independent runs can be
 handed to any ``map``, e.g. the project's executor interface:
@@ -288,7 +288,7 @@ def sweep(
 def sweep_bands(result) -> dict:
     """First/second bifurcation speeds and bands as a brute-force sweep sees them.
 
-    ``result`` is a :class:`polywear.analysis.sweep.SweepResult`. The SEV band is where a
+    ``result`` is a :class:`polywear.dynamics.sweep.SweepResult`. The SEV band is where a
     large disturbance (or the chain from the neighbouring speed) ends on a cycle; the
     linear band where even a small one does. Bounds are grid speeds (resolution = spacing).
     """

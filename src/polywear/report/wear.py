@@ -10,12 +10,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .analysis.wear_evolution import EvolutionResult, EvolutionSettings, evolve
-from .params import Params
+from ..wear.evolution import EvolutionResult, EvolutionSettings, evolve
+from ..params import Params
 
 if TYPE_CHECKING:
-    from .analysis.wear_map import WearMap
-from .progress import Progress, StepCounter
+    from ..wear.map import WearMap
+from ..progress import Progress, StepCounter
 
 __all__ = ["WearSection", "wear_section", "wear_html", "wear_sentences"]
 
@@ -46,18 +46,18 @@ def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: f
 
     The map over ``speed_range_kmh`` [km/h] (300 speeds) is always computed (about a second);
     with ``evolution_km`` [km] the evolution at the operating speed and on the drive cycle too
-    (minutes), with ``evolution`` (:class:`~.analysis.wear_evolution.EvolutionSettings`, here
+    (minutes), with ``evolution`` (:class:`~polywear.wear.evolution.EvolutionSettings`, here
     2000 km steps). ``progress`` (:mod:`polywear.progress`) counts these stages. Returns the
     wear results (:class:`WearSection`).
     """
     import matplotlib.pyplot as plt
 
-    from .io import atomic_path
+    from ..io import atomic_path
 
     def save_result(result, name):
         with atomic_path(out_dir / name) as tmp:
             result.save(tmp)
-    from .analysis.wear_map import wear_map
+    from ..wear.map import wear_map
 
     say = StepCounter(progress).begin
     say("polygonal wear: linear map")

@@ -5,7 +5,7 @@ with its standard deviation and optionally its own test conditions) are fitted b
 least squares (:func:`scipy.optimize.least_squares`, trust-region reflective, bounds from
 the parameter validation) with the exact sensitivities as the Jacobian: the implicit
 function theorem on the Hopf and fold defining systems
-(:mod:`polywear.analysis.sensitivity`), the analytic derivative of the steady friction
+(:mod:`polywear.dynamics.sensitivity`), the analytic derivative of the steady friction
 curve. The fit is followed by an identifiability analysis of the weighted Jacobian in
 relative units (``d r_i / d ln p_j``): singular values and vectors (which combinations
 of the parameters the data determine, which they do not), correlations, linearized 95 %
@@ -203,8 +203,8 @@ def _friction_point(params: Params, v: float) -> tuple[float, dict[str, float]]:
 
 
 def _hopf_rows(params: Params, obs: list[Observation], keys: list[str], speed_range_kmh, n_speeds):
-    from .sensitivity import hopf_speed_derivative, parameter_direction
-    from .stability import StabilitySettings, critical_eigenvalue_derivative, stability_analysis
+    from ..dynamics.sensitivity import hopf_speed_derivative, parameter_direction
+    from ..dynamics.stability import StabilitySettings, critical_eigenvalue_derivative, stability_analysis
 
     model = get_model(params.model)
     p = model.pack(params)
@@ -237,7 +237,7 @@ def _hopf_rows(params: Params, obs: list[Observation], keys: list[str], speed_ra
 
 
 def _band_rows(params: Params, obs: list[Observation], keys: list[str], diagram):
-    from .sensitivity import local_sensitivity
+    from ..dynamics.sensitivity import local_sensitivity
 
     sens = local_sensitivity(params, keys, diagram=diagram).rows
     values, rows = [], []
@@ -266,7 +266,7 @@ def _cycle_derivatives(model, p, orbit, directions) -> list[tuple[float, float]]
     from scipy.sparse.linalg import splu
 
     from ..solvers.collocation import Collocation
-    from .derivatives import rhs_directional
+    from ..dynamics.derivatives import rhs_directional
 
     coll = Collocation(model, p, orbit.mesh, orbit.m)
     X = coll.pack(orbit)
@@ -293,7 +293,7 @@ def _cycle_derivatives(model, p, orbit, directions) -> list[tuple[float, float]]
 
 
 def _cycle_rows(params: Params, obs: list[Observation], keys: list[str], diagram):
-    from .sensitivity import parameter_direction
+    from ..dynamics.sensitivity import parameter_direction
 
     model = get_model(params.model)
     p = model.pack(params)
@@ -362,7 +362,7 @@ def predict(
                 vals, rows = _hopf_rows(cond, obs, keys, speed_range_kmh, settings.n_speeds)
             else:
                 if diagram is None:
-                    from .bifurcation import bifurcation_diagram
+                    from ..dynamics.bifurcation import bifurcation_diagram
 
                     diagram = bifurcation_diagram(cond, speed_range_kmh)
                 vals, rows = (_band_rows if kind == "band" else _cycle_rows)(cond, obs, keys, diagram)

@@ -13,7 +13,7 @@ Outputs per sample (``study.outputs``):
 ``"hopf"`` (fast path, ~1 ms per sample)
     ``hopf_1_kmh``, ``hopf_2_kmh``: the lowest and highest bound of the linear band
     (where steady rolling is unstable: Hopf speeds), from
-    :func:`~polywear.analysis.stability.fast_linear_band`;
+    :func:`~polywear.dynamics.stability.fast_linear_band`;
     ``linear_band_width_kmh``: its total width.
 ``"bifurcation"`` (continuation, ~0.3 s per sample for tread1dof, a few s for axle4dof)
     ``first_bifurcation_kmh``, ``second_bifurcation_kmh``: bounds of the SEV band;
@@ -59,7 +59,7 @@ from ..params import (
 from ..progress import Progress
 from ..results import Result
 from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH
-from .stability import fast_linear_band
+from ..dynamics.stability import fast_linear_band
 
 __all__ = [
     "HOPF_OUTPUTS",
@@ -237,7 +237,7 @@ class StudyEvaluator:
     speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH
     operating_range_kmh: tuple[float, float] = DEFAULT_OPERATING_RANGE_KMH
     fast: object = None
-    """A :class:`~polywear.analysis.fast_band.FastBand` (amplitudes at the operating-range
+    """A :class:`~polywear.studies.fast_band.FastBand` (amplitudes at the operating-range
     ends) tried first for ``outputs = "bifurcation"``; the continuation where it does not apply."""
 
     @property
@@ -259,7 +259,7 @@ class StudyEvaluator:
             return nan, SampleOutcome(SampleStatus.FAILED, f"{type(exc).__name__}: {exc}")
 
     def _bifurcation(self, params):
-        from .bifurcation import bifurcation_diagram
+        from ..dynamics.bifurcation import bifurcation_diagram
 
         if self.fast is not None:
             from .fast_band import Band
@@ -429,7 +429,7 @@ class GlobalSensitivityResult(Result):
         """Bar chart of one output's indices with confidence intervals, parameters ranked."""
         import matplotlib.pyplot as plt
 
-        from .sensitivity import PARAMETER_LABELS
+        from ..dynamics.sensitivity import PARAMETER_LABELS
 
         if ax is None:
             _, ax = plt.subplots(figsize=(7, 3.5))
@@ -508,8 +508,8 @@ def global_sensitivity(
         after every batch.
     fast_band : bool
         With ``outputs = "bifurcation"``: try the fast band path
-        (:mod:`polywear.analysis.fast_band`, warm-started from the nearest of the nominal and
-        pilot diagrams with the sample's Hopf signature, :func:`~polywear.analysis.fast_band.pilot_size`
+        (:mod:`polywear.studies.fast_band`, warm-started from the nearest of the nominal and
+        pilot diagrams with the sample's Hopf signature, :func:`~polywear.studies.fast_band.pilot_size`
         evenly spaced samples) on every sample before the full continuation; the counts of
         both are in ``settings``.
 

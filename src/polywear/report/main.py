@@ -14,21 +14,21 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from . import __version__
-from .io import atomic_path, write_text
-from .params import Params, to_toml
-from .progress import Progress, StepCounter
-from .units import DEFAULT_SPEED_RANGE_KMH
+from .. import __version__
+from ..io import atomic_path, write_text
+from ..params import Params, to_toml
+from ..progress import Progress, StepCounter
+from ..units import DEFAULT_SPEED_RANGE_KMH
 
 if TYPE_CHECKING:
-    from .analysis.bifurcation import BifurcationDiagram
-    from .analysis.design import DesignResult
-    from .analysis.excitation import ExcitationPortrait
-    from .analysis.sensitivity import SensitivityResult
-    from .analysis.simulation import SimulationSet
-    from .analysis.stability import StabilityResult
-    from .analysis.wear_map import WearMap
-    from .report_wear import WearSection
+    from ..dynamics.bifurcation import BifurcationDiagram
+    from ..dynamics.design import DesignResult
+    from ..dynamics.excitation import ExcitationPortrait
+    from ..dynamics.sensitivity import SensitivityResult
+    from ..dynamics.simulation import SimulationSet
+    from ..dynamics.stability import StabilityResult
+    from ..wear.map import WearMap
+    from .wear import WearSection
 
 __all__ = ["Report", "operating_verdict", "run_report"]
 
@@ -81,7 +81,7 @@ def operating_verdict(diagram, params: Params, speed_kmh: float) -> dict:
     Regimes: ``"no SEV"``, ``"unstable rolling (soft SEV)"``, ``"hard SEV region"`` (a
     stable cycle of the continuation there), and, where steady rolling is unstable or the
     speed lies in the SEV band but no continued cycle is stable, the motion a simulation
-    reaches (:func:`polywear.analysis.attractor.reached_attractors`): period-multiplied
+    reaches (:func:`polywear.dynamics.attractor.reached_attractors`): period-multiplied
     (stick-slip), quasi-periodic or chaotic, a cycle off the continued branches, or
     static divergence (a real eigenvalue: the tread drifts, it does not vibrate). The same
     simulation decides a speed in a gap of the SEV band of a diagram with period doublings
@@ -91,11 +91,11 @@ def operating_verdict(diagram, params: Params, speed_kmh: float) -> dict:
     """
     import numpy as np
 
-    from .analysis.attractor import reached_attractors
-    from .analysis.bifurcation import statically_divergent
-    from .analysis.wear import wear_indicators
-    from .models import get_model
-    from .models.base import kmh_to_ms
+    from ..dynamics.attractor import reached_attractors
+    from ..dynamics.bifurcation import statically_divergent
+    from ..wear.indicators import wear_indicators
+    from ..models import get_model
+    from ..models.base import kmh_to_ms
 
     model = get_model(params.model)
     p = model.pack(params)
@@ -252,10 +252,10 @@ def run_report(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .analysis.bifurcation import bifurcation_diagram
-    from .analysis.design import clear_operating_range, default_operating_range
-    from .analysis.sensitivity import local_sensitivity
-    from .analysis.simulation import simulate_disturbances
+    from ..dynamics.bifurcation import bifurcation_diagram
+    from ..dynamics.design import clear_operating_range, default_operating_range
+    from ..dynamics.sensitivity import local_sensitivity
+    from ..dynamics.simulation import simulate_disturbances
 
     stage = StepCounter(progress)
     say = stage.begin
@@ -295,7 +295,7 @@ def run_report(
 
     say("phase portraits at the operating speed")
     runs = simulate_disturbances(params, [1e-5, 1e-4, 1e-3], speed_kmh=speed, duration_s=1.0)
-    from .analysis.excitation import default_speeds, excitation_portraits, portraits_figure
+    from ..dynamics.excitation import default_speeds, excitation_portraits, portraits_figure
 
     speeds = default_speeds(diagram, speed)
     portraits = excitation_portraits(diagram, speeds) if speeds else []
@@ -321,7 +321,7 @@ def run_report(
         save(fig, "design.png", f"Original bifurcation diagram and the first-ranked design option, "
                                 f"{design.best.change_text()} (paper Figs. 10-12)")
 
-    from .report_wear import wear_section
+    from .wear import wear_section
 
     sev = diagram.sev_band_kmh
     wear = wear_section(params, speed_range_kmh, save, out_dir, wear_evolution_km,
@@ -341,7 +341,7 @@ def run_report(
 
 
 def _html(params: Params, summary: dict, verdict: dict, files: dict) -> str:
-    from .report_wear import wear_html
+    from .wear import wear_html
 
     b = summary["bifurcation"]
     e = html.escape

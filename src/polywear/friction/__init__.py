@@ -19,7 +19,7 @@ velocity of the road relative to the tread [m/s].
 
 from __future__ import annotations
 
-from ...physics.lugre import (
+from ..physics.lugre import (
     bristle_decay_rate,
     bristle_rate,
     friction_coefficient,

@@ -662,8 +662,8 @@ class CampbellResult(Result):
 def _prediction(params: Params, speed_range, run_speeds_kmh) -> dict:
     """Hopf points and SEV band of the model; where steady rolling is stable, the wear
     map's fastest-growing polygon order at 25 speeds of the run (its frequency n V/(2 pi R))."""
-    from .bifurcation import bifurcation_diagram
-    from .wear_map import wear_map
+    from ..dynamics.bifurcation import bifurcation_diagram
+    from ..wear.map import wear_map
 
     diagram = bifurcation_diagram(params, speed_range)
     wear = wear_map(params, np.linspace(run_speeds_kmh.min(), run_speeds_kmh.max(), 25))
@@ -769,7 +769,7 @@ def campbell(
 
 def _correct_onset(sev: dict, run: Run, params: Params, disturbance_m: float) -> None:
     """Ramp rate at the onset, the model's nearest destabilizing Hopf point, the delay."""
-    from .stability import StabilitySettings, stability_analysis
+    from ..dynamics.stability import StabilitySettings, stability_analysis
 
     onset = sev["onset"]
     near = np.abs(run.t - onset["time_s"]) <= 2.0

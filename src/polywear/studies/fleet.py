@@ -8,10 +8,10 @@ discrete mixtures such as road types or load cases), a correlation matrix betwee
 correlation of the normal scores), the usage profile (share of the distance by speed),
 the sample size and the seed.
 
-Per car the band comes from :class:`~polywear.analysis.fast_band.FastBand` (fast path
+Per car the band comes from :class:`~polywear.studies.fast_band.FastBand` (fast path
 from the nearest reference with the car's Hopf signature, full continuation as
 fallback). The references come from a pilot stage
-(:func:`~polywear.analysis.fast_band.pilot_stage`, as in studies): the nominal car and
+(:func:`~polywear.studies.fast_band.pilot_stage`, as in studies): the nominal car and
 evenly spaced cars of the sample (one per 32, at most 32) by the full continuation; those
 cars keep their full diagrams as their results (path ``"pilot"``). A car is *at risk* when its SEV
 band (hard regions included) contains a speed of the usage profile with a positive
@@ -22,7 +22,7 @@ usage speed, in a diagram with period doublings or torus bifurcations, is counte
 those bifurcations can persist in such a gap (a simulation decides; the risk does not
 count it). The risk probability gets an exact binomial
 (Clopper-Pearson) interval over the cars that were evaluated. With ``mileage_km`` the
-linear wear map (:func:`~polywear.analysis.wear_map.wear_map`) of every car at the usage
+linear wear map (:func:`~polywear.wear.map.wear_map`) of every car at the usage
 speeds gives the shortest e-folding distance of any polygon order where rolling is
 stable; the wear share is the share of cars where it is below the mileage.
 
@@ -68,7 +68,7 @@ N_BINS = 20
 PATHS = ("hopf", "fast", "full", "pilot")
 """How a car's risk was decided: the Hopf points alone (``FastBand.usage_verdict``), the
 fast band path, the full continuation (a fallback, with its
-:class:`~polywear.analysis.fast_band.FallbackReason`), or the full continuation of the
+:class:`~polywear.studies.fast_band.FallbackReason`), or the full continuation of the
 pilot stage (the car is a reference)."""
 CAR_FIELDS = ("failure", "detail", "path", "fallback", "fallback_detail")
 """The fields of :class:`CarOutcome`, stored per car in the checkpoint."""
@@ -78,7 +78,7 @@ CAR_FIELDS = ("failure", "detail", "path", "fallback", "fallback_detail")
 class CarOutcome:
     """How one car ended. Failed: ``failure`` (the exception type, or ``"wear map"``) and
     ``detail`` (its message); evaluated: ``path`` (one of :data:`PATHS`) and, on the full
-    path, ``fallback`` (a :class:`~polywear.analysis.fast_band.FallbackReason` value) and
+    path, ``fallback`` (a :class:`~polywear.studies.fast_band.FallbackReason` value) and
     ``fallback_detail``. The texts of the files (:attr:`status`, :attr:`path_text`) are
     composed from these fields, never parsed back."""
 
@@ -296,7 +296,7 @@ class FleetEvaluator:
     simulate_gaps: bool = False
     """Decide usage speeds in gaps after PD/NS by simulation (:attr:`FleetSpec.simulate_gaps`)."""
     pilot: dict = field(default_factory=dict)
-    """Car index -> its :class:`~polywear.analysis.fast_band.Band` from the pilot stage (its full diagram)."""
+    """Car index -> its :class:`~polywear.studies.fast_band.Band` from the pilot stage (its full diagram)."""
 
     def __call__(self, item) -> tuple[tuple[float, ...], CarOutcome]:
         """``item = (car index, parameter values)``."""
@@ -344,10 +344,10 @@ class FleetEvaluator:
         return band_from_diagram(diagram, self.solver.amplitude_speeds_kmh, band), diagram
 
     def _gap_sev(self, params, speeds_kmh, diagram=None) -> float | CarOutcome:
-        """1.0 if a simulation (:func:`~polywear.analysis.attractor.reached_attractors`, from the
+        """1.0 if a simulation (:func:`~polywear.dynamics.attractor.reached_attractors`, from the
         car's ``diagram``, computed again for a pilot car) ends in SEV at one of these speeds
         [km/h], else 0.0; or the failure."""
-        from .attractor import reached_attractors
+        from ..dynamics.attractor import reached_attractors
 
         try:
             diagram = diagram if diagram is not None else self.solver.diagram(params)
@@ -357,7 +357,7 @@ class FleetEvaluator:
 
     def _efold(self, params) -> float | CarOutcome:
         """Shortest e-folding distance [km] of any order at the usage speeds, or the failure."""
-        from .wear_map import wear_map
+        from ..wear.map import wear_map
 
         try:
             return float(np.nanmin(wear_map(params, self.usage_speeds_kmh).efold_km, initial=np.inf))
@@ -682,7 +682,7 @@ def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", w
     (``resume`` continues from the checkpoint, which must belong to the same params and spec).
     Every round of ``checkpoint_every`` cars is one :func:`~polywear.parallel.map_batched` call
     (a new pool on the ``processes`` backend); without ``checkpoint_dir`` all cars are one round.
-    First the pilot stage (:func:`~polywear.analysis.fast_band.pilot_stage`, on the same
+    First the pilot stage (:func:`~polywear.studies.fast_band.pilot_stage`, on the same
     backend; a resumed run solves it again): the nominal car, unless its ``reference`` is
     given, and with ``pilot`` evenly spaced cars (off: the nominal reference alone).
     ``progress`` (:mod:`polywear.progress`): cars done of ``spec.samples``; during the

@@ -13,8 +13,8 @@ from typing import Any, Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ...params import Friction
-from ...physics.lugre import (
+from ..params import Friction
+from ..physics.lugre import (
     bristle_decay_rate,
     bristle_rate,
     friction_coefficient,
@@ -22,9 +22,9 @@ from ...physics.lugre import (
     steady_friction,
     stribeck,
 )
-from ...progress import Progress, StepCounter
-from ...results import Result
-from ...settings import check_count, check_positive
+from ..progress import Progress, StepCounter
+from ..results import Result
+from ..settings import check_count, check_positive
 from .curve import SteadyCurve, _axes, _friction_toml, _steady_args, steady_curve
 
 __all__ = ["BristleResponse", "HysteresisLoops", "LoopSettings", "bristle_response", "hysteresis_loops"]

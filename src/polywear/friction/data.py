@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...params import Friction
-from ...physics.lugre import steady_friction
+from ..params import Friction
+from ..physics.lugre import steady_friction
 from .curve import _steady_args
 
 __all__ = [

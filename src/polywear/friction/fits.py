@@ -9,11 +9,11 @@ from typing import Any, Callable, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ...params import Friction, with_updates
-from ...physics.lugre import steady_friction
-from ...progress import Progress, StepCounter
-from ...results import Result
-from ...settings import check_count, check_positive
+from ..params import Friction, with_updates
+from ..physics.lugre import steady_friction
+from ..progress import Progress, StepCounter
+from ..results import Result
+from ..settings import check_count, check_positive
 from .curve import STEADY_PARAMETERS, _axes, _friction_toml, _steady_args, steady_curve
 from .data import FrictionDataError
 from .loops import _periodic_orbit

@@ -51,7 +51,7 @@ from ..progress import Progress
 from ..results import Result
 from ..settings import check_count, check_positive
 from ..solvers.integrate import integrate
-from .wear_law import energetic_rate, friction_power, profile_samples
+from .law import energetic_rate, friction_power, profile_samples
 
 __all__ = ["WindowWear", "window_wear", "EvolutionResult", "EvolutionSettings", "evolve", "initial_roughness",
            "coherence",

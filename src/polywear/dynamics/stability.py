@@ -90,7 +90,7 @@ class HopfPoint:
         return "soft" if self.l1 < 0.0 else "hard"
 
     def special_point(self) -> SpecialPoint:
-        """This Hopf point as a :class:`~polywear.analysis.points.SpecialPoint` (kind HB)."""
+        """This Hopf point as a :class:`~polywear.dynamics.points.SpecialPoint` (kind HB)."""
         return SpecialPoint(PointKind.HOPF, self.speed_kmh, self.frequency_hz, criticality=self.criticality)
 
     def summary(self) -> dict:

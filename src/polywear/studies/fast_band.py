@@ -2,17 +2,17 @@
 
 A study or a fleet needs, per parameter set, only the bifurcation speeds and the bands
 (linear, SEV, hard) and perhaps the cycle amplitude at a few speeds, not every cycle of
-every branch. The full path (:func:`~polywear.analysis.bifurcation.bifurcation_diagram`)
+every branch. The full path (:func:`~polywear.dynamics.bifurcation.bifurcation_diagram`)
 continues whole branches; the fast path solves the defining systems directly:
 
 1. **Hopf points**: equilibrium eigenvalues on a coarse grid (``n_grid`` speeds), each
    sign change refined by Brent's method on the tracked eigenvalue, with the first
-   Lyapunov coefficient (:func:`~polywear.analysis.stability.stability_analysis`).
+   Lyapunov coefficient (:func:`~polywear.dynamics.stability.stability_analysis`).
 2. **Folds of cycles**: each fold of a *reference* (a solved nearby parameter set) is
    followed in the parameters along the straight line ``p(theta) = p_ref + theta (p -
    p_ref)`` from ``theta = 0`` to 1. Predictor: the exact fold-speed gradient of the
    reference (left null vector of the collocation system,
-   :func:`~polywear.analysis.sensitivity.fold_speed_derivative`), then secants; the
+   :func:`~polywear.dynamics.sensitivity.fold_speed_derivative`), then secants; the
    Newton guess is the last fold moved along its tangent in the parameters (the whole
    orbit to first order, :func:`~polywear.solvers.continuation.fold_parameter_tangent`).
    Corrector (:func:`~polywear.solvers.continuation.solve_fold`): Newton on the fold's
@@ -70,7 +70,7 @@ from ..units import DEFAULT_SPEED_RANGE_KMH
 from ..solvers.continuation import (BranchPoint, ContinuationSettings, cycle_along_branch, fold_at, fold_curvature,
                                     on_adapted_mesh, recentred, solve_at_speed, solve_at_speed_on_kinks,
                                     solve_fold)
-from .points import PointKind
+from ..dynamics.points import PointKind
 
 __all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "band_from_diagram", "band_reference",
            "Pilot", "pilot_indices", "pilot_references", "pilot_size", "pilot_stage"]
@@ -81,7 +81,7 @@ def _fixed_range() -> dict:
     both paths must answer on the same range; choose the range wide enough instead."""
     import inspect
 
-    from .bifurcation import bifurcation_diagram
+    from ..dynamics.bifurcation import bifurcation_diagram
 
     return {"extend": False} if "extend" in inspect.signature(bifurcation_diagram).parameters else {}
 
@@ -317,7 +317,7 @@ def band_reference(diagram, amplitude_speeds_kmh=()) -> BandReference:
             if label == "LP":
                 folds.append(point)
                 scales.append(branch.scales)
-    from .sensitivity import fold_speed_derivative
+    from ..dynamics.sensitivity import fold_speed_derivative
 
     p = model.pack(diagram.params)
     unit = np.eye(len(p))
@@ -371,7 +371,7 @@ class _PilotReference:
     settings: ContinuationSettings
 
     def __call__(self, params: Params) -> BandReference | str:
-        from .bifurcation import bifurcation_diagram
+        from ..dynamics.bifurcation import bifurcation_diagram
 
         try:
             diagram = bifurcation_diagram(params, self.speed_range_kmh, self.settings, **_FIXED_RANGE)
@@ -508,7 +508,7 @@ def _crosses_between(params, a_kmh: float, b_kmh: float, peak: bool) -> bool:
     a narrow band the grid missed. Bounded scalar search, as ``fast_linear_band`` does."""
     from scipy.optimize import minimize_scalar
 
-    from .stability import equilibrium_eigenvalues
+    from ..dynamics.stability import equilibrium_eigenvalues
 
     model = get_model(params.model)
     p = model.pack(params)
@@ -625,7 +625,7 @@ class FastBand:
 
     def diagram(self, params: Params):
         """The full bifurcation diagram of ``params`` on the solver's speed range (not widened)."""
-        from .bifurcation import bifurcation_diagram
+        from ..dynamics.bifurcation import bifurcation_diagram
 
         return bifurcation_diagram(params, self.speed_range_kmh, self.settings, **_FIXED_RANGE)
 
@@ -645,7 +645,7 @@ class FastBand:
     # -- the steps --------------------------------------------------------------------------------
     def _hopf(self, params, p):
         """The stability analysis of ``params`` and the reference of its Hopf signature."""
-        from .stability import StabilitySettings, stability_analysis
+        from ..dynamics.stability import StabilitySettings, stability_analysis
 
         try:
             stab = stability_analysis(params, self.speed_range_kmh, StabilitySettings(n_speeds=self.n_grid))

@@ -13,7 +13,7 @@ every cycle speed outside the linear band (where the tread vibrates).
 Search. Per parameter and per direction (more and less of it), multiplicative steps
 ``p0 * f`` on a geometric grid up to ``max_factor``; the first step that meets the
 criterion is refined by bisection in ``ln f`` to 1 %. Parameter handling (keys,
-``adhesion_scale``, categories) is that of :mod:`polywear.analysis.design`.
+``adhesion_scale``, categories) is that of :mod:`polywear.dynamics.design`.
 
 Verification. Each option found can be checked by the nonlinear evolution over the
 target distance (:func:`verify_option`): the depth it reaches and whether the polygon
@@ -30,10 +30,10 @@ import numpy as np
 from ..models import get_model
 from ..results import Result
 from ..params import ADHESION_SCALE, Params
-from .design import DEFAULT_KEYS, ENGINEERING, parameter_category, parameter_label
-from .sensitivity import nominal_value, parameter_direction, perturbed
-from .wear_evolution import EvolutionSettings, evolve
-from .wear_map import wear_map
+from ..dynamics.design import DEFAULT_KEYS, ENGINEERING, parameter_category, parameter_label
+from ..dynamics.sensitivity import nominal_value, parameter_direction, perturbed
+from .evolution import EvolutionSettings, evolve
+from .map import wear_map
 
 __all__ = ["WearDesignOption", "WearDesignResult", "cycle_rates", "cycle_growth", "linear_depth_mm", "wear_design",
            "verify_option"]
@@ -66,7 +66,7 @@ def cycle_growth(params: Params, cycle=None) -> tuple[float, int, bool]:
 def linear_depth_mm(params: Params, distance_km: float, cycle=None) -> float:
     """Peak-to-valley depth [mm] after ``distance_km`` of the seeded roughness grown by the
     linear map (exact while the profile is small and rolling stable; inf if it is not)."""
-    from .wear_evolution import initial_roughness, peak_to_valley
+    from .evolution import initial_roughness, peak_to_valley
 
     rates = cycle_rates(params, cycle)
     if rates is None:
@@ -172,7 +172,7 @@ def wear_design(params: Params, keys=None, target_km: float | None = None, cycle
                 grid: int = 24) -> WearDesignResult:
     """Least relative change of each key (both directions) that meets the wear criterion.
 
-    ``keys`` default :data:`polywear.analysis.design.DEFAULT_KEYS` (those that enter the
+    ``keys`` default :data:`polywear.dynamics.design.DEFAULT_KEYS` (those that enter the
     model); ``target_km``: visible-polygon distance to exceed (None: every order stable);
     ``max_factor``: largest change searched (p0 * f or p0 / f).
     """

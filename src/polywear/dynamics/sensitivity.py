@@ -322,7 +322,7 @@ def local_sensitivity(
         Progress callback (:mod:`polywear.progress`): continuation steps of all the
         diagrams computed, total unknown.
     **diagram_options
-        Passed to :func:`polywear.analysis.bifurcation.bifurcation_diagram`.
+        Passed to :func:`polywear.dynamics.bifurcation.bifurcation_diagram`.
 
     Returns
     -------

@@ -8,7 +8,7 @@ this module evaluates the model along it, seeds the curves and builds the map.
 * **Hopf curves** by pseudo-arclength continuation of ``Re lambda(V, theta) = 0`` for
   the tracked critical eigenvalue ``lambda``, in coordinates scaled by the widths of the
   speed and parameter ranges. The gradient ``(d Re lambda/dV, d Re lambda/d theta)``
-  is exact (:func:`~polywear.analysis.stability.critical_eigenvalue_derivative`), so the
+  is exact (:func:`~polywear.dynamics.stability.critical_eigenvalue_derivative`), so the
   tangent is too, and turning points in ``theta`` - where the two Hopf speeds of a
   band merge and the linear band closes - are passed and located (zero of the
   tangent's ``theta`` component). Along every curve the first Lyapunov coefficient
@@ -16,7 +16,7 @@ this module evaluates the model along it, seeds the curves and builds the map.
   point, located by secant iteration on the arclength: soft on one side, hard on the
   other, and the fold-of-cycles curve starts there.
 * **Fold curves** by natural continuation in ``theta``: the predictor is the exact
-  derivative ``dV_fold/d theta`` (:func:`~polywear.analysis.sensitivity.fold_speed_derivative`,
+  derivative ``dV_fold/d theta`` (:func:`~polywear.dynamics.sensitivity.fold_speed_derivative`,
   left null vector of the collocation system), the corrector re-locates the fold at
   the new ``theta`` (:func:`~polywear.solvers.continuation.fold_at`): Newton on the
   fold's defining system (minimally augmented) from the last fold, recentred on the new
@@ -26,12 +26,12 @@ this module evaluates the model along it, seeds the curves and builds the map.
   fails (a turning point of the fold curve, e.g. a cusp), or where the fold's
   amplitude has shrunk towards a Bautin point.
 
-Seeds: Hopf points of :func:`~polywear.analysis.stability.stability_analysis` and folds
-of :func:`~polywear.analysis.bifurcation.bifurcation_diagram` at a few parameter values;
+Seeds: Hopf points of :func:`~polywear.dynamics.stability.stability_analysis` and folds
+of :func:`~polywear.dynamics.bifurcation.bifurcation_diagram` at a few parameter values;
 a seed already on a computed curve is skipped, so isolated curves are found too.
 
 Bands per parameter value (for shading and the safe-parameter summary): the linear
-band from :func:`~polywear.analysis.stability.fast_linear_band`; the hard band
+band from :func:`~polywear.dynamics.stability.fast_linear_band`; the hard band
 between every fold speed and the nearest bound of the linear band (the subcritical
 Hopf point the unstable cycle is born at - the topology of all the cases we met; the
 one-parameter diagrams in the tests check it); the SEV band is their union.
