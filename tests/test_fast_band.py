@@ -11,11 +11,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation
 from polywear.studies.fast_band import (_FIXED_RANGE, BandPath, Fallback, FallbackReason, FastBand, band_from_diagram,
                                          band_reference, pilot_indices, pilot_references)
-from polywear.studies.global_sensitivity import DEFAULT_KEYS, sample_params
-from polywear.dynamics.stability import stability_analysis
+from polywear.studies.global_sensitivity import DEFAULT_KEYS
+from polywear.studies.sampling import sample_params
+from polywear.dynamics.stability import stability
 from polywear.models import get_model
 from polywear.models.base import kmh_to_ms
 from polywear.params import Params, get_value, with_updates
@@ -28,7 +29,7 @@ AMPLITUDE_SPEEDS = (80.0, 130.0)
 @pytest.fixture(scope="module")
 def tread_solver():
     base = with_updates(Params(), {"model": "tread1dof"})
-    ref = band_reference(bifurcation_diagram(base, **_FIXED_RANGE), AMPLITUDE_SPEEDS)
+    ref = band_reference(bifurcation(base, **_FIXED_RANGE), AMPLITUDE_SPEEDS)
     return base, FastBand((ref,), amplitude_speeds_kmh=AMPLITUDE_SPEEDS)
 
 
@@ -72,7 +73,7 @@ def test_fallback_reasons_are_typed(tread_solver):
     other = FastBand((replace(ref, band=replace(ref.band, hopf_criticality=("soft",))),))
     out = other.try_fast(base)
     assert out.reason is FallbackReason.HOPF_SIGNATURE and "('soft', 'hard')" in out.detail
-    band = band_from_diagram(bifurcation_diagram(base, **_FIXED_RANGE), fallback=out)
+    band = band_from_diagram(bifurcation(base, **_FIXED_RANGE), fallback=out)
     assert band.path is BandPath.FULL and band.summary()["reason"] == "hopf_signature"
 
 
@@ -116,7 +117,7 @@ def test_random_samples_agree_with_full_continuation(tread_solver):
 def test_axle4dof_samples_agree_with_full_continuation():
     """axle4dof, +-5 % around the defaults (at +-10 % many samples change topology and fall back)."""
     base = with_updates(Params(), {"model": "axle4dof"})
-    solver = FastBand((band_reference(bifurcation_diagram(base, **_FIXED_RANGE), AMPLITUDE_SPEEDS),),
+    solver = FastBand((band_reference(bifurcation(base, **_FIXED_RANGE), AMPLITUDE_SPEEDS),),
                       amplitude_speeds_kmh=AMPLITUDE_SPEEDS)
     rng = np.random.default_rng(20261201)
     nominal = np.array([get_value(base, k) for k in DEFAULT_KEYS])
@@ -143,7 +144,7 @@ def test_hard_region_the_continuation_missed_is_confirmed_by_simulation(tread_so
         "operating.toe_deg": 0.4860230639, "friction.mu_static": 0.823947039, "tread.mass_kg": 0.9337926137,
         "operating.vertical_load_n": 3982.582287,
     })
-    reference = band_reference(bifurcation_diagram(base, **_FIXED_RANGE), (210.0,))
+    reference = band_reference(bifurcation(base, **_FIXED_RANGE), (210.0,))
     band = FastBand((reference,), amplitude_speeds_kmh=(210.0,))(car)
     assert band.path == "fast", band.reason
     ((lo, hi),) = band.hard_regions_kmh
@@ -165,7 +166,7 @@ def test_cycle_near_a_hopf_point_is_found_by_the_diagram():
         "operating.camber_deg": -0.987686207752469, "friction.mu_static": 0.9239243546312512,
         "tread.mass_kg": 0.9563313162239697, "operating.vertical_load_n": 3785.309079521403,
     })
-    full = band_from_diagram(bifurcation_diagram(car, **_FIXED_RANGE), (80.0,))
+    full = band_from_diagram(bifurcation(car, **_FIXED_RANGE), (80.0,))
     assert full.hopf_kmh[0] < 80.0 < full.sev_band_kmh[0][1]
     # square-root law from the Hopf point: ~2.5e-5 m at 0.16 km/h above it
     assert 1e-5 < full.amplitude_x_m[0] < 5e-5
@@ -200,7 +201,7 @@ def test_a_reference_whose_band_runs_to_the_range_end_is_not_used(tread_solver):
     fold at ~296 km/h; started from that reference it would report no fold and a band to
     300 km/h (8 of 200 samples did so in an agreement run). Such a reference is unusable."""
     base, solver = tread_solver
-    beyond = band_reference(bifurcation_diagram(with_updates(base, {"operating.toe_deg": 0.38}), **_FIXED_RANGE),
+    beyond = band_reference(bifurcation(with_updates(base, {"operating.toe_deg": 0.38}), **_FIXED_RANGE),
                             AMPLITUDE_SPEEDS)
     assert beyond.unusable.startswith("an interval of the reference ends at an end of the speed range")
     car = with_updates(base, {"operating.toe_deg": 0.43})
@@ -214,7 +215,7 @@ def test_cycle_along_branch_is_the_diagrams_cycle():
     """tread1dof: soft Hopf point at 58 km/h, fold at 255, hard Hopf point at 208 (one branch).
     Along the branch from a Hopf point, or from the fold on either side, the cycle at a speed
     is the diagram's there (with its stability); a branch that turns away first gives None."""
-    diagram = bifurcation_diagram(with_updates(Params(), {"model": "tread1dof"}), **_FIXED_RANGE)
+    diagram = bifurcation(with_updates(Params(), {"model": "tread1dof"}), **_FIXED_RANGE)
     model = get_model("tread1dof")
     p, ix = model.pack(diagram.params), model.index("x")
     soft, hard = diagram.hopf_points
@@ -263,7 +264,7 @@ def test_cycle_outside_the_references_stable_interval_is_found_along_the_branch(
     70.6 km/h. The cycle at 80 km/h is reached from the sample's fold (6 of 60 samples fell
     back for this before) and is the continuation's."""
     base = with_updates(Params(), {"model": "axle4dof"})
-    ref = band_reference(bifurcation_diagram(with_updates(base, AXLE_REF_HARD), **_FIXED_RANGE), AMPLITUDE_SPEEDS)
+    ref = band_reference(bifurcation(with_updates(base, AXLE_REF_HARD), **_FIXED_RANGE), AMPLITUDE_SPEEDS)
     assert ref.band.hopf_criticality == ("hard", "hard") and not ref.unusable
     assert ref.band.folds_kmh[0] > 80.0 and ref.cycles[0] is None
     solver = FastBand((ref,), amplitude_speeds_kmh=AMPLITUDE_SPEEDS)
@@ -282,13 +283,13 @@ def test_small_cycle_just_above_a_hopf_point_is_found_either_way():
     estimate of ``newton_converged``, before which it failed), so the branch from the
     sample's Hopf point must reach the same cycle too: both are the continuation's."""
     base = with_updates(Params(), {"model": "axle4dof"})
-    ref = band_reference(bifurcation_diagram(base, **_FIXED_RANGE), AMPLITUDE_SPEEDS)
+    ref = band_reference(bifurcation(base, **_FIXED_RANGE), AMPLITUDE_SPEEDS)
     solver = FastBand((ref,), amplitude_speeds_kmh=AMPLITUDE_SPEEDS)
     car = with_updates(base, AXLE_HOPF_BELOW_80)
     model, V = get_model("axle4dof"), kmh_to_ms(80.0)
     full = solver.full(car)
     newton = solve_at_speed(model, model.pack(car), ref.cycles[0], V, solver.settings)
-    hopf = stability_analysis(car, DEFAULT_SPEED_RANGE_KMH).hopf_points[0]
+    hopf = stability(car, DEFAULT_SPEED_RANGE_KMH).hopf_points[0]
     along = cycle_along_branch(model, model.pack(car), hopf, V, solver.settings)
     for point in (newton, along):
         assert point is not None and point.stable
@@ -317,7 +318,7 @@ def test_amplitude_of_a_kinked_cycle_is_solved_on_its_own_kinks(tread_solver):
     p = model.pack(car)
     band = solver(car)
     assert band.path is BandPath.FAST, band.detail
-    diagram = bifurcation_diagram(car, **_FIXED_RANGE)
+    diagram = bifurcation(car, **_FIXED_RANGE)
     (cycle,) = [c for c in diagram.cycles_at(130.0) if c.stable]
     assert switching_times(model, p, cycle.orbit).size == 2
     fine = solve_at_speed(model, p, cycle.orbit.with_mesh(np.linspace(0.0, 1.0, 4 * cycle.orbit.n_intervals + 1)), V)

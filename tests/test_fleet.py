@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation
 from polywear.studies.fast_band import _FIXED_RANGE, FastBand, band_reference
 from polywear.studies.fleet import (
     CAR_FIELDS,
@@ -24,7 +24,7 @@ from polywear.studies.fleet import (
     FleetResult,
     FleetSpec,
     classifier_importances,
-    fleet_risk,
+    fleet,
     load_fleet_spec,
     main_effects,
     sample_fleet,
@@ -62,7 +62,7 @@ def _spec(tmp_path, samples=12, seed=3, every=5, text=TOE_SPEC):
 @pytest.fixture(scope="module")
 def reference():
     """The nominal car's diagram (toe 0.5 deg), shared by the evaluations below."""
-    return band_reference(bifurcation_diagram(Params(), (10.0, 600.0), **_FIXED_RANGE))
+    return band_reference(bifurcation(Params(), (10.0, 600.0), **_FIXED_RANGE))
 
 
 # -- spec validation ---------------------------------------------------------------------------
@@ -169,7 +169,7 @@ def test_risk_matches_the_toe_law(tmp_path, reference):
     """tread1dof: every speed scales as 1/sin(toe), so the cars at risk are those with toe in a
     closed-form interval; the exact interval of the sampled risk must cover that probability."""
     spec = _spec(tmp_path, samples=40, seed=4, every=40)
-    result = fleet_risk(Params(), spec, backend="serial", reference=reference)
+    result = fleet(Params(), spec, backend="serial", reference=reference)
     s = result.summary()
     assert s["failed_samples"] == 0 and s["failed_cars"] == [] and s["fallback_reasons"] == {}
     assert s["paths"] == {"hopf": 0, "fast": 39, "full": 0, "pilot": 1}  # car 0: the pilot stage's (1 per 32)
@@ -198,9 +198,9 @@ def test_risk_matches_the_toe_law(tmp_path, reference):
 def test_band_every_keeps_risk_exact(tmp_path, reference):
     """band_every = 3: risk, hard excitation and the first speed of every car as with whole
     bands; both speeds for cars 0, 3, 6; the second speed left out for the others."""
-    whole = fleet_risk(Params(), _spec(tmp_path, samples=9, every=9), backend="serial", reference=reference)
+    whole = fleet(Params(), _spec(tmp_path, samples=9, every=9), backend="serial", reference=reference)
     text = TOE_SPEC.replace("[[fleet.parameter]]", "band_every = 3\n[[fleet.parameter]]", 1)
-    lazy = fleet_risk(Params(), _spec(tmp_path, samples=9, every=9, text=text), backend="serial", reference=reference)
+    lazy = fleet(Params(), _spec(tmp_path, samples=9, every=9, text=text), backend="serial", reference=reference)
     np.testing.assert_array_equal(whole.values[:, 2:4], lazy.values[:, 2:4])
     np.testing.assert_allclose(whole.values[:, 0], lazy.values[:, 0], rtol=1e-12)
     np.testing.assert_array_equal(whole.values[::3, :2], lazy.values[::3, :2])
@@ -214,7 +214,7 @@ def test_resume_is_bit_identical(tmp_path, reference):
     another spec, of an older polywear (no pilot stage) or with other pilot cars is refused."""
     text = TOE_SPEC.replace("[[fleet.parameter]]", "band_every = 2\n[[fleet.parameter]]", 1)
     spec = _spec(tmp_path, samples=40, every=16, text=text)
-    whole = fleet_risk(Params(), spec, backend="serial", reference=reference)
+    whole = fleet(Params(), spec, backend="serial", reference=reference)
     assert whole.paths[0] == "pilot" and whole.summary()["paths"]["pilot"] == 1
 
     def interrupt(done, total, message=""):  # after the second chunk is computed, before its checkpoint is written
@@ -222,28 +222,28 @@ def test_resume_is_bit_identical(tmp_path, reference):
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        fleet_risk(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path,
-                   progress=interrupt, batch_size=4)
+        fleet(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path,
+              progress=interrupt, batch_size=4)
     ckpt = tmp_path / "fleet_checkpoint.npz"
     assert int(np.load(ckpt)["done"]) == 16
     np.testing.assert_array_equal(np.load(ckpt)["pilot"], [0])
-    resumed = fleet_risk(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path,
-                         resume=True)
+    resumed = fleet(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path,
+                    resume=True)
     np.testing.assert_array_equal(whole.values, resumed.values)
     assert whole.status == resumed.status and whole.paths == resumed.paths
     other = _spec(tmp_path, samples=40, every=16, seed=99, text=text)
     with pytest.raises(ParameterError, match="checkpoint of another"):
-        fleet_risk(Params(), other, backend="serial", reference=reference, checkpoint_dir=tmp_path, resume=True)
+        fleet(Params(), other, backend="serial", reference=reference, checkpoint_dir=tmp_path, resume=True)
     with pytest.raises(ParameterError, match="other pilot cars"):  # written with the pilot stage, resumed without
-        fleet_risk(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path, resume=True,
-                   pilot=False)
+        fleet(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path, resume=True,
+              pilot=False)
     data = dict(np.load(ckpt))
     np.savez(ckpt, **{name: value for name, value in data.items() if name != "pilot"})
     with pytest.raises(ParameterError, match="older polywear [(]no pilot stage[)]"):
-        fleet_risk(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path, resume=True)
+        fleet(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path, resume=True)
     np.savez(ckpt, **(data | {"values": data["values"][:, :6]}))  # before the gap output
     with pytest.raises(ParameterError, match="older polywear [(]other outputs per car[)]"):
-        fleet_risk(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path, resume=True)
+        fleet(Params(), spec, backend="serial", reference=reference, checkpoint_dir=tmp_path, resume=True)
 
 
 @pytest.mark.slow
@@ -252,16 +252,16 @@ def test_same_numbers_on_serial_processes_and_dask(tmp_path, reference):
 
     text = TOE_SPEC.replace("[[fleet.parameter]]", "band_every = 4\n[[fleet.parameter]]", 1)
     spec = _spec(tmp_path, samples=32, every=32, text=text)  # car 0: the pilot car, solved on each backend
-    serial = fleet_risk(Params(), spec, backend="serial", reference=reference)
+    serial = fleet(Params(), spec, backend="serial", reference=reference)
     assert serial.paths[0] == "pilot"
-    processes = fleet_risk(Params(), spec, backend="processes", workers=2, reference=reference)
+    processes = fleet(Params(), spec, backend="processes", workers=2, reference=reference)
     np.testing.assert_array_equal(serial.values, processes.values)
     environ = dict(os.environ)  # the nannies write their workers' OMP/OPENBLAS_NUM_THREADS=1 etc. into ours
     cluster = LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1", dashboard_address=None,
                            processes=True)
     try:
-        dask = fleet_risk(Params(), spec, backend="dask", scheduler=cluster.scheduler_address, reference=reference,
-                          batch_size=1)
+        dask = fleet(Params(), spec, backend="dask", scheduler=cluster.scheduler_address, reference=reference,
+                     batch_size=1)
     finally:
         cluster.close()
         os.environ.clear()
@@ -274,12 +274,12 @@ def test_same_numbers_on_serial_processes_and_dask(tmp_path, reference):
 @pytest.mark.slow
 def test_wear_share_from_the_wear_map(tmp_path, reference):
     """Per car: the shortest e-folding distance over the usage speeds, each speed's map taken alone."""
-    from polywear.studies.global_sensitivity import sample_params
+    from polywear.studies.sampling import sample_params
     from polywear.wear.map import wear_map
 
     text = TOE_SPEC.replace("[[fleet.parameter]]", "mileage_km = 50000.0\n[[fleet.parameter]]", 1)
     spec = _spec(tmp_path, samples=3, every=3, text=text)
-    result = fleet_risk(Params(), spec, backend="serial", reference=reference)
+    result = fleet(Params(), spec, backend="serial", reference=reference)
     for x, row in zip(result.samples, result.values):
         car = sample_params(Params(), ["operating.toe_deg"], x)
         alone = [np.nanmin(wear_map(car, [v]).efold_km, initial=np.inf) for v in (110.0, 60.0)]
@@ -395,7 +395,7 @@ def test_fallbacks_and_failures_per_car(tmp_path):
     import pandas as pd
 
     s = json.loads(out)
-    nominal = bifurcation_diagram(Params(), (10.0, 260.0), **_FIXED_RANGE).folds[0].speed_kmh
+    nominal = bifurcation(Params(), (10.0, 260.0), **_FIXED_RANGE).folds[0].speed_kmh
     outside = np.sin(np.radians(toe)) < math.sin(math.radians(0.5)) * nominal / 260.0
     failed = np.flatnonzero(~ok)
     assert s["failed_samples"] == len(failed) and [c["car"] for c in s["failed_cars"]] == failed.tolist()
@@ -415,8 +415,8 @@ def test_a_pilot_car_serves_its_hopf_signature():
     path gives it), and the other cars of its Hopf signature start from it: cars 8 and 16
     (whole bands, band_every = 8) take the fast path, where the nominal reference alone has
     none of their signature (every such car fell back with hopf_signature)."""
-    from polywear.studies.global_sensitivity import sample_params
-    from polywear.dynamics.stability import stability_analysis
+    from polywear.studies.sampling import sample_params
+    from polywear.dynamics.stability import stability
 
     base = with_updates(Params(), {"model": "axle4dof"})
     spec = FleetSpec(samples=32, seed=6, band_every=8, speed_range_kmh=(10.0, 600.0), usage=[
@@ -428,12 +428,12 @@ def test_a_pilot_car_serves_its_hopf_signature():
     assert X[0, 0] == X[8, 0] == X[16, 0] == 0.945 and X[24, 0] == 0.9
 
     def signature(values):
-        return tuple(h.criticality for h in stability_analysis(sample_params(base, keys, values), (10.0, 600.0)).hopf_points)
+        return tuple(h.criticality for h in stability(sample_params(base, keys, values), (10.0, 600.0)).hopf_points)
 
     assert signature([q.center for q in spec.parameter]) == ("soft", "hard")
     assert signature(X[0]) == signature(X[8]) == signature(X[16]) == ("hard", "hard")
     calls = []
-    result = fleet_risk(base, spec, backend="serial", progress=lambda *call: calls.append(call))
+    result = fleet(base, spec, backend="serial", progress=lambda *call: calls.append(call))
     # the pilot stage (nominal car and car 0) reports first, in its messages, at 0 cars done of 32
     pilot = [c for c in calls if c[2].startswith("pilot")]
     assert pilot == calls[:len(pilot)] and pilot[-1] == (0, 32, "pilot: 2 of 2 references by full continuation")
@@ -461,7 +461,7 @@ def test_dask_fleet_survives_a_killed_worker(tmp_path, reference):
         pytest.fail(f"{DASK} missing: dask[distributed] is a dependency")
     text = TOE_SPEC.replace("[[fleet.parameter]]", "band_every = 100\n[[fleet.parameter]]", 1)
     spec = _spec(tmp_path, samples=300, seed=21, every=300, text=text)
-    serial = fleet_risk(Params(), spec, backend="serial", reference=reference)
+    serial = fleet(Params(), spec, backend="serial", reference=reference)
     cluster = Cluster(2, tmp_path)
     try:
         victim, done = cluster.workers[1], []
@@ -474,8 +474,8 @@ def test_dask_fleet_survives_a_killed_worker(tmp_path, reference):
                 victim.kill()
                 victim.wait(10)
 
-        dask = fleet_risk(Params(), spec, backend="dask", scheduler=cluster.address, batch_size=10,
-                          reference=reference, progress=kill_after_first_task)
+        dask = fleet(Params(), spec, backend="dask", scheduler=cluster.address, batch_size=10,
+                     reference=reference, progress=kill_after_first_task)
         assert victim.poll() is not None and done[0] < 300 and done[-1] == 300 and len(done) == 30
         assert cluster.n_workers() == 1
     finally:
@@ -516,7 +516,7 @@ def test_a_usage_speed_in_a_gap_after_a_period_doubling_is_counted():
     from .test_verdict import CASCADE_AXLE
 
     base = with_updates(Params(), {"model": "axle4dof"})
-    nominal = band_reference(bifurcation_diagram(base, (10.0, 600.0), extend=False))
+    nominal = band_reference(bifurcation(base, (10.0, 600.0), extend=False))
     solver = FastBand((nominal,), speed_range_kmh=(10.0, 600.0))
     values = [CASCADE_AXLE[k] for k in DEFAULT_KEYS]
     spec = FleetSpec(samples=3, parameter=MARGINALS[:1], usage=[{"speed_kmh": 58.0, "share": 1.0}])

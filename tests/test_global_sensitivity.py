@@ -14,17 +14,17 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import brentq
 
-from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation
 from polywear.studies.global_sensitivity import (
     SampleOutcome,
     SampleStatus,
     StudyEvaluator,
-    global_sensitivity,
     max_stable_amplitude,
-    sample_params,
+    study,
 )
-from polywear.dynamics.sensitivity import local_sensitivity
-from polywear.dynamics.stability import fast_linear_band, stability_analysis
+from polywear.studies.sampling import sample_params
+from polywear.dynamics.sensitivity import sensitivity
+from polywear.dynamics.stability import fast_linear_band, stability
 from polywear.models import get_model
 from polywear.params import ParameterError, Params, StudySpec, load_params, load_study, with_updates
 
@@ -104,7 +104,7 @@ def test_fast_band_finds_a_band_narrower_than_its_grid():
 ])
 def test_fast_band_matches_the_stability_analysis_on_axle4dof(updates):
     params = with_updates(Params(), updates)
-    reference = stability_analysis(params, RANGE)
+    reference = stability(params, RANGE)
     fast = fast_linear_band(params, RANGE)
     assert len(fast) == len(reference.unstable_intervals_kmh) >= 1
     assert np.allclose(_flat(fast), _flat(reference.unstable_intervals_kmh), rtol=1e-8)
@@ -137,7 +137,7 @@ def test_evaluator_statuses():
 
 def test_max_stable_amplitude_at_110_kmh_matches_model_md():
     """docs/model.md section 7: the stable cycle at 110 km/h has an amplitude near 0.27 mm."""
-    diagram = bifurcation_diagram(Params())
+    diagram = bifurcation(Params())
     a = max_stable_amplitude(diagram, (109.999, 110.001))
     assert 0.25e-3 < a < 0.29e-3
     wide = max_stable_amplitude(diagram, (80.0, 300.0))
@@ -156,7 +156,7 @@ SMALL = [  # +-1 %: the Hopf speeds are linear in the parameters to ~1e-2 relati
 
 @pytest.fixture(scope="module")
 def derivatives():
-    result = local_sensitivity(Params(), [k for k, _ in SMALL])
+    result = sensitivity(Params(), [k for k, _ in SMALL])
     return {(r["quantity"], r["param"]): r["derivative"] for r in result.rows}
 
 
@@ -172,7 +172,7 @@ def _small_study(method: str, n_base: int) -> StudySpec:
 
 def test_sobol_indices_of_a_nearly_linear_output_are_its_squared_derivatives(derivatives):
     """For Y = sum a_i x_i with independent uniform x_i: S1_i = ST_i = a_i^2 var_i / sum_j a_j^2 var_j."""
-    result = global_sensitivity(Params(), _small_study("sobol", 512), backend="serial")
+    result = study(Params(), _small_study("sobol", 512), backend="serial")
     assert result.failures() == {}
     for out, q in (("hopf_1_kmh", "hopf_1"), ("hopf_2_kmh", "hopf_2")):
         weights = np.array([(derivatives[(q, k)] * 0.02 * v) ** 2 for k, v in SMALL])
@@ -187,7 +187,7 @@ def test_sobol_indices_of_a_nearly_linear_output_are_its_squared_derivatives(der
 
 
 def test_morris_elementary_effects_are_derivative_times_range(derivatives):
-    result = global_sensitivity(Params(), _small_study("morris", 20), backend="serial")
+    result = study(Params(), _small_study("morris", 20), backend="serial")
     assert len(result.status) == 20 * 4
     for out, q in (("hopf_1_kmh", "hopf_1"), ("hopf_2_kmh", "hopf_2")):
         ind = result.indices[out]
@@ -198,12 +198,12 @@ def test_morris_elementary_effects_are_derivative_times_range(derivatives):
 
 
 def test_a_parameter_outside_the_model_has_zero_total_index():
-    study = StudySpec().with_updates({
+    spec = StudySpec().with_updates({
         "n_base": 64, "bootstrap": 50,
         "parameters": [{"key": "operating.toe_deg", "low": 0.4, "high": 0.6},
-                             {"key": "operating.camber_deg", "low": -2.0, "high": 0.0}],
+                            {"key": "operating.camber_deg", "low": -2.0, "high": 0.0}],
     })
-    result = global_sensitivity(Params(), study, backend="serial")
+    result = study(Params(), spec, backend="serial")
     for out in result.outputs:
         ind = result.indices[out]
         assert ind["ST"][1] == 0.0 and ind["S1"][1] == 0.0  # camber does not enter tread1dof
@@ -213,12 +213,12 @@ def test_a_parameter_outside_the_model_has_zero_total_index():
 
 def test_failed_samples_are_recorded_counted_and_their_blocks_dropped():
     """Damping above ~520 N s/m or mu_s below ~0.6 close the band; mu_s below mu_c = 0.5 is invalid."""
-    study = StudySpec().with_updates({
+    spec = StudySpec().with_updates({
         "n_base": 64, "second_order": False, "bootstrap": 50,
         "parameters": [{"key": "tread.lateral_damping_ns_per_m", "low": 50.0, "high": 560.0},
-                             {"key": "friction.mu_static", "low": 0.49, "high": 1.2}],
+                            {"key": "friction.mu_static", "low": 0.49, "high": 1.2}],
     })
-    result = global_sensitivity(Params(), study, backend="serial")
+    result = study(Params(), spec, backend="serial")
     status = np.array([s.status for s in result.status])
     failures = result.failures()
     n_invalid = int(np.sum(status == SampleStatus.INVALID))
@@ -241,7 +241,7 @@ def test_failed_samples_are_recorded_counted_and_their_blocks_dropped():
 
 # -- saving, the command ------------------------------------------------------------------------
 def test_save_netcdf_csv_json(tmp_path):
-    result = global_sensitivity(Params(), StudySpec().with_updates({"n_base": 16, "bootstrap": 20}), backend="serial")
+    result = study(Params(), StudySpec().with_updates({"n_base": 16, "bootstrap": 20}), backend="serial")
     result.save(tmp_path / "s.nc")
     ds = xr.open_dataset(tmp_path / "s.nc", engine="h5netcdf")
     np.testing.assert_array_equal(ds["value"].values, result.values)
@@ -289,18 +289,18 @@ def test_cli_bad_input(args, fragment):
 
 @pytest.mark.slow
 def test_bifurcation_outputs_on_the_continuation_path():
-    study = StudySpec().with_updates({
+    spec = StudySpec().with_updates({
         "outputs": "bifurcation", "n_base": 8, "second_order": False, "bootstrap": 20,
         "parameters": [{"key": "friction.mu_static", "low": 0.85, "high": 0.95},
-                             {"key": "operating.camber_deg", "low": -1.5, "high": -0.5}],
+                            {"key": "operating.camber_deg", "low": -1.5, "high": -0.5}],
     })
-    result = global_sensitivity(Params(), study, backend="processes", workers=2)
+    result = study(Params(), spec, backend="processes", workers=2)
     assert result.outputs == ("first_bifurcation_kmh", "second_bifurcation_kmh", "sev_band_width_kmh",
                               "max_amplitude_mm")
     assert result.failures() == {}
     first, second, width, amplitude = result.values.T
     assert np.allclose(width, second - first)
-    nominal = bifurcation_diagram(Params()).summary()
+    nominal = bifurcation(Params()).summary()
     assert first.min() < nominal["first_bifurcation_speed_kmh"] < first.max()
     assert second.min() < nominal["second_bifurcation_speed_kmh"] < second.max()
     assert np.all((0.1 < amplitude) & (amplitude < 1.0))  # mm, stable cycles in 80-130 km/h
@@ -330,16 +330,16 @@ STUDY_PARAMETERS = [
 def test_study_table_round_trips_through_toml(tmp_path):
     from polywear.params import to_toml
 
-    study = StudySpec().with_updates({"method": "morris", "n_base": 12, "seed": 7,
-                                     "operating_range_kmh": [90, 120], "parameters": STUDY_PARAMETERS})
-    assert study.parameters[2].low == 60.0 and isinstance(study.parameters[2].low, float)
-    assert study.operating_range_kmh == (90.0, 120.0)
+    spec = StudySpec().with_updates({"method": "morris", "n_base": 12, "seed": 7,
+                                    "operating_range_kmh": [90, 120], "parameters": STUDY_PARAMETERS})
+    assert spec.parameters[2].low == 60.0 and isinstance(spec.parameters[2].low, float)
+    assert spec.operating_range_kmh == (90.0, 120.0)
     params = with_updates(Params(), {"tread.mass_kg": 1.5})
     for comments in (False, True):
         path = tmp_path / f"s{comments}.toml"
-        path.write_text(to_toml(params, comments=comments, study=study))
-        assert load_params(path) == params and load_study(path) == study
-    assert to_toml(params, study=study).count("[[study.parameters]]") == 4
+        path.write_text(to_toml(params, comments=comments, study=spec))
+        assert load_params(path) == params and load_study(path) == spec
+    assert to_toml(params, study=spec).count("[[study.parameters]]") == 4
     assert "[study]" not in to_toml(params)  # the study is not part of the parameters
 
 
@@ -397,12 +397,12 @@ def test_the_study_is_not_a_parameter(tmp_path):
 
 def test_salib_problem_follows_the_distributions():
     """Samples honour the declared distributions (bounds, modes, means)."""
-    study = StudySpec().with_updates({"n_base": 256, "second_order": False, "bootstrap": 10,
-                                     "parameters": STUDY_PARAMETERS})
+    spec = StudySpec().with_updates({"n_base": 256, "second_order": False, "bootstrap": 10,
+                                    "parameters": STUDY_PARAMETERS})
     from polywear.studies.global_sensitivity import _salib_problem, study_parameters
     from SALib.sample import sobol as sobol_sample
 
-    X = sobol_sample.sample(_salib_problem(study_parameters(Params(), study)), 256, calc_second_order=False, seed=1)
+    X = sobol_sample.sample(_salib_problem(study_parameters(Params(), spec)), 256, calc_second_order=False, seed=1)
     for j, q in enumerate(STUDY_PARAMETERS):
         assert X[:, j].min() >= q["low"] and X[:, j].max() <= q["high"]
     assert abs(np.median(X[:, 1]) - 1.0) < 0.02  # truncated normal about 1.0
@@ -411,7 +411,7 @@ def test_salib_problem_follows_the_distributions():
 
 
 def test_a_tiny_study_is_not_called_converged():
-    study = StudySpec().with_updates({"n_base": 8, "second_order": False, "bootstrap": 50})
-    result = global_sensitivity(Params(), study, backend="serial")
+    spec = StudySpec().with_updates({"n_base": 8, "second_order": False, "bootstrap": 50})
+    result = study(Params(), spec, backend="serial")
     assert not any(c["converged"] for c in result.convergence.values())
     assert all(result.indices[out]["n_used"] == 8 for out in result.outputs)

@@ -2,12 +2,12 @@
 
 A study or a fleet needs, per parameter set, only the bifurcation speeds and the bands
 (linear, SEV, hard) and perhaps the cycle amplitude at a few speeds, not every cycle of
-every branch. The full path (:func:`~polywear.dynamics.bifurcation.bifurcation_diagram`)
+every branch. The full path (:func:`~polywear.dynamics.bifurcation.bifurcation`)
 continues whole branches; the fast path solves the defining systems directly:
 
 1. **Hopf points**: equilibrium eigenvalues on a coarse grid (``n_grid`` speeds), each
    sign change refined by Brent's method on the tracked eigenvalue, with the first
-   Lyapunov coefficient (:func:`~polywear.dynamics.stability.stability_analysis`).
+   Lyapunov coefficient (:func:`~polywear.dynamics.stability.stability`).
 2. **Folds of cycles**: each fold of a *reference* (a solved nearby parameter set) is
    followed in the parameters along the straight line ``p(theta) = p_ref + theta (p -
    p_ref)`` from ``theta = 0`` to 1. Predictor: the exact fold-speed gradient of the
@@ -71,6 +71,7 @@ from ..solvers.continuation import (BranchPoint, ContinuationSettings, cycle_alo
                                     on_adapted_mesh, recentred, solve_at_speed, solve_at_speed_on_kinks,
                                     solve_fold)
 from ..dynamics.points import PointKind
+from .sampling import sample_params
 
 __all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "band_from_diagram", "band_reference",
            "Pilot", "pilot_indices", "pilot_references", "pilot_size", "pilot_stage"]
@@ -81,9 +82,9 @@ def _fixed_range() -> dict:
     both paths must answer on the same range; choose the range wide enough instead."""
     import inspect
 
-    from ..dynamics.bifurcation import bifurcation_diagram
+    from ..dynamics.bifurcation import bifurcation
 
-    return {"extend": False} if "extend" in inspect.signature(bifurcation_diagram).parameters else {}
+    return {"extend": False} if "extend" in inspect.signature(bifurcation).parameters else {}
 
 
 _FIXED_RANGE = _fixed_range()
@@ -371,10 +372,10 @@ class _PilotReference:
     settings: ContinuationSettings
 
     def __call__(self, params: Params) -> BandReference | str:
-        from ..dynamics.bifurcation import bifurcation_diagram
+        from ..dynamics.bifurcation import bifurcation
 
         try:
-            diagram = bifurcation_diagram(params, self.speed_range_kmh, self.settings, **_FIXED_RANGE)
+            diagram = bifurcation(params, self.speed_range_kmh, self.settings, **_FIXED_RANGE)
             return band_reference(diagram, self.amplitude_speeds_kmh)
         except Exception as exc:  # a pilot that fails is no reference; the caller counts it
             return f"{type(exc).__name__}: {exc}"
@@ -448,7 +449,6 @@ def pilot_stage(base: Params, keys, X, nominal: Params | BandReference, speed_ra
     parameter set, or its reference when already solved. A sample that is no valid
     parameter set is left out (the study or fleet records it with its own evaluation)."""
     from ..params import ParameterError
-    from .global_sensitivity import sample_params
 
     todo: dict[int, Params] = {}
     for i in pilot_indices(len(X), pilot_size(len(X))):
@@ -625,9 +625,9 @@ class FastBand:
 
     def diagram(self, params: Params):
         """The full bifurcation diagram of ``params`` on the solver's speed range (not widened)."""
-        from ..dynamics.bifurcation import bifurcation_diagram
+        from ..dynamics.bifurcation import bifurcation
 
-        return bifurcation_diagram(params, self.speed_range_kmh, self.settings, **_FIXED_RANGE)
+        return bifurcation(params, self.speed_range_kmh, self.settings, **_FIXED_RANGE)
 
     def _nearest(self, p, criticality: tuple) -> BandReference:
         """The nearest usable reference with these Hopf criticalities (relative distance)."""
@@ -645,10 +645,10 @@ class FastBand:
     # -- the steps --------------------------------------------------------------------------------
     def _hopf(self, params, p):
         """The stability analysis of ``params`` and the reference of its Hopf signature."""
-        from ..dynamics.stability import StabilitySettings, stability_analysis
+        from ..dynamics.stability import StabilitySettings, stability
 
         try:
-            stab = stability_analysis(params, self.speed_range_kmh, StabilitySettings(n_speeds=self.n_grid))
+            stab = stability(params, self.speed_range_kmh, StabilitySettings(n_speeds=self.n_grid))
         except RuntimeError as exc:
             raise _Fallback(FallbackReason.STABILITY_FAILED, f"stability: {exc}") from exc
         if stab.real_crossings_kmh:

@@ -51,15 +51,17 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from ..params import ADHESION_SCALE, ParameterError, Params, get_value, to_toml
+from ..keys import get_value
+from ..params import ParameterError, Params, to_toml
 from ..progress import Progress, report, shifted
 from ..results import Result
+from .sampling import sample_params
 
 if TYPE_CHECKING:
     from .fast_band import BandReference
 
 __all__ = ["CarOutcome", "FleetParameter", "FleetUsage", "FleetSpec", "load_fleet_spec", "sample_fleet", "FleetEvaluator",
-           "FleetResult", "fleet_risk"]
+           "FleetResult", "fleet"]
 
 OUTPUTS = ("first_bifurcation_kmh", "second_bifurcation_kmh", "at_risk", "hard_at_usage", "fast_path",
            "wear_efold_km", "usage_in_gap_after_pd_ns", "gap_sev_by_simulation")
@@ -263,11 +265,10 @@ def load_fleet_spec(path: str | Path, params: Params) -> FleetSpec:
         msg = err["msg"].removeprefix("Value error, ")
         raise ParameterError(msg if msg.startswith("fleet") else f"{where}: {msg}") from None
     for q in spec.parameter:
-        if q.key != ADHESION_SCALE:
-            try:
-                get_value(params, q.key)
-            except Exception:
-                raise ParameterError(f"fleet.parameter: unknown key {q.key}") from None
+        try:
+            get_value(params, q.key)
+        except Exception:
+            raise ParameterError(f"fleet.parameter: unknown key {q.key}") from None
     return spec
 
 
@@ -300,8 +301,6 @@ class FleetEvaluator:
 
     def __call__(self, item) -> tuple[tuple[float, ...], CarOutcome]:
         """``item = (car index, parameter values)``."""
-        from .global_sensitivity import sample_params
-
         index, values = item
         solved = self.pilot.get(index)  # a pilot car's band is known: its whole full diagram
         try:
@@ -674,10 +673,10 @@ def _pilot_progress(progress: Progress | None, done: int, samples: int) -> Progr
     return pilot
 
 
-def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", workers: int | None = None,
-               scheduler: str | None = None, batch_size: int | None = None, checkpoint_dir: str | Path | None = None,
-               resume: bool = False, progress: Progress | None = None,
-               reference: BandReference | None = None, pilot: bool = True) -> FleetResult:
+def fleet(params: Params, spec: FleetSpec, *, backend: str = "processes", workers: int | None = None,
+          scheduler: str | None = None, batch_size: int | None = None, checkpoint_dir: str | Path | None = None,
+          resume: bool = False, progress: Progress | None = None,
+          reference: BandReference | None = None, pilot: bool = True) -> FleetResult:
     """Evaluate the fleet; with ``checkpoint_dir`` save every ``spec.checkpoint_every`` cars
     (``resume`` continues from the checkpoint, which must belong to the same params and spec).
     Every round of ``checkpoint_every`` cars is one :func:`~polywear.parallel.map_batched` call
@@ -689,7 +688,6 @@ def fleet_risk(params: Params, spec: FleetSpec, *, backend: str = "processes", w
     pilot stage the references done in the message."""
     from ..parallel import map_batched
     from .fast_band import FastBand, pilot_stage
-    from .global_sensitivity import sample_params
 
     keys = tuple(q.key for q in spec.parameter)
     X = sample_fleet(spec)

@@ -46,32 +46,30 @@ from enum import StrEnum
 import numpy as np
 
 from ..models.base import ms_to_kmh
+from ..keys import PAPER_KEYS
 from ..params import (
-    ADHESION_SCALE,
-    PAPER_KEYS,
     Params,
     ParameterError,
     StudyParameter,
     StudySpec,
     get_value,
-    with_updates,
 )
 from ..progress import Progress
 from ..results import Result
 from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH
 from ..dynamics.stability import fast_linear_band
+from .sampling import sample_params
 
 __all__ = [
     "HOPF_OUTPUTS",
     "BIFURCATION_OUTPUTS",
     "default_study_parameters",
     "study_parameters",
-    "sample_params",
     "StudyEvaluator",
     "GlobalSensitivityResult",
     "SampleStatus",
     "SampleOutcome",
-    "global_sensitivity",
+    "study",
 ]
 
 HOPF_OUTPUTS = ("hopf_1_kmh", "hopf_2_kmh", "linear_band_width_kmh")
@@ -155,19 +153,6 @@ def _salib_problem(parameters) -> dict:
             bounds.append([q.low, q.high, mean, std])
             dists.append("truncnorm")
     return {"num_vars": len(parameters), "names": [q.key for q in parameters], "bounds": bounds, "dists": dists}
-
-
-def sample_params(base: Params, keys, values) -> Params:
-    """``base`` with ``keys`` set to ``values`` (validated once, all together).
-
-    ``adhesion_scale`` multiplies mu_s and mu_c (after any direct setting of them).
-    """
-    updates = {k: float(v) for k, v in zip(keys, values) if k != ADHESION_SCALE}
-    if ADHESION_SCALE in keys:
-        scale = float(values[list(keys).index(ADHESION_SCALE)])
-        for key in ("friction.mu_static", "friction.mu_coulomb"):
-            updates[key] = updates.get(key, get_value(base, key)) * scale
-    return with_updates(base, updates)
 
 
 def _seeds(seed: int):
@@ -259,7 +244,7 @@ class StudyEvaluator:
             return nan, SampleOutcome(SampleStatus.FAILED, f"{type(exc).__name__}: {exc}")
 
     def _bifurcation(self, params):
-        from ..dynamics.bifurcation import bifurcation_diagram
+        from ..dynamics.bifurcation import bifurcation
 
         if self.fast is not None:
             from .fast_band import Band
@@ -268,7 +253,7 @@ class StudyEvaluator:
             if isinstance(band, Band):
                 return _fast_outputs(band, self.speed_range_kmh, self.operating_range_kmh)
 
-        diagram = bifurcation_diagram(params, self.speed_range_kmh)
+        diagram = bifurcation(params, self.speed_range_kmh)
         for info in diagram.branch_info:
             if info["failed"]:
                 return (np.nan,) * 4, SampleOutcome(
@@ -472,7 +457,7 @@ class GlobalSensitivityResult(Result):
         return fig
 
 
-def global_sensitivity(
+def study(
     params: Params,
     study: StudySpec | None = None,
     *,
