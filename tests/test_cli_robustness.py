@@ -189,10 +189,10 @@ def test_fresh_directory_never_mixes_two_runs(tmp_path):
         with fresh_directory(out) as d:
             (d / "b.png").write_text("run 2, failed")
             raise RuntimeError
-    assert sorted(p.name for p in out.iterdir()) == ["a.png", "report.html"]
+    assert sorted(p.name for p in out.iterdir()) == [".polywear-files", "a.png", "report.html"]
     with fresh_directory(out) as d:
         (d / "report.html").write_text("run 3")
-    assert sorted(p.name for p in out.iterdir()) == ["report.html"]  # a.png of run 1 is gone
+    assert sorted(p.name for p in out.iterdir()) == [".polywear-files", "report.html"]  # a.png of run 1 is gone
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no temporary folders left
 
 
@@ -218,10 +218,11 @@ def _children(pid: int) -> list[int]:
     return [int(c) for c in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
 
 
-def _interrupt_after(args: list[str], cwd: Path, cpu_s: float = 0.0, children: int = 0, group: bool = False):
+def _interrupt_after(args: list[str], cwd: Path, cpu_s: float = 0.0, children: int = 0, group: bool = False,
+                     sig: int = signal.SIGINT):
     """Run ``polywear *args``, wait until it computes (``cpu_s`` of CPU time used and
     ``children`` child processes running: past the imports, whatever the machine's load),
-    then send SIGINT (to the process group if ``group``, as a terminal's Ctrl-C does);
+    then send ``sig`` (to the process group if ``group``, as a terminal's Ctrl-C does);
     (exit code, stdout, stderr)."""
     proc = subprocess.Popen([str(POLYWEAR), *args], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, start_new_session=group)
@@ -233,17 +234,18 @@ def _interrupt_after(args: list[str], cwd: Path, cpu_s: float = 0.0, children: i
     time.sleep(0.5)
     assert proc.poll() is None, "the command ended before it could be interrupted"
     if group:
-        os.killpg(proc.pid, signal.SIGINT)
+        os.killpg(proc.pid, sig)
     else:
-        proc.send_signal(signal.SIGINT)
+        proc.send_signal(sig)
     out, err = proc.communicate(timeout=60)
     return proc.returncode, out, err
 
 
-def _assert_interrupted(code, out, err, folder: Path, expected: set[str]):
+def _assert_interrupted(code, out, err, folder: Path, expected: set[str], sig: int = signal.SIGINT):
     lines = [line for line in err.splitlines() if line.strip()]
-    assert code == 130, err
-    assert lines[-1] == "interrupted" and "Traceback" not in err, err
+    assert code == {signal.SIGINT: 130, signal.SIGTERM: 143}[sig], err
+    assert lines[-1] == {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}[sig], err
+    assert "Traceback" not in err, err
     assert {p.name for p in folder.iterdir()} == expected  # no partial or temporary file
 
 
@@ -256,8 +258,9 @@ def test_ctrl_c_in_compiled_integration(tmp_path):
     assert err.strip() == "interrupted"
 
 
-def test_ctrl_c_while_the_command_line_starts(tmp_path):
-    """SIGINT during the imports (before main() runs): still one line and exit 130."""
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_ctrl_c_while_the_command_line_starts(tmp_path, sig):
+    """SIGINT (SIGTERM) during the imports (before main() runs): still one line and exit 130 (143)."""
     proc = subprocess.Popen([str(POLYWEAR), "stability", "-q"], cwd=tmp_path, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     # Python itself starts in about 20 ms of CPU time; importing typer, click, rich and
@@ -266,9 +269,18 @@ def test_ctrl_c_while_the_command_line_starts(tmp_path):
     while _cpu_seconds(proc.pid) < 0.06:
         assert proc.poll() is None and time.monotonic() < deadline
         time.sleep(0.002)
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(sig)
     out, err = proc.communicate(timeout=60)
-    _assert_interrupted(proc.returncode, out, err, tmp_path, set())
+    _assert_interrupted(proc.returncode, out, err, tmp_path, set(), sig)
+
+
+def test_sigterm_while_computing(tmp_path):
+    """SIGTERM (what ``timeout``, CI runners and ``kill`` send) once the command computes:
+    exit 143, one line, no file."""
+    code, out, err = _interrupt_after(["simulate", "--duration", "60", "--out", "run.nc", "-q"], tmp_path,
+                                      cpu_s=2.0, sig=signal.SIGTERM)
+    _assert_interrupted(code, out, err, tmp_path, set(), signal.SIGTERM)
+    assert err.strip() == "terminated"
 
 
 @pytest.mark.slow
@@ -289,6 +301,30 @@ def test_ctrl_c_keeps_the_previous_report(tmp_path):
     _assert_interrupted(code, "", err, tmp_path, {"out"})
     assert sorted(p.name for p in out.iterdir()) == ["report.html"]
     assert (out / "report.html").read_text() == "previous run"
+
+
+@pytest.mark.slow
+def test_sigterm_keeps_the_previous_report_and_the_users_files(tmp_path):
+    """A report, notes.txt and analysis/ of the user's beside it; a rerun killed with
+    SIGTERM leaves all byte-identical, clears a killed run's partial folder (its process
+    has ended) and leaves none of its own; a complete rerun keeps the user's files."""
+    out = tmp_path / "out"
+    code, _, err = run_main(["report", "-q", "--out", str(out), "--speed-range", "40", "80"])
+    assert code == 0, err
+    (out / "notes.txt").write_text("mine")
+    (out / "analysis").mkdir()
+    (out / "analysis" / "fit.py").write_text("mine too")
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    (tmp_path / f".out.new-{dead.pid}-x1y2z3").mkdir()  # left by a run killed with SIGKILL
+    code, _, err = _interrupt_after(["report", "-q", "--out", "out"], tmp_path, cpu_s=3.0, sig=signal.SIGTERM)
+    _assert_interrupted(code, "", err, tmp_path, {"out"}, signal.SIGTERM)
+    assert {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    code, _, err = run_main(["report", "-q", "--out", str(out), "--speed-range", "40", "80"])
+    assert code == 0, err
+    assert (out / "notes.txt").read_text() == "mine" and (out / "analysis" / "fit.py").read_text() == "mine too"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
 # -- numeric limits --------------------------------------------------------------------------

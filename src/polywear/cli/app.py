@@ -93,29 +93,42 @@ def _interrupted(exc: BaseException | None) -> bool:
     return False
 
 
+_SIGNAL_EXITS = {"SIGINT": (130, b"\ninterrupted\n"), "SIGTERM": (143, b"\nterminated\n")}
+"""Exit code and line of each handled signal (128 + the signal's number, as a shell reports it)."""
+
+
 def _exit_on_ctrl_c(signum, frame) -> None:
-    """SIGINT handler of the command line: remove the files being written, stop local
-    worker processes, say "interrupted" and exit 130 at once.
+    """SIGINT and SIGTERM handler of the command line: remove the files being written,
+    stop local worker processes, say "interrupted" (SIGINT, exit 130) or "terminated"
+    (SIGTERM, exit 143) and exit at once, or right after the swap of a results folder
+    if one is under way (:func:`polywear.io.when_safe`).
 
     Exiting here rather than raising KeyboardInterrupt is deliberate: raised while a
     compiled numba function hands back its result, the exception becomes a SystemError
     or even a segmentation fault, and broad ``except`` clauses in libraries can swallow it.
     """
     import os
+    import signal
 
-    from ..io import remove_partial
+    from ..io import remove_partial, when_safe
 
-    remove_partial()
-    multiprocessing = sys.modules.get("multiprocessing")
-    if multiprocessing is not None:
-        for child in multiprocessing.active_children():
-            child.terminate()
-    os.write(2, b"\ninterrupted\n")
-    os._exit(130)
+    code, line = _SIGNAL_EXITS[signal.Signals(signum).name]
+
+    def leave() -> None:
+        remove_partial()
+        multiprocessing = sys.modules.get("multiprocessing")
+        if multiprocessing is not None:
+            for child in multiprocessing.active_children():
+                child.terminate()
+        os.write(2, line)
+        os._exit(code)
+
+    when_safe(leave)
 
 
 def main() -> None:
-    """Console entry point: exit 0 on success, 2 with one line on bad input, 130 on Ctrl-C.
+    """Console entry point: exit 0 on success, 2 with one line on bad input, 130 on Ctrl-C
+    (SIGINT), 143 on SIGTERM.
 
     Bad input is a UserError, a ParameterError or a usage error found by click (unknown
     option, a value of the wrong type); none of them prints a traceback.
@@ -124,7 +137,8 @@ def main() -> None:
     import threading
 
     main_thread = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGINT, _exit_on_ctrl_c) if main_thread else None
+    handled = (signal.SIGINT, signal.SIGTERM)
+    previous = [signal.signal(s, _exit_on_ctrl_c) for s in handled] if main_thread else []
     # after Ctrl-C multiprocessing's resource tracker (a child started with these -W
     # options) unlinks the process pool's semaphores, as it should, and warns about them:
     # noise after the one "interrupted" line
@@ -157,5 +171,5 @@ def main() -> None:
             sys.exit(exc.exit_code)
         raise
     finally:
-        if main_thread:
-            signal.signal(signal.SIGINT, previous)
+        for s, handler in zip(handled, previous):
+            signal.signal(s, handler)

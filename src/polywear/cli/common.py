@@ -29,7 +29,16 @@ SetOpt = Annotated[
 ]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print the summary as JSON on stdout.")]
 PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Write a figure (png, pdf, svg).")]
-OutOpt = Annotated[Optional[Path], typer.Option("--out", "-o", help="Write the result (netCDF .nc).")]
+
+
+def out_option(help: str) -> Any:
+    """The ``--out/-o FILE`` option, with ``help`` saying what the command writes there."""
+    return Annotated[Optional[Path], typer.Option("--out", "-o", help=help)]
+
+
+OutOpt = out_option("Write the result (netCDF .nc).")
+NETCDF = (".nc",)
+"""File types of :data:`OutOpt`."""
 QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="No progress output or notes on stderr.")]
 SpeedRangeOpt = Annotated[
     tuple[float, float], typer.Option("--speed-range", help="Lowest and highest speed [km/h].")
@@ -147,7 +156,7 @@ def check_speed_range(pair: tuple[float, float], option: str = "--speed-range") 
 
 def check_param_keys(keys, option: str = "--param", example: str = "operating.toe_deg") -> None:
     """Each key a numeric configuration key or ``adhesion_scale``; else one line naming the first other."""
-    from ..params import ADHESION_SCALE, study_keys
+    from ..keys import ADHESION_SCALE, study_keys
 
     known = study_keys()
     for key in keys:
@@ -215,12 +224,15 @@ def output_file(path: Path | None, option: str, suffixes: tuple[str, ...]) -> Pa
 def output_folder(path: Path, option: str, marker: str) -> Path:
     """Check a results folder before any computation: a folder (or nothing yet) in a
     writable directory, and, if it holds files, one this command wrote (it has ``marker``):
-    a run replaces the folder, so a folder of other files is never touched."""
+    a folder of other files is never touched (refused, naming them)."""
     if path.exists():
         if not path.is_dir():
             raise UserError(f"{option} {path}: is a file, expected a folder")
-        if any(path.iterdir()) and not (path / marker).exists():
-            raise UserError(f"{option} {path}: folder holds other files (no {marker}); give a new or empty folder")
+        entries = sorted(p.name for p in path.iterdir())
+        if entries and not (path / marker).exists():
+            shown = ", ".join(entries[:5]) + (f" and {len(entries) - 5} more" if len(entries) > 5 else "")
+            raise UserError(f"{option} {path}: folder holds other files ({shown}; no {marker}); "
+                            "give a new or empty folder")
     _writable_directory(path.parent, f"{option} {path}")
     return path
 
@@ -238,6 +250,13 @@ def _writable_directory(directory: Path, what: str) -> None:
         raise UserError(f"{what}: cannot write in {where} ({exc.strerror})") from None
 
 
+def check_outputs(out: Path | None, suffixes: tuple[str, ...], plot: Path | None) -> None:
+    """``--out`` (one of ``suffixes``), then ``--plot``, checked before any computation
+    (:func:`output_file`)."""
+    output_file(out, "--out", suffixes)
+    output_file(plot, "--plot", PLOT_SUFFIXES)
+
+
 def write_output(path: Path, write: Callable[[Path], Any], quiet: bool = False) -> None:
     """``write(tmp)`` to a temporary file next to ``path``, renamed onto it when complete."""
     from ..io import atomic_path
@@ -247,9 +266,38 @@ def write_output(path: Path, write: Callable[[Path], Any], quiet: bool = False) 
     info(f"wrote {path}", quiet)
 
 
+def write_results(out: Path | None, save: Callable[[Path], Any], plot: Path | None, make_figure: Callable[[], Any],
+                  quiet: bool = False) -> None:
+    """``save(tmp)`` to ``--out``, then the figure of ``make_figure()`` to ``--plot``, each
+    only when given (:func:`write_output`, :func:`write_figure`)."""
+    if out:
+        write_output(out, save, quiet)
+    if plot:
+        write_figure(plot, make_figure, quiet)
+
+
 def emit_json(payload: Any) -> None:
     """Write a JSON summary to stdout (numpy scalars and arrays converted)."""
     typer.echo(json.dumps(payload, indent=2, default=_jsonable, allow_nan=False))
+
+
+def show(summary: Any, json_: bool, print_text: Callable[[Any], None]) -> None:
+    """``summary`` as JSON on stdout with ``--json`` (:func:`emit_json`), else as text by
+    ``print_text(summary)``."""
+    if json_:
+        emit_json(summary)
+    else:
+        print_text(summary)
+
+
+@contextmanager
+def user_errors(*kinds: type[Exception], prefix: str = "") -> Iterator[None]:
+    """An exception of ``kinds`` raised in the block (bad input found by the library)
+    becomes a :class:`UserError`: one line ``prefix`` + message, exit 2."""
+    try:
+        yield
+    except kinds as exc:
+        raise UserError(f"{prefix}{exc}") from None
 
 
 def _jsonable(obj: Any) -> Any:
