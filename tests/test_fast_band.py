@@ -18,9 +18,8 @@ from polywear.studies.global_sensitivity import DEFAULT_KEYS
 from polywear.studies.sampling import sample_params
 from polywear.dynamics.stability import stability
 from polywear.models import get_model
-from polywear.models.base import kmh_to_ms
 from polywear.params import Params, get_value, with_updates
-from polywear.units import DEFAULT_SPEED_RANGE_KMH
+from polywear.units import DEFAULT_SPEED_RANGE_KMH, kmh_to_ms
 from polywear.solvers.continuation import cycle_along_branch, solve_at_speed, switching_times
 
 AMPLITUDE_SPEEDS = (80.0, 130.0)
@@ -325,3 +324,15 @@ def test_amplitude_of_a_kinked_cycle_is_solved_on_its_own_kinks(tread_solver):
     assert fine is not None and fine.stable
     assert band.amplitude_x_m[1] == pytest.approx(fine.orbit.amplitude(64)[model.index("x")], rel=2e-5)
     assert_agrees(band, band_from_diagram(diagram, AMPLITUDE_SPEEDS))
+
+
+def test_a_pilot_records_a_numerical_failure_and_raises_a_programming_error():
+    """A pilot whose diagram cannot be computed (ValueError) is no reference, with its reason;
+    one that is no parameter set (AttributeError) is a programming error and raises."""
+    from polywear.solvers.continuation import ContinuationSettings
+    from polywear.studies.fast_band import _PilotReference
+
+    reversed_range = _PilotReference((300.0, 20.0), (), ContinuationSettings())(Params())
+    assert reversed_range.startswith("ValueError: speed range 300.0 20.0")
+    with pytest.raises(AttributeError):
+        _PilotReference((20.0, 300.0), (), ContinuationSettings())(None)

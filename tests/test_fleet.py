@@ -565,3 +565,15 @@ def test_classifier_importances_see_what_main_effects_miss():
     main, importance = result.plot_drivers()  # two sets of bars, one bar per parameter
     assert len(main) == len(importance) == 3 and importance[0].get_width() > 0.3
     assert len(result.figure().axes) == 3
+
+
+def test_a_car_records_a_numerical_failure_and_raises_a_programming_error():
+    """A car whose band cannot be computed (ValueError of the speed range) fails with its
+    reason, whether the Hopf points or the whole band are asked for; a solver that is no
+    FastBand (AttributeError) is a programming error and raises."""
+    solver = FastBand((), speed_range_kmh=(20.0, np.nan))
+    for every in (1, 2):  # car 1: the whole band, then the Hopf verdict
+        out, outcome = FleetEvaluator(Params(), ("operating.toe_deg",), solver, (100.0,), band_every=every)((1, [0.5]))
+        assert np.all(np.isnan(out)) and outcome.failure == "ValueError" and "speed range" in outcome.detail
+    with pytest.raises(AttributeError):
+        FleetEvaluator(Params(), ("operating.toe_deg",), object(), (100.0,), band_every=2)((1, [0.5]))

@@ -415,3 +415,15 @@ def test_a_tiny_study_is_not_called_converged():
     result = study(Params(), spec, backend="serial")
     assert not any(c["converged"] for c in result.convergence.values())
     assert all(result.indices[out]["n_used"] == 8 for out in result.outputs)
+
+
+def test_a_numerical_failure_is_recorded_and_a_programming_error_raised():
+    """A speed range with a NaN end makes the eigenvalue solver fail (LinAlgError): recorded as
+    the sample's failure with its reason; a fast band that is no solver (AttributeError) is a
+    programming error and raises."""
+    nominal = [Params().tread.mass_kg]
+    values, outcome = StudyEvaluator(Params(), ("tread.mass_kg",), "hopf", (20.0, np.nan))(nominal)
+    assert np.all(np.isnan(values)) and outcome.status is SampleStatus.FAILED
+    assert outcome.detail.startswith("LinAlgError: ")
+    with pytest.raises(AttributeError):
+        StudyEvaluator(Params(), ("tread.mass_kg",), "bifurcation", fast=object())(nominal)

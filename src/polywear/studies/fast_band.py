@@ -63,15 +63,14 @@ from enum import Enum
 import numpy as np
 
 from ..models import get_model
-from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params
 from ..results import Result
-from ..units import DEFAULT_SPEED_RANGE_KMH
+from ..units import DEFAULT_SPEED_RANGE_KMH, kmh_to_ms, ms_to_kmh
 from ..solvers.continuation import (BranchPoint, ContinuationSettings, cycle_along_branch, fold_at, fold_curvature,
                                     on_adapted_mesh, recentred, solve_at_speed, solve_at_speed_on_kinks,
                                     solve_fold)
 from ..dynamics.points import PointKind
-from .sampling import sample_params
+from .sampling import SAMPLE_FAILURES, sample_params
 
 __all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "band_from_diagram", "band_reference",
            "Pilot", "pilot_indices", "pilot_references", "pilot_size", "pilot_stage"]
@@ -377,7 +376,7 @@ class _PilotReference:
         try:
             diagram = bifurcation(params, self.speed_range_kmh, self.settings, **_FIXED_RANGE)
             return band_reference(diagram, self.amplitude_speeds_kmh)
-        except Exception as exc:  # a pilot that fails is no reference; the caller counts it
+        except SAMPLE_FAILURES as exc:  # a pilot that fails is no reference; the caller counts it
             return f"{type(exc).__name__}: {exc}"
 
 

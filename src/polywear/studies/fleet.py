@@ -55,7 +55,7 @@ from ..keys import get_value
 from ..params import ParameterError, Params, to_toml
 from ..progress import Progress, report, shifted
 from ..results import Result
-from .sampling import sample_params
+from .sampling import SAMPLE_FAILURES, sample_params
 
 if TYPE_CHECKING:
     from .fast_band import BandReference
@@ -267,7 +267,7 @@ def load_fleet_spec(path: str | Path, params: Params) -> FleetSpec:
     for q in spec.parameter:
         try:
             get_value(params, q.key)
-        except Exception:
+        except ParameterError:
             raise ParameterError(f"fleet.parameter: unknown key {q.key}") from None
     return spec
 
@@ -308,7 +308,7 @@ class FleetEvaluator:
             whole = solved is not None or index % self.band_every == 0
             verdict = None if whole else self.solver.usage_verdict(params, self.usage_speeds_kmh)
             band, diagram = (solved, None) if solved is not None or verdict is not None else self._band(params)
-        except Exception as exc:  # invalid parameters or a numerical failure: recorded, never dropped
+        except SAMPLE_FAILURES as exc:  # invalid parameters or a numerical failure: recorded, never dropped
             return (np.nan,) * len(OUTPUTS), CarOutcome(failure=type(exc).__name__, detail=str(exc))
         efold = self._efold(params) if self.wear else np.nan
         if isinstance(efold, CarOutcome):
@@ -351,7 +351,7 @@ class FleetEvaluator:
         try:
             diagram = diagram if diagram is not None else self.solver.diagram(params)
             return float(any(a.oscillating for v in speeds_kmh for a in reached_attractors(diagram, v)))
-        except Exception as exc:
+        except SAMPLE_FAILURES as exc:
             return CarOutcome(failure="gap simulation", detail=f"{type(exc).__name__}: {exc}")
 
     def _efold(self, params) -> float | CarOutcome:
@@ -360,7 +360,7 @@ class FleetEvaluator:
 
         try:
             return float(np.nanmin(wear_map(params, self.usage_speeds_kmh).efold_km, initial=np.inf))
-        except Exception as exc:
+        except SAMPLE_FAILURES as exc:
             return CarOutcome(failure="wear map", detail=f"{type(exc).__name__}: {exc}")
 
 

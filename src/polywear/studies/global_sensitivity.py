@@ -45,7 +45,6 @@ from enum import StrEnum
 
 import numpy as np
 
-from ..models.base import ms_to_kmh
 from ..keys import PAPER_KEYS
 from ..params import (
     Params,
@@ -56,9 +55,9 @@ from ..params import (
 )
 from ..progress import Progress
 from ..results import Result
-from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH
+from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH, ms_to_kmh
 from ..dynamics.stability import fast_linear_band
-from .sampling import sample_params
+from .sampling import SAMPLE_FAILURES, sample_params
 
 __all__ = [
     "HOPF_OUTPUTS",
@@ -240,7 +239,7 @@ class StudyEvaluator:
             if self.outputs == "hopf":
                 return _band_outputs(fast_linear_band(params, self.speed_range_kmh), self.speed_range_kmh)
             return self._bifurcation(params)
-        except Exception as exc:  # any numerical failure is recorded with its reason
+        except SAMPLE_FAILURES as exc:  # a numerical failure is recorded with its reason
             return nan, SampleOutcome(SampleStatus.FAILED, f"{type(exc).__name__}: {exc}")
 
     def _bifurcation(self, params):
