@@ -18,7 +18,7 @@ import timeit
 
 import numpy as np
 
-from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation
 from polywear.models.base import kmh_to_ms
 from polywear.params import Params
 from polywear.validation.auto07p import AUTO_MODELS, SPEED_INDEX, model_diagram
@@ -55,8 +55,8 @@ def main() -> None:
     parser.add_argument("--refined", action="store_true", help="also time AUTO at settings.refined()")
     args = parser.parse_args()
     params = Params(model="axle4dof")
-    bifurcation_diagram(params)  # compile / load caches
-    t_ours, ours = best_of(args.repeat, lambda: bifurcation_diagram(params, (20.0, 300.0)))
+    bifurcation(params)  # compile / load caches
+    t_ours, ours = best_of(args.repeat, lambda: bifurcation(params, (20.0, 300.0)))
     t_auto, auto = best_of(args.repeat, lambda: model_diagram(params, (20.0, 300.0)))
     n_eq = len(auto["equilibrium"]["speed_kmh"])
     n_cycles = sum(len(c["speed_kmh"]) for c in auto["cycles"])

@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation
 from polywear.dynamics.sweep import sweep, sweep_bands
 from polywear.params import Params, load_params
 
@@ -43,8 +43,8 @@ def main() -> None:
     parser.add_argument("--sweep-speeds", type=int, default=40)
     args = parser.parse_args()
     params = Params()
-    bifurcation_diagram(params)  # compile / load caches
-    t_ours, ours = best_of(args.repeat, lambda: bifurcation_diagram(params, (20.0, 300.0)))
+    bifurcation(params)  # compile / load caches
+    t_ours, ours = best_of(args.repeat, lambda: bifurcation(params, (20.0, 300.0)))
     hopf = [h.speed_kmh for h in ours.hopf_points]
     fold = [f.speed_kmh for f in ours.folds]
     n_points = sum(len(b.points) for b in ours.branches)
@@ -85,8 +85,8 @@ def main() -> None:
           f"{per_speed * needed / t_ours:.0f}x the continuation (extrapolated from the measured per-speed cost)")
 
     axle = load_params(overrides=["model=axle4dof"])
-    bifurcation_diagram(axle)
-    t_axle, d = best_of(args.repeat, lambda: bifurcation_diagram(axle, (20.0, 300.0)))
+    bifurcation(axle)
+    t_axle, d = best_of(args.repeat, lambda: bifurcation(axle, (20.0, 300.0)))
     print(f"polywear continuation, axle4dof 20-300 km/h: {t_axle:.3f} s (goal < 3 s); SEV band "
           f"{d.sev_band_kmh[0][0]:.2f}-{d.sev_band_kmh[-1][1]:.2f} km/h")
 

@@ -30,9 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
-from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation
 from polywear.studies.fast_band import _FIXED_RANGE, FastBand, band_reference, pilot_references
-from polywear.studies.fleet import FleetSpec, fleet_risk
+from polywear.studies.fleet import FleetSpec, fleet
 from polywear.studies.global_sensitivity import DEFAULT_KEYS, sample_params
 from polywear.params import Params, StudySpec, get_value, with_updates
 
@@ -121,18 +121,18 @@ def sobol(n_base: int, modes=("fast", "full"), spread: float = 0.1) -> None:
     its pilot stage) and/or the continuation only. CPU time (this process and the pool's
     workers) and wall time; N = 1024 extrapolated linearly from the CPU time on 2 cores."""
     from polywear.studies.fast_band import pilot_size
-    from polywear.studies.global_sensitivity import global_sensitivity
+    from polywear.studies.global_sensitivity import study
 
     for mode in modes:
         params = with_updates(Params(), {"model": "axle4dof"})
         ranges = [sorted((get_value(params, k) * (1 - spread), get_value(params, k) * (1 + spread)))
                   for k in DEFAULT_KEYS]
-        study = StudySpec().with_updates({"method": "sobol", "outputs": "bifurcation", "n_base": n_base,
-                                          "second_order": False, "bootstrap": 100,
-                                          "parameters": [{"key": k, "low": lo, "high": hi}
-                                                         for k, (lo, hi) in zip(DEFAULT_KEYS, ranges)]})
+        spec = StudySpec().with_updates({"method": "sobol", "outputs": "bifurcation", "n_base": n_base,
+                                         "second_order": False, "bootstrap": 100,
+                                         "parameters": [{"key": k, "low": lo, "high": hi}
+                                                        for k, (lo, hi) in zip(DEFAULT_KEYS, ranges)]})
         c, t = _cpu(), time.perf_counter()
-        result = global_sensitivity(params, study, backend="processes", workers=2, fast_band=mode == "fast")
+        result = study(params, spec, backend="processes", workers=2, fast_band=mode == "fast")
         dt, dc = time.perf_counter() - t, _cpu() - c
         runs = len(result.status)
         pilot = pilot_size(runs) if mode == "fast" else 0
@@ -165,16 +165,16 @@ def _fleet_spec(n, n_params=7, seed=1) -> FleetSpec:
 
 
 def _fleet_reference(spec, base: Params | None = None):
-    """The nominal car's reference, as fleet_risk makes it (made once, outside the timings)."""
+    """The nominal car's reference, as fleet makes it (made once, outside the timings)."""
     nominal = sample_params(base or Params(), [q.key for q in spec.parameter], [q.center for q in spec.parameter])
-    return band_reference(bifurcation_diagram(nominal, spec.speed_range_kmh, **_FIXED_RANGE))
+    return band_reference(bifurcation(nominal, spec.speed_range_kmh, **_FIXED_RANGE))
 
 
 WHOLE_BAND_CARS = 400
 """At most this many cars in the whole-band run (``band_every = 1``, ~0.1 s per car)."""
 
 
-def fleet(n: int, backends, model: str = "tread1dof") -> None:
+def fleet_timing(n: int, backends, model: str = "tread1dof") -> None:
     """Whole bands for every car (on n // 10 cars, at most WHOLE_BAND_CARS), and for every
     100th (band_every = 100: the others get the Hopf points and only the folds their risk
     needs) on n cars, on each backend (serial, 2 local processes). Wall time, CPU per car
@@ -187,7 +187,7 @@ def fleet(n: int, backends, model: str = "tread1dof") -> None:
         for backend in backends:
             workers = 1 if backend == "serial" else 2
             c, t = _cpu(), time.perf_counter()
-            result = fleet_risk(base, spec, backend=backend, workers=workers, reference=reference)
+            result = fleet(base, spec, backend=backend, workers=workers, reference=reference)
             dt, dc = time.perf_counter() - t, _cpu() - c
             s = result.summary()
             print(f"{model} fleet of {size}, band_every {every}, {backend} ({workers}): wall {dt:.1f} s = "
@@ -207,7 +207,7 @@ def pilot(n: int, model: str, band_every: int = 1) -> None:
     runs = {}
     for use_pilot in (False, True):
         c = time.process_time()
-        runs[use_pilot] = result = fleet_risk(base, spec, backend="serial", reference=reference, pilot=use_pilot)
+        runs[use_pilot] = result = fleet(base, spec, backend="serial", reference=reference, pilot=use_pilot)
         dc = time.process_time() - c
         s = result.summary()
         print(f"{model} fleet of {n}, band_every {band_every}, "
@@ -232,10 +232,10 @@ def dask(n: int) -> None:
     for workers in (1, 2):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, host="127.0.0.1", dashboard_address=None)
         try:
-            fleet_risk(Params(), _fleet_spec(8), backend="dask", scheduler=cluster.scheduler_address,
-                       reference=reference)  # warm the workers (imports, numba caches)
+            fleet(Params(), _fleet_spec(8), backend="dask", scheduler=cluster.scheduler_address,
+                  reference=reference)  # warm the workers (imports, numba caches)
             t = time.perf_counter()
-            fleet_risk(Params(), spec, backend="dask", scheduler=cluster.scheduler_address, reference=reference)
+            fleet(Params(), spec, backend="dask", scheduler=cluster.scheduler_address, reference=reference)
             times[workers] = time.perf_counter() - t
         finally:
             cluster.close()
@@ -248,13 +248,13 @@ def growth() -> None:
     reference = _fleet_reference(spec)
     for n in (25, 50, 100):
         t = time.perf_counter()
-        fleet_risk(Params(), _fleet_spec(n), backend="serial", reference=reference)
+        fleet(Params(), _fleet_spec(n), backend="serial", reference=reference)
         print(f"samples {n:4d}, 7 parameters: {time.perf_counter() - t:.1f} s")
     for d in (1, 3, 7):
         spec_d = _fleet_spec(50, d)
         ref_d = _fleet_reference(spec_d)
         t = time.perf_counter()
-        result = fleet_risk(Params(), spec_d, backend="serial", reference=ref_d)
+        result = fleet(Params(), spec_d, backend="serial", reference=ref_d)
         print(f"samples 50, {d} parameter(s): {time.perf_counter() - t:.1f} s, "
               f"fast path {result.summary()['fast_path_share']:.0%}")
 
@@ -280,7 +280,7 @@ def main() -> None:
     elif args.what == "sobol":
         sobol(args.samples, args.mode or ("fast", "full"), args.spread)
     elif args.what == "fleet":
-        fleet(args.samples, args.backend or ("serial", "processes"), args.model)
+        fleet_timing(args.samples, args.backend or ("serial", "processes"), args.model)
     elif args.what == "pilot":
         pilot(args.samples, args.model, args.band_every)
     elif args.what == "dask":

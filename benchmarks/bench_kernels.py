@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 import polywear
-from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation
 from polywear.models import get_model
 from polywear.params import load_params
 from polywear.solvers.collocation import Collocation, PeriodicOrbit
@@ -77,7 +77,7 @@ def kernel_times(model_name: str, calls: int, repeat: int, diagram_repeat: int) 
     time [s] of the whole default diagram."""
     first = first_assembly(model_name)
     params = load_params(overrides=[f"model={model_name}"])
-    diagram = bifurcation_diagram(params)  # compiles or loads the caches
+    diagram = bifurcation(params)  # compiles or loads the caches
     branch = diagram.branches[0]
     point = branch.points[len(branch.points) // 2]
     model = get_model(params.model)
@@ -101,7 +101,7 @@ def kernel_times(model_name: str, calls: int, repeat: int, diagram_repeat: int) 
         "first_assemble_s": first,
         "assemble_ms": 1e3 * best_cpu(repeat, assemble) / calls,
         "solve_ms": 1e3 * best_cpu(repeat, solve) / calls,
-        "diagram_s": best_cpu(diagram_repeat, lambda: bifurcation_diagram(params)),
+        "diagram_s": best_cpu(diagram_repeat, lambda: bifurcation(params)),
         "N": coll.N,
         "n": coll.n,
     }

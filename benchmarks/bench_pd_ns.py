@@ -27,7 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from bench_fleet import _samples
 
-from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation
 from polywear.studies.fast_band import _FIXED_RANGE
 from polywear.params import Params, with_updates
 from polywear.solvers import continuation
@@ -72,14 +72,14 @@ def main() -> None:
     indices = [int(i) for i in args.samples.split(",")]
     samples = _samples(with_updates(Params(), {"model": "axle4dof"}), max(indices) + 1, 0)
     count = _counting_correctors()
-    bifurcation_diagram(samples[indices[0]], **_FIXED_RANGE)  # compile / load caches
+    bifurcation(samples[indices[0]], **_FIXED_RANGE)  # compile / load caches
     total_cpu = total_points = total_correctors = total_calls = 0
     worst = 0.0
     out = {}
     for i in indices:
         count.update(correctors=0, calls=0)
         t = time.process_time()
-        diagram = bifurcation_diagram(samples[i], **_FIXED_RANGE)
+        diagram = bifurcation(samples[i], **_FIXED_RANGE)
         cpu = time.process_time() - t
         located = [(label, pt) for b in diagram.branches for label, pt, _ in b.special if label in ("PD", "NS")]
         residual = max((_residual(label, pt.multipliers) for label, pt in located), default=0.0)

@@ -7,7 +7,7 @@
 2. A Sobol study (Saltelli sampling, N = 1024, second order) over the paper's seven
    parameters on the Hopf speeds: 16 384 evaluations of the fast linear band, on the
    default backend (local processes, 2 workers; goal < 60 s). Baselines: the serial
-   backend, and the per-evaluation cost of the full ``stability_analysis``.
+   backend, and the per-evaluation cost of the full ``stability``.
 3. The same study on a local Dask cluster (``distributed.LocalCluster``, one thread per
    worker process) with 1 and with 2 workers, workers warmed up first (goal >= 1.7x).
 
@@ -33,14 +33,14 @@ def _timed(fn, *args, **kwargs):
 
 
 def bench_local() -> None:
-    from polywear.dynamics.bifurcation import bifurcation_diagram
-    from polywear.dynamics.sensitivity import PAPER_PARAMETERS, local_sensitivity
+    from polywear.dynamics.bifurcation import bifurcation
+    from polywear.dynamics.sensitivity import PAPER_PARAMETERS, sensitivity
 
     params = with_updates(Params(), {"model": "axle4dof"})
-    bifurcation_diagram(params)  # compile / load caches
-    diagram, t_diagram = _timed(bifurcation_diagram, params)
-    exact, t_exact = _timed(local_sensitivity, params, PAPER_PARAMETERS, "exact", diagram=diagram)
-    forward, t_forward = _timed(local_sensitivity, params, PAPER_PARAMETERS, "forward", 1e-4, diagram=diagram)
+    bifurcation(params)  # compile / load caches
+    diagram, t_diagram = _timed(bifurcation, params)
+    exact, t_exact = _timed(sensitivity, params, PAPER_PARAMETERS, "exact", diagram=diagram)
+    forward, t_forward = _timed(sensitivity, params, PAPER_PARAMETERS, "forward", 1e-4, diagram=diagram)
     quantities = sorted({r["quantity"] for r in exact.rows})
     worst = max(
         abs(f["derivative"] - e["derivative"]) / abs(e["derivative"])
@@ -77,24 +77,24 @@ def _study_params(model: str, n_base: int) -> tuple[Params, StudySpec]:
 
 
 def bench_sobol(model: str, n_base: int) -> None:
-    from polywear.studies.global_sensitivity import global_sensitivity
+    from polywear.studies.global_sensitivity import study
     from polywear.dynamics.stability import fast_linear_band
-    from polywear.dynamics.stability import stability_analysis
+    from polywear.dynamics.stability import stability
 
-    params, study = _study_params(model, n_base)
+    params, spec = _study_params(model, n_base)
     base = with_updates(Params(), {"model": model})
     fast_linear_band(base)
-    stability_analysis(base)
+    stability(base)
     _, t_fast = _timed(lambda: [fast_linear_band(base) for _ in range(50)])
-    _, t_full = _timed(lambda: [stability_analysis(base, (20.0, 300.0)) for _ in range(10)])
+    _, t_full = _timed(lambda: [stability(base, (20.0, 300.0)) for _ in range(10)])
     print(f"\n2. Sobol study of {model}: N = {n_base}, 7 parameters, second order, Hopf speeds")
-    print(f"   one evaluation: fast linear band {t_fast / 50 * 1e3:6.2f} ms, stability_analysis (400 speeds) "
+    print(f"   one evaluation: fast linear band {t_fast / 50 * 1e3:6.2f} ms, stability (400 speeds) "
           f"{t_full / 10 * 1e3:6.2f} ms ({t_full / 10 / (t_fast / 50):.0f}x)")
-    result, t_proc, t_proc_eval = _study(global_sensitivity, params, study, backend="processes", workers=2)
+    result, t_proc, t_proc_eval = _study(study, params, spec, backend="processes", workers=2)
     n = len(result.status)
     print(f"   processes, 2 workers: {n} evaluations in {t_proc_eval:6.2f} s, whole study (sampling, pool start, "
           f"SALib with bootstrap) {t_proc:6.2f} s (goal < 60 s); failures: {result.failures() or 'none'}")
-    serial, t_serial, t_serial_eval = _study(global_sensitivity, params, study, backend="serial")
+    serial, t_serial, t_serial_eval = _study(study, params, spec, backend="serial")
     assert np.array_equal(serial.values, result.values, equal_nan=True)
     print(f"   baseline serial:      {n} evaluations in {t_serial_eval:6.2f} s ({t_serial_eval / n * 1e3:.2f} ms each), "
           f"whole study {t_serial:6.2f} s -> processes {t_serial / t_proc:.2f}x")
@@ -123,9 +123,9 @@ def _burn(_) -> float:
 def bench_dask(model: str, n_base: int) -> None:
     from distributed import Client, LocalCluster
 
-    from polywear.studies.global_sensitivity import global_sensitivity
+    from polywear.studies.global_sensitivity import study
 
-    params, study = _study_params(model, n_base)
+    params, spec = _study_params(model, n_base)
     times, ideal = {}, {}
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         with Client(cluster) as client:
@@ -134,7 +134,7 @@ def bench_dask(model: str, n_base: int) -> None:
                 client.wait_for_workers(n_workers)
                 client.run(_warm)
                 _, ideal[n_workers] = _timed(lambda: client.gather(client.map(_burn, range(8), pure=False)))
-                result, _, times[n_workers] = _study(global_sensitivity, params, study, backend="dask",
+                result, _, times[n_workers] = _study(study, params, spec, backend="dask",
                                                      scheduler=cluster.scheduler_address)
     n = len(result.status)
     print(f"\n3. the same study on a local Dask cluster (1 thread per worker process), time of the {n} evaluations")

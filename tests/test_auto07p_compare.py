@@ -9,7 +9,7 @@ AUTO's refinement and a long time integration give the third opinion there.
 import numpy as np
 import pytest
 
-from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation
 from polywear.dynamics.points import PointKind
 from polywear.models.base import kmh_to_ms
 from polywear.params import Params
@@ -28,7 +28,7 @@ def both():
     from polywear.validation.auto07p import tread1dof_diagram
 
     params = Params()
-    return bifurcation_diagram(params, (20.0, 300.0)), tread1dof_diagram(params, (20.0, 300.0))
+    return bifurcation(params, (20.0, 300.0)), tread1dof_diagram(params, (20.0, 300.0))
 
 
 def test_hopf_points_agree(both):
@@ -79,7 +79,7 @@ def axle_both():
     from polywear.validation.auto07p import model_diagram
 
     params = Params(model="axle4dof")
-    return bifurcation_diagram(params, (20.0, 300.0)), model_diagram(params, (20.0, 300.0))
+    return bifurcation(params, (20.0, 300.0)), model_diagram(params, (20.0, 300.0))
 
 
 @pytest.mark.parametrize("pair", ["both", "axle_both"])

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation
 from polywear.dynamics.points import PointKind
 from polywear.models import get_model
 from polywear.params import Params, load_params
@@ -18,7 +18,7 @@ MODEL = get_model("tread1dof")
 
 @pytest.fixture(scope="module")
 def default_diagram():
-    return bifurcation_diagram(Params(), (20.0, 300.0))
+    return bifurcation(Params(), (20.0, 300.0))
 
 
 def steady_amplitude(params, speed_kmh, u0, t_end=1.5, window=0.15):
@@ -91,8 +91,8 @@ def test_floquet_multipliers_agree_with_variational_equation(default_diagram):
 
 
 def test_mesh_refinement_moves_fold_and_amplitude_by_little():
-    coarse = bifurcation_diagram(Params(), (20.0, 300.0), ContinuationSettings(n_intervals=40))
-    fine = bifurcation_diagram(Params(), (20.0, 300.0), ContinuationSettings(n_intervals=80))
+    coarse = bifurcation(Params(), (20.0, 300.0), ContinuationSettings(n_intervals=40))
+    fine = bifurcation(Params(), (20.0, 300.0), ContinuationSettings(n_intervals=80))
     assert coarse.folds[0].speed_kmh == pytest.approx(fine.folds[0].speed_kmh, rel=1e-8)
     assert coarse.folds[0].amplitude[0] == pytest.approx(fine.folds[0].amplitude[0], rel=1e-6)
     assert coarse.cycles_at(150.0)[0].amplitude[0] == pytest.approx(fine.cycles_at(150.0)[0].amplitude[0], rel=1e-8)
@@ -108,10 +108,10 @@ def stick_slip_params():
 def test_stick_slip_cycles_kink_alignment_and_period_doubling(stick_slip_params):
     params = stick_slip_params
     p = MODEL.pack(params)
-    aligned = bifurcation_diagram(params, (20.0, 150.0))
+    aligned = bifurcation(params, (20.0, 150.0))
     # no alignment and no rescue by mesh refinement (an infinite tolerance accepts every step):
     # what the same mesh gives when polynomials straddle the kinks
-    plain = bifurcation_diagram(params, (20.0, 150.0), ContinuationSettings(align_kinks=False, multiplier_tol=np.inf))
+    plain = bifurcation(params, (20.0, 150.0), ContinuationSettings(align_kinks=False, multiplier_tol=np.inf))
     (c110,) = aligned.cycles_at(110.0)
     # the cycle really slides backwards: v_r changes sign twice per period
     branch = aligned.branches[0]

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation
 from polywear.models import get_model
 from polywear.params import load_params
 from polywear.solvers.integrate import integrate
@@ -15,7 +15,7 @@ PARAMS = load_params(overrides=["model=axle4dof"])
 
 @pytest.fixture(scope="module")
 def diagram():
-    return bifurcation_diagram(PARAMS, (20.0, 300.0))
+    return bifurcation(PARAMS, (20.0, 300.0))
 
 
 def test_axle_diagram_matches_model_md(diagram):

@@ -14,7 +14,7 @@ import pytest
 
 from polywear.measured.campbell import MeasurementError, _remove_orders, campbell, order_frequency_hz, read_run
 from polywear.measured.runup import simulate_ramp
-from polywear.dynamics.stability import stability_analysis
+from polywear.dynamics.stability import stability
 from polywear.params import Params
 
 from .cli_runner import run_main
@@ -37,7 +37,7 @@ def runup(tmp_path_factory):
     path = tmp_path_factory.mktemp("runup") / "run.csv"
     np.savetxt(path, np.column_stack([sim.t * 1000.0, sim.speed_kmh / 3.6, signal]), delimiter=",",
                header="time [ms],speed [m/s],acc_y [m/s^2]", comments="")
-    hopf = stability_analysis(params).hopf_points[0]
+    hopf = stability(params).hopf_points[0]
     return path, hopf
 
 

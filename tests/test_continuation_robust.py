@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation
 from polywear.dynamics.points import PointKind
 from polywear.dynamics.stability import StabilitySettings
 from polywear.cli.bifurcation_cmd import _print_summary
@@ -51,8 +51,8 @@ def diagram(request):
     model, case = request.param
     speed_range, max_steps = COSTLY.get((model, case), (RANGE_KMH, SETTINGS.max_steps))
     settings = replace(SETTINGS, max_steps=max_steps)
-    return bifurcation_diagram(params_of(model, case), speed_range, settings, StabilitySettings(n_speeds=200),
-                               extend=False)
+    return bifurcation(params_of(model, case), speed_range, settings, StabilitySettings(n_speeds=200),
+                       extend=False)
 
 
 def test_special_points_are_located_once(diagram):
@@ -124,8 +124,8 @@ def test_failed_branch_in_the_text_output(capsys):
     """A branch cut by the step limit is printed as FAILED, with where and why; the note says
     that the branches were continued again, in vain (the same step limit)."""
     params = params_of("tread1dof", "stick-slip")
-    d = bifurcation_diagram(params, RANGE_KMH, ContinuationSettings(max_steps=15), StabilitySettings(n_speeds=100),
-                            extend=False)
+    d = bifurcation(params, RANGE_KMH, ContinuationSettings(max_steps=15), StabilitySettings(n_speeds=100),
+                    extend=False)
     (branch,) = d.branches
     assert branch.end is BranchEnd.MAX_STEPS and branch.failed
     _print_summary(d.summary())
@@ -148,7 +148,7 @@ def test_failed_branch_in_the_text_output(capsys):
       "tread.mass_kg=0.9341128655", "operating.vertical_load_n=3798.711896"], 150.38),
 ], ids=["tread1dof", "axle4dof"])
 def test_a_fold_just_before_a_hopf_point_is_not_stepped_over(overrides, fold_kmh):
-    d = bifurcation_diagram(load_params(overrides=overrides), extend=False)
+    d = bifurcation(load_params(overrides=overrides), extend=False)
     (fold,) = d.folds
     assert fold.speed_kmh == pytest.approx(fold_kmh, abs=1e-2)
     ((lo, hi),) = d.hard_regions_kmh
@@ -166,7 +166,7 @@ def test_a_branch_does_not_jump_past_its_hopf_point_onto_the_same_branch():
                  "operating.toe_deg=0.5233344255", "operating.camber_deg=-0.9361915259",
                  "friction.mu_static=0.8551040372", "tread.mass_kg=1.038338801",
                  "operating.vertical_load_n=3756.49334"]
-    d = bifurcation_diagram(load_params(overrides=overrides), extend=False)
+    d = bifurcation(load_params(overrides=overrides), extend=False)
     soft, hard = d.hopf_points
     (fold,) = d.folds
     (info,) = d.branch_info
@@ -186,7 +186,7 @@ def test_a_small_cycle_near_its_hopf_point_is_found_at_the_round_off_floor():
                  "tread.lateral_damping_ns_per_m=79.56133749345365", "operating.toe_deg=0.5017503284087396",
                  "operating.camber_deg=-1.0458789319714568", "friction.mu_static=0.8101796071696489",
                  "tread.mass_kg=0.9972262030348931", "operating.vertical_load_n=4036.6179043956095"]
-    d = bifurcation_diagram(load_params(overrides=overrides), (20.0, 300.0), extend=False)
+    d = bifurcation(load_params(overrides=overrides), (20.0, 300.0), extend=False)
     hopf = d.hopf_points[0]
     assert hopf.criticality == "soft" and 0.0 < 80.0 - hopf.speed_kmh < 0.05
     (cycle,) = d.cycles_at(80.0)
@@ -200,7 +200,7 @@ def test_a_small_cycle_near_its_hopf_point_is_found_at_the_round_off_floor():
 
 def test_defaults_do_not_need_rescue():
     """On the default tire the multipliers are resolved on the first mesh: no refinement, no failure."""
-    d = bifurcation_diagram(load_params(overrides=[]), (20.0, 300.0), extend=False)
+    d = bifurcation(load_params(overrides=[]), (20.0, 300.0), extend=False)
     (info,) = d.summary()["branches"]
     assert info["ended"] == "hopf_reached" and not info["failed"] and info["recoveries"] == []
 
@@ -213,8 +213,8 @@ def test_stable_window_of_the_heavy_axle_is_what_long_integration_reaches():
     stable cycle in the middle stays on it (every coordinate to 1e-4 of its range)."""
     model = get_model("axle4dof")
     params = params_of("axle4dof", "heavy load")
-    d = bifurcation_diagram(params, (20.0, 45.0), replace(SETTINGS, max_steps=30), StabilitySettings(n_speeds=200),
-                            extend=False)
+    d = bifurcation(params, (20.0, 45.0), replace(SETTINGS, max_steps=30), StabilitySettings(n_speeds=200),
+                    extend=False)
     fold = min(f.speed_kmh for f in d.folds)
     pd = min(pt.speed_kmh for pt in d.special if pt.kind is PointKind.PD)
     assert 40.0 < fold < pd < 40.2
@@ -265,7 +265,7 @@ def axle(values):
 def short_steps(params):
     """The diagram in steps at most a fifth as long (``ds_max`` 0.1) without a turn limit:
     on these cars it does not cross onto other branches."""
-    d = bifurcation_diagram(params, (20.0, 300.0), ContinuationSettings(ds_max=0.1, max_turn=None), extend=False)
+    d = bifurcation(params, (20.0, 300.0), ContinuationSettings(ds_max=0.1, max_turn=None), extend=False)
     assert d.continuation_notes == [] and not any(i["failed"] for i in d.branch_info)
     return d
 
@@ -282,7 +282,7 @@ def test_a_branch_lost_from_a_hopf_point_another_branch_ends_at_is_that_branch()
     steps, which follows the branch from 65.93 km/h to 96.13 km/h itself, and as the
     default (turn-limited) steps, which do too."""
     params = axle(JUMPING_AXLE)
-    d = bifurcation_diagram(params, (20.0, 300.0), NO_LIMIT, extend=False)
+    d = bifurcation(params, (20.0, 300.0), NO_LIMIT, extend=False)
     (note,) = d.continuation_notes
     assert "from 65.931 km/h was lost" in note and "it is the branch from 96.129 km/h" in note
     assert not any(i["failed"] for i in d.branch_info)
@@ -293,7 +293,7 @@ def test_a_branch_lost_from_a_hopf_point_another_branch_ends_at_is_that_branch()
     reference = short_steps(params)
     assert ends(reference) == [(65.93, 96.13), (98.78, 174.47)]
     np.testing.assert_allclose(band, np.array(reference.sev_band_kmh), rtol=1e-6)
-    default = bifurcation_diagram(params, (20.0, 300.0), extend=False)
+    default = bifurcation(params, (20.0, 300.0), extend=False)
     assert default.continuation_notes == [] and ends(default) == ends(reference)
     np.testing.assert_allclose(np.array(default.sev_band_kmh), band, rtol=1e-6)
 
@@ -304,9 +304,9 @@ def test_turn_limited_steps_follow_a_branch_that_steps_of_full_length_lose_from_
     attempts add a band interval at 65.04-65.54 km/h and a gap at 69.04-69.78 km/h; the
     default steps follow it. Check: the same SEV band as continuation in short steps."""
     params = axle(TWICE_LOST_AXLE)
-    lost = bifurcation_diagram(params, (20.0, 300.0), NO_LIMIT, extend=False)
+    lost = bifurcation(params, (20.0, 300.0), NO_LIMIT, extend=False)
     assert sum(i["failed"] for i in lost.branch_info) == 2 and len(lost.sev_band_kmh) == 4
-    d = bifurcation_diagram(params, (20.0, 300.0), extend=False)
+    d = bifurcation(params, (20.0, 300.0), extend=False)
     assert d.continuation_notes == [] and ends(d) == [(71.18, 84.21), (89.18, 164.31)]
     band = np.array(d.sev_band_kmh)
     assert band.shape == (2, 2)
@@ -320,11 +320,11 @@ def test_a_stable_window_below_the_first_hopf_point_is_not_stepped_over():
     Check: the Floquet multipliers of the cycle at 63.30 km/h from the variational equation
     (Radau, independent of the collocation): all inside the unit circle but the trivial one."""
     params = axle(WINDOW_AXLE)
-    d = bifurcation_diagram(params, (20.0, 300.0), extend=False)
+    d = bifurcation(params, (20.0, 300.0), extend=False)
     (lo, hi), rest = d.sev_band_kmh[0], d.sev_band_kmh[1:]
     assert lo == pytest.approx(63.2298, abs=1e-3) and hi == pytest.approx(63.3649, abs=1e-3)
     assert rest[0][0] == pytest.approx(min(h.speed_kmh for h in d.hopf_points)) == pytest.approx(68.2004, abs=1e-3)
-    coarse = bifurcation_diagram(params, (20.0, 300.0), NO_LIMIT, extend=False)
+    coarse = bifurcation(params, (20.0, 300.0), NO_LIMIT, extend=False)
     assert coarse.sev_band_kmh[0][0] == pytest.approx(68.2004, abs=1e-3)
     (stable,) = [c for c in d.cycles_at(63.30) if c.stable]
     model = get_model("axle4dof")
@@ -345,11 +345,11 @@ def test_a_diagram_with_a_branch_lost_is_continued_again_with_finer_steps():
     branch takes): both ends lost; continued again (0.1 rad, 170 steps) it is resolved,
     with the SEV band of the default diagram."""
     params = load_params(overrides=[])
-    d = bifurcation_diagram(params, (20.0, 300.0), ContinuationSettings(max_steps=85), extend=False)
+    d = bifurcation(params, (20.0, 300.0), ContinuationSettings(max_steps=85), extend=False)
     assert "continued again with steps that turn by at most 0.1 rad (up to 170 steps), which resolved it" in (
         d.continuation_notes[0])
     assert d.settings.max_turn == 0.1 and not any(i["failed"] for i in d.branch_info)
-    reference = bifurcation_diagram(params, (20.0, 300.0), extend=False)
+    reference = bifurcation(params, (20.0, 300.0), extend=False)
     assert reference.continuation_notes == []
     np.testing.assert_allclose(np.array(d.sev_band_kmh), np.array(reference.sev_band_kmh), rtol=1e-9)
 

@@ -14,9 +14,9 @@ import pytest
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from polywear.dynamics.bifurcation import bifurcation_diagram  # noqa: E402
-from polywear.dynamics.design import clear_operating_range  # noqa: E402
-from polywear.dynamics.sensitivity import local_sensitivity, perturbed  # noqa: E402
+from polywear.dynamics.bifurcation import bifurcation  # noqa: E402
+from polywear.dynamics.design import design  # noqa: E402
+from polywear.dynamics.sensitivity import perturbed, sensitivity  # noqa: E402
 from polywear.params import Params, with_updates  # noqa: E402
 
 from .cli_runner import run_main  # noqa: E402
@@ -27,14 +27,14 @@ MARGIN = 2.0
 
 @pytest.fixture(scope="module")
 def diagram():
-    return bifurcation_diagram(Params())
+    return bifurcation(Params())
 
 
 @pytest.fixture(scope="module")
-def design(diagram):
+def ranked(diagram):
     """Road option first in the request, an engineering one second; camber is not in tread1dof."""
     reports = []
-    result = clear_operating_range(
+    result = design(
         Params(), RANGE, keys=("friction.mu_static", "operating.toe_deg", "operating.camber_deg"),
         diagram=diagram, progress=lambda done, total, message="": reports.append((done, total, message)),
     )
@@ -47,10 +47,10 @@ def _option(result, key):
     return option
 
 
-def test_toe_is_reduced_to_the_closed_form_least_value(design, diagram):
+def test_toe_is_reduced_to_the_closed_form_least_value(ranked, diagram):
     """Toe 0.5 -> 0.75 (the old answer) widens the band; the least change is a reduction to
     asin(sin(0.5°) V1 / (130 + margin)), which lies beyond the default 50 % bound."""
-    toe = _option(design, "operating.toe_deg")
+    toe = _option(ranked, "operating.toe_deg")
     first = diagram.sev_band_kmh[0][0]
     least = math.degrees(math.asin(math.sin(math.radians(0.5)) * first / (RANGE[1] + MARGIN)))
     (value,) = toe.values
@@ -64,17 +64,17 @@ def test_toe_is_reduced_to_the_closed_form_least_value(design, diagram):
     assert not toe.within_bound and toe.relative_change > 0.5  # beyond the bound, flagged, still shown
 
 
-def test_chosen_direction_clears_by_an_independent_diagram_and_the_other_does_not(design):
-    toe = _option(design, "operating.toe_deg")
+def test_chosen_direction_clears_by_an_independent_diagram_and_the_other_does_not(ranked):
+    toe = _option(ranked, "operating.toe_deg")
     (value,) = toe.values
-    fresh = bifurcation_diagram(perturbed(Params(), "operating.toe_deg", value))
+    fresh = bifurcation(perturbed(Params(), "operating.toe_deg", value))
     assert not any(a < RANGE[1] + MARGIN and b > RANGE[0] - MARGIN for a, b in fresh.sev_band_kmh)
-    opposite = bifurcation_diagram(perturbed(Params(), "operating.toe_deg", 0.5 * (1 + toe.relative_change)))
+    opposite = bifurcation(perturbed(Params(), "operating.toe_deg", 0.5 * (1 + toe.relative_change)))
     assert any(a < RANGE[1] and b > RANGE[0] for a, b in opposite.sev_band_kmh)
 
 
-def test_signed_changes_and_units_in_summary_and_text(design):
-    summary = design.summary()
+def test_signed_changes_and_units_in_summary_and_text(ranked):
+    summary = ranked.summary()
     toe = next(o for o in summary["options"] if o["params"] == ["operating.toe_deg"])
     assert toe["units"] == ["deg"]
     assert toe["relative_changes"][0] < 0 and toe["relative_changes"][0] == pytest.approx(toe["values"][0] / 0.5 - 1)
@@ -83,47 +83,47 @@ def test_signed_changes_and_units_in_summary_and_text(design):
     assert "beyond the ±50 % bound" in toe["text"]
     mu = next(o for o in summary["options"] if o["params"] == ["friction.mu_static"])
     assert mu["units"] == [""] and mu["within_bound"] and mu["relative_changes"][0] < 0
-    text = "\n".join(design.lines())
+    text = "\n".join(ranked.lines())
     assert "toe angle 0.5° → 0.2" in text and "adhesion (mu_s alone) 0.9 → 0." in text
     assert "Not in model tread1dof: operating.camber_deg" in text
 
 
-def test_saved_table_and_json_keep_signs_and_units(design, tmp_path):
+def test_saved_table_and_json_keep_signs_and_units(ranked, tmp_path):
     import json
 
     import pandas as pd
 
-    design.save(tmp_path / "d.csv")
+    ranked.save(tmp_path / "d.csv")
     table = pd.read_csv(tmp_path / "d.csv")
     toe = table[table.param == "operating.toe_deg"].iloc[0]
     assert toe.unit == "deg" and toe.relative_change < -0.5 and not toe.within_bound and toe["rank"] == 1
-    design.save(tmp_path / "d.json")
+    ranked.save(tmp_path / "d.json")
     saved = json.loads((tmp_path / "d.json").read_text())
-    assert saved["options"] == json.loads(json.dumps(design.summary()["options"]))
+    assert saved["options"] == json.loads(json.dumps(ranked.summary()["options"]))
 
 
-def test_engineering_options_ranked_before_road_options(design):
+def test_engineering_options_ranked_before_road_options(ranked):
     """mu_s clears with a smaller change within the bound, but it is a road/compound option."""
-    cats = [o.category for o in design.options]
+    cats = [o.category for o in ranked.options]
     assert cats == ["alignment", "road/compound"]
-    mu = _option(design, "friction.mu_static")
-    assert mu.achieved and mu.within_bound and mu.relative_change < design.options[0].relative_change
-    text = design.lines()
+    mu = _option(ranked, "friction.mu_static")
+    assert mu.achieved and mu.within_bound and mu.relative_change < ranked.options[0].relative_change
+    text = ranked.lines()
     assert text.index(next(t for t in text if t.startswith("Road/compound"))) > text.index(
         next(t for t in text if "toe angle" in t))
-    assert design.skipped == ["operating.camber_deg"]
+    assert ranked.skipped == ["operating.camber_deg"]
 
 
-def test_progress_is_called_for_every_diagram(design):
-    toe = _option(design, "operating.toe_deg")
-    done = [d for d, _, _ in design.reports]
-    assert toe.change_text() in [m for _, _, m in design.reports]
+def test_progress_is_called_for_every_diagram(ranked):
+    toe = _option(ranked, "operating.toe_deg")
+    done = [d for d, _, _ in ranked.reports]
+    assert toe.change_text() in [m for _, _, m in ranked.reports]
     assert done == sorted(done) and done[-1] >= 3  # diagrams computed, counted up
-    assert all(total is None for _, total, _ in design.reports)
+    assert all(total is None for _, total, _ in ranked.reports)
 
 
 def test_safe_car_gives_an_empty_result_with_a_reason():
-    result = clear_operating_range(with_updates(Params(), {"operating.toe_deg": 0.05}), RANGE)
+    result = design(with_updates(Params(), {"operating.toe_deg": 0.05}), RANGE)
     assert result.options == [] and result.best is None
     assert "No SEV band" in result.reason
     assert result.summary()["reason"] == result.reason and result.reason in result.lines()
@@ -141,9 +141,9 @@ def test_bifurcation_figure_marks_operating_speed_and_range(diagram):
     plt.close(fig)
 
 
-def test_design_figure_marks_operating_speed_and_range(design):
+def test_design_figure_marks_operating_speed_and_range(ranked):
     fig, ax = plt.subplots()
-    design.plot(ax)
+    ranked.plot(ax)
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
     assert "operating speed 110 km/h" in labels and "operating range 80-130 km/h" in labels
     assert any(label.startswith("changed: toe angle") for label in labels)
@@ -151,7 +151,7 @@ def test_design_figure_marks_operating_speed_and_range(design):
 
 
 def test_sensitivity_figure_has_one_panel_per_point_and_explains_colours(diagram):
-    sens = local_sensitivity(Params(), keys=("operating.toe_deg", "friction.mu_static"), diagram=diagram)
+    sens = sensitivity(Params(), keys=("operating.toe_deg", "friction.mu_static"), diagram=diagram)
     fig = sens.figure()
     speeds = {r["speed_kmh"] for r in sens.rows}
     titles = [ax.get_title() for ax in fig.axes]
@@ -180,13 +180,13 @@ def test_cli_design_quiet_prints_only_the_result():
 @pytest.mark.slow
 def test_axle4dof_toe_option_clears_and_is_nearly_least():
     params = with_updates(Params(), {"model": "axle4dof"})
-    result = clear_operating_range(params, RANGE, keys=("operating.toe_deg",))
+    result = design(params, RANGE, keys=("operating.toe_deg",))
     (toe,) = result.options
     (value,) = toe.values
     assert toe.achieved and value < 0.5  # a reduction raises the first bifurcation speed above the range
-    fresh = bifurcation_diagram(perturbed(params, "operating.toe_deg", value)).sev_band_kmh
+    fresh = bifurcation(perturbed(params, "operating.toe_deg", value)).sev_band_kmh
     assert fresh and fresh[0][0] >= RANGE[1] + MARGIN - 1e-6
-    weaker = bifurcation_diagram(perturbed(params, "operating.toe_deg", 0.5 - 0.97 * (0.5 - value))).sev_band_kmh
+    weaker = bifurcation(perturbed(params, "operating.toe_deg", 0.5 - 0.97 * (0.5 - value))).sev_band_kmh
     assert any(a < RANGE[1] and b > RANGE[0] for a, b in weaker)
 
 
@@ -210,25 +210,25 @@ def test_combination_moves_along_the_normalized_sensitivities(diagram):
     """toe and adhesion_scale together: ln(p / p0) proportional to S of the first bifurcation
     speed (the steepest way up for the edge to move), and a fresh diagram confirms the clear range."""
     keys = ("operating.toe_deg", "adhesion_scale")
-    result = clear_operating_range(Params(), RANGE, keys=(), combine=keys, diagram=diagram)
+    result = design(Params(), RANGE, keys=(), combine=keys, diagram=diagram)
     (combo,) = result.options
     assert combo.achieved and combo.category == "road/compound"
-    S = {r["param"]: r["normalized"] for r in local_sensitivity(Params(), keys=keys, diagram=diagram).rows
+    S = {r["param"]: r["normalized"] for r in sensitivity(Params(), keys=keys, diagram=diagram).rows
          if r["quantity"] == "first_bifurcation"}
     (toe, scale) = combo.values
     assert math.log(toe / 0.5) / math.log(scale) == pytest.approx(S["operating.toe_deg"] / S["adhesion_scale"], rel=1e-9)
     p = perturbed(perturbed(Params(), "operating.toe_deg", toe), "adhesion_scale", scale)
-    assert not any(a < RANGE[1] + MARGIN and b > RANGE[0] - MARGIN for a, b in bifurcation_diagram(p).sev_band_kmh)
+    assert not any(a < RANGE[1] + MARGIN and b > RANGE[0] - MARGIN for a, b in bifurcation(p).sev_band_kmh)
 
 
 def test_open_band_is_not_printed_as_the_range_limit():
     """toe 0.1 deg: the band runs past the 1000 km/h ceiling; text and JSON say 'open', never 1000."""
     params = with_updates(Params(), {"operating.toe_deg": 0.1})
-    result = clear_operating_range(params, keys=("operating.toe_deg",), operating_range_kmh=(80.0, 130.0))
+    result = design(params, keys=("operating.toe_deg",), operating_range_kmh=(80.0, 130.0))
     text = "\n".join(result.lines())
     assert "open above" in text and "1000.0" not in text
     first, second = result.summary()["original_sev_band_kmh"][0]
     # first bifurcation speed from the default's first Hopf speed and the 1/sin(toe) law
-    v_h1 = bifurcation_diagram(Params()).hopf_points[0].speed_kmh
+    v_h1 = bifurcation(Params()).hopf_points[0].speed_kmh
     assert second is None
     assert first == pytest.approx(v_h1 * math.sin(math.radians(0.5)) / math.sin(math.radians(0.1)), rel=1e-6)

@@ -82,7 +82,7 @@ def test_mkdocs_build_strict(tmp_path):
     )
     assert done.returncode == 0, done.stderr[-3000:]
     api = (tmp_path / "api" / "index.html").read_text()
-    assert "stability_analysis" in api and "bifurcation_diagram" in api
+    assert "stability" in api and "bifurcation" in api
 
 
 def _blocks(text: str, language: str) -> list[str]:

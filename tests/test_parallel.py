@@ -17,7 +17,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from polywear.studies.global_sensitivity import global_sensitivity
+from polywear.studies.global_sensitivity import study
 from polywear.parallel import default_batch_size, map_batched
 from polywear.params import Params, StudySpec
 
@@ -179,16 +179,16 @@ def _same(a, b) -> None:
 
 @pytest.fixture(scope="module")
 def reference():
-    result = global_sensitivity(Params(), _study(), backend="serial")
+    result = study(Params(), _study(), backend="serial")
     assert result.failures() == {} and len(result.status) == 64 * 8
     return result
 
 
 @pytest.mark.slow
 def test_same_seed_same_numbers_on_serial_processes_and_dask(cluster, reference):
-    _same(reference, global_sensitivity(Params(), _study(), backend="processes", workers=2))
-    _same(reference, global_sensitivity(Params(), _study(), backend="dask", scheduler=cluster.address))
-    assert not np.array_equal(global_sensitivity(Params(), _study(seed=7), backend="serial").samples, reference.samples)
+    _same(reference, study(Params(), _study(), backend="processes", workers=2))
+    _same(reference, study(Params(), _study(), backend="dask", scheduler=cluster.address))
+    assert not np.array_equal(study(Params(), _study(seed=7), backend="serial").samples, reference.samples)
 
 
 @pytest.mark.slow
@@ -202,8 +202,8 @@ def test_dask_study_survives_a_killed_worker(cluster, reference):
             victim.kill()  # SIGKILL: tasks held or running there are recomputed elsewhere
             victim.wait(10)
 
-    result = global_sensitivity(Params(), _study(), backend="dask", scheduler=cluster.address, batch_size=4,
-                                progress=kill_after_first_batch)
+    result = study(Params(), _study(), backend="dask", scheduler=cluster.address, batch_size=4,
+                   progress=kill_after_first_batch)
     assert victim.poll() is not None and len(done) == 128 and done[-1] == 512 and done == sorted(done)
     assert cluster.n_workers() == 1
     _same(reference, result)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation
 from polywear.studies.global_sensitivity import DEFAULT_KEYS, sample_params
 from polywear.models import get_model
 from polywear.params import Params, get_value, with_updates
@@ -38,7 +38,7 @@ def _axle_sample(index: int) -> Params:
 
 @pytest.fixture(scope="module")
 def complex_diagram():
-    return bifurcation_diagram(_axle_sample(13), extend=False)
+    return bifurcation(_axle_sample(13), extend=False)
 
 
 def _nontrivial(mu: np.ndarray) -> np.ndarray:

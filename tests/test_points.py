@@ -18,7 +18,7 @@ import polywear.measured
 import polywear.studies
 import polywear.validation
 import polywear.wear
-from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation
 from polywear.dynamics.points import PointKind, SpecialPoint
 from polywear.dynamics.stability_map import MapSettings, stability_map
 from polywear.params import Params, with_updates
@@ -60,7 +60,7 @@ def test_no_public_result_field_is_a_speed_without_its_unit():
 
 @pytest.fixture(scope="module")
 def diagram():
-    return bifurcation_diagram(Params())
+    return bifurcation(Params())
 
 
 def test_hopf_and_cycle_points_carry_both_units(diagram):
@@ -90,7 +90,7 @@ def test_a_real_eigenvalue_crossing_is_a_divergence_point():
     """axle4dof with a soft toe bushing (tests/test_verdict.py): static divergence near 35.7 km/h."""
     params = with_updates(Params(), {"model": "axle4dof", "axle.toe_stiffness_nm_per_rad": 2e4,
                                      "operating.speed_kmh": 50.0})
-    diagram = bifurcation_diagram(params, (30.0, 70.0), extend=False)
+    diagram = bifurcation(params, (30.0, 70.0), extend=False)
     (div,) = diagram.special_points
     assert div.kind is PointKind.DIV and 35.0 < div.speed_kmh < 36.5
     assert [div.speed_kmh] == list(diagram.stability.real_crossings_kmh)

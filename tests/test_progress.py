@@ -14,15 +14,15 @@ from polywear.params import Params
 from polywear.progress import StepCounter, report, shifted
 
 ENTRY_POINTS = [
-    "polywear.dynamics.bifurcation:bifurcation_diagram",
+    "polywear.dynamics.bifurcation:bifurcation",
     "polywear.measured.calibration:calibrate",
-    "polywear.dynamics.design:clear_operating_range",
-    "polywear.dynamics.excitation:excitation_portraits",
-    "polywear.studies.fleet:fleet_risk",
+    "polywear.dynamics.design:design",
+    "polywear.dynamics.excitation:excitation",
+    "polywear.studies.fleet:fleet",
     "polywear.friction.fits:fit_loops",
     "polywear.friction.loops:hysteresis_loops",
-    "polywear.studies.global_sensitivity:global_sensitivity",
-    "polywear.dynamics.sensitivity:local_sensitivity",
+    "polywear.studies.global_sensitivity:study",
+    "polywear.dynamics.sensitivity:sensitivity",
     "polywear.dynamics.simulation:simulate_disturbances",
     "polywear.dynamics.simulation:simulate_values",
     "polywear.dynamics.stability_map:stability_map",
@@ -81,10 +81,10 @@ def test_simulations_report_runs_done_of_all_runs():
 
 
 def test_bifurcation_counts_continuation_steps():
-    from polywear.dynamics.bifurcation import bifurcation_diagram
+    from polywear.dynamics.bifurcation import bifurcation
 
     calls, progress = _recorder()
-    diagram = bifurcation_diagram(Params(), progress=progress)
+    diagram = bifurcation(Params(), progress=progress)
     assert [d for d, _, _ in calls] == list(range(1, len(calls) + 1))  # one report per step, counted on
     assert all(total is None and message.startswith("branch ") for _, total, message in calls)
     assert len(calls) >= sum(len(b.points) for b in diagram.branches) > 0

@@ -27,9 +27,9 @@ RANGE = (20.0, 300.0)
 
 @pytest.fixture(scope="module")
 def diagram():
-    from polywear.dynamics.bifurcation import bifurcation_diagram
+    from polywear.dynamics.bifurcation import bifurcation
 
-    return bifurcation_diagram(Params(), RANGE)
+    return bifurcation(Params(), RANGE)
 
 
 def _stability(d):
@@ -59,31 +59,31 @@ def _sweep(d):
 
 
 def _sensitivity(d):
-    from polywear.dynamics.sensitivity import local_sensitivity
+    from polywear.dynamics.sensitivity import sensitivity
 
-    return local_sensitivity(Params(), keys=("operating.toe_deg",), diagram=d)
+    return sensitivity(Params(), keys=("operating.toe_deg",), diagram=d)
 
 
 def _study(d):
-    from polywear.studies.global_sensitivity import global_sensitivity
+    from polywear.studies.global_sensitivity import study
 
     from polywear.params import StudySpec
 
-    study = StudySpec().with_updates({"n_base": 8, "bootstrap": 10, "outputs": "hopf"})
-    return global_sensitivity(Params(), study, backend="serial")
+    spec = StudySpec().with_updates({"n_base": 8, "bootstrap": 10, "outputs": "hopf"})
+    return study(Params(), spec, backend="serial")
 
 
 def _design(d):
-    from polywear.dynamics.design import clear_operating_range
+    from polywear.dynamics.design import design
 
-    return clear_operating_range(Params(), (80.0, 130.0), speed_range_kmh=RANGE, keys=("operating.toe_deg",),
-                                 diagram=d)
+    return design(Params(), (80.0, 130.0), speed_range_kmh=RANGE, keys=("operating.toe_deg",),
+                  diagram=d)
 
 
 def _excitation(d):
-    from polywear.dynamics.excitation import ExcitationSettings, default_speeds, excitation_portraits
+    from polywear.dynamics.excitation import ExcitationSettings, default_speeds, excitation
 
-    return excitation_portraits(d, default_speeds(d, 120.0)[:1], ExcitationSettings(duration_s=0.2))[0]
+    return excitation(d, default_speeds(d, 120.0)[:1], ExcitationSettings(duration_s=0.2))[0]
 
 
 def _attractor(d):
@@ -123,16 +123,16 @@ def _band(d):
 
 
 def _fleet(d, tmp_path_factory):
-    from polywear.dynamics.bifurcation import bifurcation_diagram
+    from polywear.dynamics.bifurcation import bifurcation
     from polywear.studies.fast_band import _FIXED_RANGE, band_reference
-    from polywear.studies.fleet import fleet_risk, load_fleet_spec
+    from polywear.studies.fleet import fleet, load_fleet_spec
 
     path = tmp_path_factory.mktemp("fleet") / "fleet.toml"
     path.write_text('[fleet]\nsamples = 3\nseed = 3\nspeed_range_kmh = [10.0, 600.0]\n'
                     '[[fleet.parameter]]\nkey = "operating.toe_deg"\ndistribution = "normal"\nmean = 0.5\nstd = 0.08\n'
                     '[[fleet.usage]]\nspeed_kmh = 110\nshare = 1.0\n')
-    reference = band_reference(bifurcation_diagram(Params(), (10.0, 600.0), **_FIXED_RANGE))
-    return fleet_risk(Params(), load_fleet_spec(path, Params()), backend="serial", reference=reference)
+    reference = band_reference(bifurcation(Params(), (10.0, 600.0), **_FIXED_RANGE))
+    return fleet(Params(), load_fleet_spec(path, Params()), backend="serial", reference=reference)
 
 
 def _campbell(d, tmp_path_factory):

@@ -12,8 +12,8 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from polywear.dynamics.bifurcation import bifurcation_diagram
-from polywear.dynamics.sensitivity import (ADHESION_SCALE, PAPER_PARAMETERS, SensitivitySettings, local_sensitivity,
+from polywear.dynamics.bifurcation import bifurcation
+from polywear.dynamics.sensitivity import (ADHESION_SCALE, PAPER_PARAMETERS, SensitivitySettings, sensitivity,
                                            perturbed)
 from polywear.params import ADHESION_SCALE as STUDY_ADHESION_SCALE
 from polywear.params import Params, with_updates
@@ -32,7 +32,7 @@ SCALING_KEYS = (
 @pytest.fixture(scope="module")
 def nominal():
     """The default tread1dof diagram (Hopf 58.1 soft, 207.8 hard, fold 254.7 km/h)."""
-    return bifurcation_diagram(Params())
+    return bifurcation(Params())
 
 
 def _by_quantity(result, field="derivative") -> dict:
@@ -48,7 +48,7 @@ def test_adhesion_key_is_the_same_name_in_params_and_sensitivity():
 
 
 def test_rows_cover_every_quantity_and_parameter(nominal):
-    result = local_sensitivity(Params(), diagram=nominal)
+    result = sensitivity(Params(), diagram=nominal)
     assert {r["quantity"] for r in result.rows} == set(QUANTITIES)
     assert {r["param"] for r in result.rows} == set(PAPER_PARAMETERS)
     assert len(result.rows) == len(QUANTITIES) * len(PAPER_PARAMETERS)
@@ -72,7 +72,7 @@ def test_toe_sensitivity_is_minus_theta_cot_theta(nominal):
     theta = math.radians(0.5)
     expected = -theta / math.tan(theta)
     assert abs(expected + 1.0 - theta**2 / 3) < 1e-9  # -1 + theta^2/3 + O(theta^4)
-    result = local_sensitivity(Params(), ["operating.toe_deg"], diagram=nominal)
+    result = sensitivity(Params(), ["operating.toe_deg"], diagram=nominal)
     S = _by_quantity(result, "normalized")
     for q in ("hopf_1", "hopf_2"):
         assert S[(q, "operating.toe_deg")] == pytest.approx(expected, rel=1e-9)
@@ -85,7 +85,7 @@ def test_toe_sensitivity_is_minus_theta_cot_theta(nominal):
 def test_toe_closed_form_at_other_toe_angles(toe):
     factor = math.sin(math.radians(0.5)) / math.sin(math.radians(toe))
     params = with_updates(Params(), {"operating.toe_deg": toe})
-    result = local_sensitivity(params, ["operating.toe_deg"], speed_range_kmh=(20.0 * factor, 300.0 * factor))
+    result = sensitivity(params, ["operating.toe_deg"], speed_range_kmh=(20.0 * factor, 300.0 * factor))
     theta = math.radians(toe)
     for r in result.rows:
         assert r["normalized"] == pytest.approx(-theta / math.tan(theta), rel=1e-7), r
@@ -93,7 +93,7 @@ def test_toe_closed_form_at_other_toe_angles(toe):
 
 def test_scaling_invariance_of_m_k_c_n(nominal):
     """Scaling m, k, c and N by one factor leaves every bifurcation speed unchanged: sum S = 0."""
-    result = local_sensitivity(Params(), SCALING_KEYS, diagram=nominal)
+    result = sensitivity(Params(), SCALING_KEYS, diagram=nominal)
     S = _by_quantity(result, "normalized")
     for q in QUANTITIES:
         values = [S[(q, key)] for key in SCALING_KEYS]
@@ -105,7 +105,7 @@ def test_scaling_invariance_of_m_k_c_n(nominal):
 def test_scaling_invariance_holds_away_from_the_defaults(damping, mu_s, mass):
     params = with_updates(Params(), {"tread.lateral_damping_ns_per_m": damping, "friction.mu_static": mu_s,
                                      "tread.mass_kg": mass})
-    result = local_sensitivity(params, SCALING_KEYS)
+    result = sensitivity(params, SCALING_KEYS)
     assume(result.rows)
     S = _by_quantity(result, "normalized")
     for q in {r["quantity"] for r in result.rows}:
@@ -114,15 +114,15 @@ def test_scaling_invariance_holds_away_from_the_defaults(damping, mu_s, mass):
 
 
 def test_camber_does_not_enter_tread1dof(nominal):
-    result = local_sensitivity(Params(), ["operating.camber_deg"], diagram=nominal)
+    result = sensitivity(Params(), ["operating.camber_deg"], diagram=nominal)
     assert all(r["derivative"] == 0.0 and r["normalized"] == 0.0 for r in result.rows)
 
 
 @pytest.mark.slow
 def test_exact_matches_central_differences_for_all_seven_parameters(nominal):
     """Central differences re-run the whole continuation (Hopf points and fold) at p +- dp."""
-    exact = _by_quantity(local_sensitivity(Params(), diagram=nominal))
-    central = _by_quantity(local_sensitivity(Params(), settings=SensitivitySettings("central", 1e-4), diagram=nominal))
+    exact = _by_quantity(sensitivity(Params(), diagram=nominal))
+    central = _by_quantity(sensitivity(Params(), settings=SensitivitySettings("central", 1e-4), diagram=nominal))
     for key, value in exact.items():
         assert central[key] is not None, key
         scale = max(abs(value), 1e-12)
@@ -136,13 +136,13 @@ def test_step_study_truncation_then_rounding(nominal):
     Forward differences (the paper's eq. 3): error ~ h (x10 per decade).
     """
     key = "tread.lateral_damping_ns_per_m"
-    exact = _by_quantity(local_sensitivity(Params(), [key], diagram=nominal))
+    exact = _by_quantity(sensitivity(Params(), [key], diagram=nominal))
     steps = (1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-7, 1e-9)
 
     def errors(method, step_list):
         out = {}
         for h in step_list:
-            d = _by_quantity(local_sensitivity(Params(), [key], SensitivitySettings(method, h), diagram=nominal))
+            d = _by_quantity(sensitivity(Params(), [key], SensitivitySettings(method, h), diagram=nominal))
             out[h] = {q: _relative_error(d[(q, key)], exact[(q, key)]) for q in ("hopf_1", "hopf_2", "fold_1")}
         return out
 
@@ -162,20 +162,20 @@ def test_step_study_truncation_then_rounding(nominal):
 def test_fold_sensitivity_against_a_rerun_continuation(nominal):
     """dV_fold/dp from the left null vector against the fold of re-run diagrams at p +- 1e-3 p."""
     for key in (ADHESION_SCALE, "operating.vertical_load_n"):
-        exact = _by_quantity(local_sensitivity(Params(), [key], diagram=nominal))[("fold_1", key)]
+        exact = _by_quantity(sensitivity(Params(), [key], diagram=nominal))[("fold_1", key)]
         p0 = 1.0 if key == ADHESION_SCALE else Params().operating.vertical_load_n
         h = 1e-3 * p0
-        folds = [bifurcation_diagram(perturbed(Params(), key, p0 + s * h)).folds[0].speed_kmh for s in (1, -1)]
+        folds = [bifurcation(perturbed(Params(), key, p0 + s * h)).folds[0].speed_kmh for s in (1, -1)]
         assert (folds[0] - folds[1]) / (2 * h) == pytest.approx(exact, rel=1e-4)
 
 
 @pytest.mark.slow
 def test_axle4dof_exact_matches_central_differences():
     params = with_updates(Params(), {"model": "axle4dof"})
-    diagram = bifurcation_diagram(params)
+    diagram = bifurcation(params)
     keys = ("operating.toe_deg", "operating.camber_deg", ADHESION_SCALE)
-    exact = _by_quantity(local_sensitivity(params, keys, diagram=diagram))
-    central = _by_quantity(local_sensitivity(params, keys, SensitivitySettings("central", 1e-4), diagram=diagram))
+    exact = _by_quantity(sensitivity(params, keys, diagram=diagram))
+    central = _by_quantity(sensitivity(params, keys, SensitivitySettings("central", 1e-4), diagram=diagram))
     assert {q for q, _ in exact} >= {"hopf_1", "hopf_2", "first_bifurcation", "second_bifurcation"}
     for key, value in exact.items():
         assert abs(central[key] - value) <= 1e-4 * abs(value), (key, value, central[key])

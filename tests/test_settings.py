@@ -156,16 +156,16 @@ def test_infinite_multiplier_tolerance_switches_the_check_off():
 
 
 def test_bifurcation_takes_its_stability_grid_as_settings():
-    """bifurcation_diagram(stability_settings=...) is the grid of the Hopf bracketing (was n_speeds=);
+    """bifurcation(stability_settings=...) is the grid of the Hopf bracketing (was n_speeds=);
     a widened range keeps the grid spacing (at most four times the points) and the other fields."""
-    from polywear.dynamics.bifurcation import bifurcation_diagram
+    from polywear.dynamics.bifurcation import bifurcation
     from polywear.params import Params
 
-    fixed = bifurcation_diagram(Params(), (20.0, 300.0), stability_settings=StabilitySettings(n_speeds=50), extend=False)
+    fixed = bifurcation(Params(), (20.0, 300.0), stability_settings=StabilitySettings(n_speeds=50), extend=False)
     assert fixed.stability.settings == {"n_speeds": 50, "xtol_ms": 1e-10}
     assert fixed.speed_range_kmh == (20.0, 300.0)
     grid = StabilitySettings(n_speeds=20, xtol_ms=1e-9)
-    widened = bifurcation_diagram(Params(), (150.0, 200.0), stability_settings=grid)  # operating speed 110 km/h
+    widened = bifurcation(Params(), (150.0, 200.0), stability_settings=grid)  # operating speed 110 km/h
     lo, hi = widened.speed_range_kmh
     assert lo < 110.0 < hi and (lo, hi) != (150.0, 200.0)
     n = widened.stability.settings["n_speeds"]
@@ -176,17 +176,17 @@ def test_bifurcation_takes_its_stability_grid_as_settings():
 def test_design_and_excitation_follow_their_settings():
     """DesignSettings.margin_kmh is the margin the design keeps and reports; the default
     simulated time of a portrait lies within ExcitationSettings' settling bounds."""
-    from polywear.dynamics.bifurcation import bifurcation_diagram
-    from polywear.dynamics.design import clear_operating_range
+    from polywear.dynamics.bifurcation import bifurcation
+    from polywear.dynamics.design import design
     from polywear.dynamics.excitation import settling_time
     from polywear.params import Params
 
-    d = bifurcation_diagram(Params())
+    d = bifurcation(Params())
     (band_lo, _), *_ = d.sev_band_kmh
     below = (band_lo - 12.0, band_lo - 8.0)  # clear of the band by 8 km/h
-    clear = clear_operating_range(Params(), below, diagram=d, settings=DesignSettings(margin_kmh=5.0))
+    clear = design(Params(), below, diagram=d, settings=DesignSettings(margin_kmh=5.0))
     assert clear.margin_kmh == 5.0 and clear.options == [] and "5 km/h margin" in clear.reason
-    blocked = clear_operating_range(Params(), below, keys=(), diagram=d, settings=DesignSettings(margin_kmh=10.0))
+    blocked = design(Params(), below, keys=(), diagram=d, settings=DesignSettings(margin_kmh=10.0))
     assert blocked.margin_kmh == 10.0 and "outside the operating range" not in blocked.reason  # 10 km/h reach the band
     speed = 0.5 * sum(d.sev_band_kmh[0])
     cycles = d.cycles_at(speed)

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation
 from polywear.studies.fast_band import _FIXED_RANGE, _difference, band_reference
 from polywear.models import get_model
 from polywear.params import Params, with_updates
@@ -21,7 +21,7 @@ SETTINGS = ContinuationSettings()
 
 def _reference(updates):
     params = with_updates(Params(), updates)
-    return params, band_reference(bifurcation_diagram(params, **_FIXED_RANGE))
+    return params, band_reference(bifurcation(params, **_FIXED_RANGE))
 
 
 def _second_multiplier_gap(point) -> float:
@@ -85,7 +85,7 @@ def test_no_fold_near_the_guess_gives_none(axle_reference):
     base, ref = axle_reference
     model = get_model("axle4dof")
     params = with_updates(base, {"friction.mu_static": 0.82, "operating.vertical_load_n": 3700.0})
-    diagram = bifurcation_diagram(params, **_FIXED_RANGE)
+    diagram = bifurcation(params, **_FIXED_RANGE)
     assert not diagram.folds, "the sample must have no fold for this test"
     p = model.pack(params)
     fold = ref.folds[0]
@@ -113,7 +113,7 @@ def test_stopping_early_loses_nothing(monkeypatch):
     import polywear.solvers.continuation as continuation
 
     base = with_updates(Params(), {"model": "axle4dof"})
-    diagram = bifurcation_diagram(base, **_FIXED_RANGE)
+    diagram = bifurcation(base, **_FIXED_RANGE)
     model, V = get_model("axle4dof"), 130.0 / 3.6
     p = model.pack(with_updates(base, {"tread.lateral_damping_ns_per_m": 76.0, "operating.toe_deg": 0.47}))
     guess = next(c for c in diagram.cycles_at(130.0) if c.stable).orbit

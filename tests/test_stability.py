@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from polywear.dynamics.stability import StabilitySettings, stability_analysis
+from polywear.dynamics.stability import StabilitySettings, stability
 from polywear.models import get_model
 from polywear.params import Params, with_updates
 from polywear.solvers.continuation import continue_from_hopf
@@ -28,7 +28,7 @@ def test_jacobian_eigenvalues_are_the_roots_of_the_cubic():
 
 
 def test_default_hopf_speeds_match_routh_hurwitz_and_model_md():
-    result = stability_analysis(Params(), (5.0, 300.0))
+    result = stability(Params(), (5.0, 300.0))
     p = MODEL.pack(Params())
     oracle = routh_hurwitz_hopf_speeds(p, 5 / 3.6, 300 / 3.6)
     speeds = [h.speed_ms for h in result.hopf_points]
@@ -49,10 +49,10 @@ def test_default_hopf_speeds_match_routh_hurwitz_and_model_md():
 @settings(max_examples=8, deadline=None)
 @given(toe=st.floats(0.2, 2.0))
 def test_hopf_speeds_scale_exactly_as_one_over_sin_toe(toe):
-    base = stability_analysis(Params(), (5.0, 300.0))
+    base = stability(Params(), (5.0, 300.0))
     # widen the range so that the scaled Hopf speeds stay inside it
     factor = math.sin(math.radians(0.5)) / math.sin(math.radians(toe))
-    moved = stability_analysis(
+    moved = stability(
         with_updates(Params(), {"operating.toe_deg": toe}), (5.0 * factor, 300.0 * factor)
     )
     expected = [h.speed_ms * factor for h in base.hopf_points]
@@ -72,8 +72,8 @@ def test_hopf_speeds_invariant_when_m_k_c_n_scale_together(scale):
             "operating.vertical_load_n": base.operating.vertical_load_n * scale,
         },
     )
-    a = stability_analysis(base, (5.0, 300.0))
-    b = stability_analysis(scaled, (5.0, 300.0))
+    a = stability(base, (5.0, 300.0))
+    b = stability(scaled, (5.0, 300.0))
     assert np.allclose([h.speed_ms for h in a.hopf_points], [h.speed_ms for h in b.hopf_points], rtol=1e-9)
     assert np.allclose([h.omega for h in a.hopf_points], [h.omega for h in b.hopf_points], rtol=1e-9)
 
@@ -85,7 +85,7 @@ def test_first_lyapunov_coefficient_predicts_the_emerging_cycle(index):
     branch must leave to the side and with the stability that the sign of l1 implies."""
     params = Params()
     p = MODEL.pack(params)
-    hopf = stability_analysis(params, (5.0, 300.0)).hopf_points[index]
+    hopf = stability(params, (5.0, 300.0)).hopf_points[index]
     branch = continue_from_hopf(MODEL, p, hopf, (20 / 3.6, 300 / 3.6))
     first = branch.points[0]
     mu = hopf.dre_dspeed * (first.orbit.speed - hopf.speed_ms)
@@ -99,7 +99,7 @@ def test_first_lyapunov_coefficient_predicts_the_emerging_cycle(index):
 
 def test_bad_speed_range_is_rejected():
     with pytest.raises(ValueError, match="speed range"):
-        stability_analysis(Params(), (300.0, 5.0))
+        stability(Params(), (300.0, 5.0))
 
 
 class _RealCrossing:
@@ -136,7 +136,7 @@ def test_unloaded_axle_equilibrium_follows_the_sliding_branch():
     v_r = np.array([model.diagnostics(model.equilibrium(V, p), V, p)[0] for V in speeds])
     assert np.all(v_r > 1e-4)
     assert np.all(np.diff(v_r) > 0)  # the sliding velocity grows with speed on this branch
-    result = stability_analysis(params, (5.0, 300.0))
+    result = stability(params, (5.0, 300.0))
     assert result.summary()["running_alignment"]["toe_deg"] < 0.0  # compliance steer to toe-out
 
 
@@ -148,7 +148,7 @@ def test_a_band_narrower_than_the_grid_is_not_missed(n_speeds):
     grid refines itself where a sorted eigenvalue real part peaks near zero. Oracle: the
     Routh-Hurwitz condition on a 2000-point grid around the band."""
     params = with_updates(Params(), {"tread.lateral_damping_ns_per_m": 448.78})
-    result = stability_analysis(params, (20.0, 300.0), StabilitySettings(n_speeds=n_speeds))
+    result = stability(params, (20.0, 300.0), StabilitySettings(n_speeds=n_speeds))
     oracle = routh_hurwitz_hopf_speeds(MODEL.pack(params), 110 / 3.6, 130 / 3.6)
     assert len(oracle) == 2 and 0.0 < (oracle[1] - oracle[0]) * 3.6 < 0.5
     assert np.allclose([h.speed_ms for h in result.hopf_points], oracle, rtol=1e-9)

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from polywear.dynamics.bifurcation import bifurcation_diagram
+from polywear.dynamics.bifurcation import bifurcation
 from polywear.dynamics.points import PointKind
 from polywear.dynamics.sensitivity import perturbed
-from polywear.dynamics.stability import stability_analysis
+from polywear.dynamics.stability import stability
 from polywear.dynamics.stability_map import stability_map
 from polywear.models import get_model
 from polywear.params import Params, with_updates
@@ -38,7 +38,7 @@ def mu_map():
 
 @pytest.fixture(scope="module")
 def nominal():
-    return bifurcation_diagram(Params())
+    return bifurcation(Params())
 
 
 def _flat(intervals):
@@ -65,7 +65,7 @@ def test_toe_map_curves_follow_one_over_sin_toe(toe_map, nominal):
 
 @pytest.mark.parametrize("toe", [0.35, 0.8, 1.2])
 def test_toe_map_bands_match_one_parameter_diagrams(toe_map, toe):
-    diagram = bifurcation_diagram(perturbed(Params(), TOE, toe), extend=False)  # the map's window
+    diagram = bifurcation(perturbed(Params(), TOE, toe), extend=False)  # the map's window
     bands = toe_map.bands_at(toe)
     assert np.allclose(_flat(bands["linear"]), _flat(diagram.linear_band_kmh), rtol=1e-8)
     assert np.allclose(_flat(bands["sev"]), _flat(diagram.sev_band_kmh), rtol=1e-5)
@@ -115,10 +115,10 @@ def test_bautin_point_of_the_mu_static_map(mu_map, nominal):
     value, speed = bautin.value, bautin.speed_kmh
     l1 = {}
     for side in (-1, 1):
-        stab = stability_analysis(perturbed(Params(), MU, value * (1 + side * 1e-3)), (20.0, 300.0))
+        stab = stability(perturbed(Params(), MU, value * (1 + side * 1e-3)), (20.0, 300.0))
         l1[side] = min(stab.hopf_points, key=lambda h: abs(h.speed_kmh - speed)).l1
     assert l1[-1] < 0 < l1[1]  # soft below, hard above (the default, 0.9, is hard)
-    at = min(stability_analysis(perturbed(Params(), MU, value), (20.0, 300.0)).hopf_points,
+    at = min(stability(perturbed(Params(), MU, value), (20.0, 300.0)).hopf_points,
              key=lambda h: abs(h.speed_kmh - speed))
     assert abs(at.l1) < 1e-3 * abs(nominal.hopf_points[1].l1)
     (fold,) = mu_map.fold_curves
@@ -129,7 +129,7 @@ def test_bautin_point_of_the_mu_static_map(mu_map, nominal):
 
 @pytest.mark.parametrize("mu", [0.63, 0.75, 1.1])
 def test_mu_static_map_bands_match_one_parameter_diagrams(mu_map, mu):
-    diagram = bifurcation_diagram(perturbed(Params(), MU, mu), extend=False)  # the map's window
+    diagram = bifurcation(perturbed(Params(), MU, mu), extend=False)  # the map's window
     bands = mu_map.bands_at(mu)
     assert np.allclose(_flat(bands["linear"]), _flat(diagram.linear_band_kmh), rtol=1e-8)
     assert np.allclose(_flat(bands["sev"]), _flat(diagram.sev_band_kmh), rtol=1e-5)
@@ -159,7 +159,7 @@ def test_axle4dof_adhesion_map_matches_one_parameter_diagrams():
     m = stability_map(params, "adhesion_scale", (0.8, 1.2))
     assert len(m.hopf_curves) == 2 and len(m.bautin_points) == 1
     for value in (0.9, 1.15):
-        diagram = bifurcation_diagram(perturbed(params, "adhesion_scale", value))
+        diagram = bifurcation(perturbed(params, "adhesion_scale", value))
         bands = m.bands_at(value)
         assert np.allclose(_flat(bands["linear"]), _flat(diagram.linear_band_kmh), rtol=1e-8)
         assert np.allclose(_flat(bands["sev"]), _flat(diagram.sev_band_kmh), rtol=1e-4)

@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from polywear.dynamics.attractor import PERIOD_MULTIPLIED, QUASI_PERIODIC, reached_attractors
-from polywear.dynamics.bifurcation import SPEED_CEILING_KMH, bifurcation_diagram, statically_divergent
-from polywear.dynamics.design import clear_operating_range
-from polywear.dynamics.sensitivity import local_sensitivity
+from polywear.dynamics.bifurcation import SPEED_CEILING_KMH, bifurcation, statically_divergent
+from polywear.dynamics.design import design
+from polywear.dynamics.sensitivity import sensitivity
 from polywear.dynamics.simulation import simulate
 from polywear.models import get_model
 from polywear.params import Params, with_updates
@@ -35,7 +35,7 @@ def _toe(toe_deg, **more):
 @pytest.fixture(scope="module")
 def nominal():
     """Hopf and fold speeds [km/h] of the defaults (toe 0.5 deg), the scaling reference."""
-    d = bifurcation_diagram(Params(), (20.0, 300.0))
+    d = bifurcation(Params(), (20.0, 300.0))
     return [h.speed_kmh for h in d.hopf_points], [f.speed_kmh for f in d.folds]
 
 
@@ -46,7 +46,7 @@ def _scaled(speed_kmh, toe_deg):
 # -- the safe car: no Hopf point, no cycle ----------------------------------------------
 def test_safe_car_verdict_sensitivity_and_design_are_answers():
     params = _toe(0.05)  # Hopf speeds scale to 581 and 2078 km/h: nothing in 20-300 km/h
-    diagram = bifurcation_diagram(params, (20.0, 300.0))
+    diagram = bifurcation(params, (20.0, 300.0))
     assert diagram.hopf_points == [] and diagram.sev_band_kmh == [] and diagram.open_edges == []
     s = diagram.summary()
     assert s["first_bifurcation_speed_kmh"] is None and s["second_bifurcation_speed_kmh"] is None
@@ -54,10 +54,10 @@ def test_safe_car_verdict_sensitivity_and_design_are_answers():
     verdict = operating_verdict(diagram, params, 110.0)
     assert verdict["regime"] == "no SEV" and verdict["steady_rolling_stable"]
     assert "no self-excited vibration" in _sentence(verdict)
-    sens = local_sensitivity(params, diagram=diagram)
+    sens = sensitivity(params, diagram=diagram)
     assert sens.rows == [] and "no Hopf point" in sens.summary()["notes"][0]
-    design = clear_operating_range(params, (80.0, 130.0), diagram=diagram)
-    assert design.options == []
+    options = design(params, (80.0, 130.0), diagram=diagram)
+    assert options.options == []
 
 
 def test_safe_car_bifurcation_text_exit_0():
@@ -70,7 +70,7 @@ def test_safe_car_bifurcation_text_exit_0():
 def test_band_cut_at_the_upper_end_is_extended_to_its_fold(nominal):
     """toe 0.3 deg: the band used to end at 300 km/h; its fold is at 254.7 / sin ratio."""
     hopfs, folds = nominal
-    diagram = bifurcation_diagram(_toe(0.3), (20.0, 300.0))
+    diagram = bifurcation(_toe(0.3), (20.0, 300.0))
     s = diagram.summary()
     assert s["open_at"] is None and s["range_notes"]
     assert s["second_bifurcation_speed_kmh"] == pytest.approx(_scaled(folds[0], 0.3), rel=1e-7)
@@ -80,7 +80,7 @@ def test_band_cut_at_the_upper_end_is_extended_to_its_fold(nominal):
 
 def test_band_cut_at_the_lower_end_is_extended_to_its_hopf_point(nominal):
     hopfs, folds = nominal
-    s = bifurcation_diagram(_toe(5.0), (20.0, 300.0)).summary()
+    s = bifurcation(_toe(5.0), (20.0, 300.0)).summary()
     assert s["first_bifurcation_speed_kmh"] == pytest.approx(_scaled(hopfs[0], 5.0), rel=1e-9)  # 5.81 km/h
     assert s["second_bifurcation_speed_kmh"] == pytest.approx(_scaled(folds[0], 5.0), rel=1e-7)
 
@@ -91,14 +91,14 @@ def test_band_open_beyond_the_ceiling_is_null_with_open_at(nominal):
     hopfs, _ = nominal
     assert _scaled(hopfs[1], 0.1) > SPEED_CEILING_KMH
     params = _toe(0.1)
-    diagram = bifurcation_diagram(params, (20.0, 300.0))
+    diagram = bifurcation(params, (20.0, 300.0))
     s = diagram.summary()
     assert diagram.speed_range_kmh[1] == SPEED_CEILING_KMH
     assert s["open_at"] == "upper" and "upper end" in s["warnings"][0]
     assert s["second_bifurcation_speed_kmh"] is None and s["sev_band_kmh"][-1][1] is None
     assert s["first_bifurcation_speed_kmh"] == pytest.approx(_scaled(hopfs[0], 0.1), rel=1e-9)
     json.dumps(s)  # null, not NaN or a number
-    sens = local_sensitivity(params, keys=("operating.toe_deg",), diagram=diagram)
+    sens = sensitivity(params, keys=("operating.toe_deg",), diagram=diagram)
     assert {r["quantity"] for r in sens.rows} == {"hopf_1", "first_bifurcation"}
     assert any(n.startswith("second_bifurcation") for n in sens.notes)
     # the first bifurcation speed's exact toe sensitivity against the 1/sin(toe) law
@@ -115,8 +115,8 @@ def test_operating_speed_outside_the_requested_range_is_analysed():
     """--speed-range 20 100 at 110 km/h: the range widens to hold 110 km/h, and the verdict is
     the one on the full range (0.269 mm soft SEV), not "no SEV"."""
     params = Params()
-    narrow = bifurcation_diagram(params, (20.0, 100.0))
-    full = bifurcation_diagram(params, (20.0, 300.0))
+    narrow = bifurcation(params, (20.0, 100.0))
+    full = bifurcation(params, (20.0, 300.0))
     assert narrow.speed_range_kmh[1] >= 110.0 and narrow.range_notes
     v_narrow, v_full = operating_verdict(narrow, params, 110.0), operating_verdict(full, params, 110.0)
     assert v_narrow["regime"] == v_full["regime"] == "unstable rolling (soft SEV)"
@@ -133,7 +133,7 @@ def test_stick_slip_past_period_doubling_is_named_with_amplitude_and_frequency()
     continued from its own end state stays on it (an attractor, settled), and the dominant
     frequency of the spectrum is a whole multiple of 1/period (two methods)."""
     params = with_updates(Params(), {"friction.mu_coulomb": 0.05})
-    diagram = bifurcation_diagram(params, (100.0, 120.0), extend=False)  # no Hopf point: no continuation
+    diagram = bifurcation(params, (100.0, 120.0), extend=False)  # no Hopf point: no continuation
     assert diagram.hopf_points == [] and diagram.linear_band_kmh == [(100.0, 120.0)]
     (found,) = reached_attractors(diagram, 110.0)
     st = found.run.steady
@@ -160,7 +160,7 @@ def divergent_axle():
 
 def test_static_divergence_is_not_sev(divergent_axle):
     params = divergent_axle
-    diagram = bifurcation_diagram(params, (30.0, 70.0), extend=False)
+    diagram = bifurcation(params, (30.0, 70.0), extend=False)
     (v_div,) = diagram.stability.real_crossings_kmh
     model = get_model("axle4dof")
     p = model.pack(params)
@@ -192,7 +192,7 @@ def test_a_hopf_pair_split_into_two_real_eigenvalues_is_not_divergence():
 def test_trigger_amplitude_runs_from_zero_to_the_fold(model, auto_fold_mm):
     """The hard region's trigger amplitude runs from 0 at the subcritical Hopf point to the
     fold amplitude (AUTO-07p's value, docs/validation_auto07p.md), not to the largest stored point."""
-    diagram = bifurcation_diagram(with_updates(Params(), {"model": model}), (20.0, 300.0))
+    diagram = bifurcation(with_updates(Params(), {"model": model}), (20.0, 300.0))
     (trigger,) = diagram.trigger_amplitude("x")
     (fold,) = diagram.folds
     assert trigger["min_x"] == 0.0
@@ -209,7 +209,7 @@ def test_period_doublings_listed_in_text_and_the_verdict_is_not_blank(capsys):
     from polywear.cli.bifurcation_cmd import _print_summary
 
     params = with_updates(Params(), {"friction.mu_coulomb": 0.3, "operating.speed_kmh": 90.0})
-    diagram = bifurcation_diagram(params, (20.0, 150.0), extend=False)
+    diagram = bifurcation(params, (20.0, 150.0), extend=False)
     s = diagram.summary()
     assert len(s["period_doublings"]) == 2 and s["period_doublings"][0] < 90.0 < s["period_doublings"][1]
     _print_summary(s)
@@ -225,7 +225,7 @@ def test_period_doublings_listed_in_text_and_the_verdict_is_not_blank(capsys):
 def test_divergence_listed_in_bifurcation_text(divergent_axle, capsys):
     from polywear.cli.bifurcation_cmd import _print_summary
 
-    _print_summary(bifurcation_diagram(divergent_axle, (30.0, 70.0), extend=False).summary())
+    _print_summary(bifurcation(divergent_axle, (30.0, 70.0), extend=False).summary())
     out = capsys.readouterr().out
     assert any(line.strip().startswith("DIV") for line in out.splitlines())
     assert "no self-excited vibration in the speed range" in out
@@ -236,15 +236,15 @@ def test_failed_extension_keeps_the_edge_open(monkeypatch):
     the last diagram is kept and its cut end is reported open, never as a bifurcation speed."""
     import polywear.dynamics.bifurcation as bif
 
-    real = bif.stability_analysis
+    real = bif.stability
 
     def failing_below_20(params, speed_range_kmh, **kw):
         if speed_range_kmh[0] < 20.0:
             raise RuntimeError("no equilibrium below 20 km/h (test)")
         return real(params, speed_range_kmh, **kw)
 
-    monkeypatch.setattr(bif, "stability_analysis", failing_below_20)
-    diagram = bifurcation_diagram(_toe(5.0), (20.0, 300.0))
+    monkeypatch.setattr(bif, "stability", failing_below_20)
+    diagram = bifurcation(_toe(5.0), (20.0, 300.0))
     s = diagram.summary()
     assert s["speed_range_kmh"] == [20.0, 300.0] and s["open_at"] == "lower"
     assert s["first_bifurcation_speed_kmh"] is None and s["sev_band_kmh"][0][0] is None
@@ -279,7 +279,7 @@ def test_hard_region_cut_at_the_ceiling_has_an_open_trigger_range(nominal, capsy
 
     hopfs, folds = nominal
     assert _scaled(hopfs[1], 0.115) < SPEED_CEILING_KMH < _scaled(folds[0], 0.115)
-    s = bifurcation_diagram(_toe(0.115), (20.0, 300.0)).summary()
+    s = bifurcation(_toe(0.115), (20.0, 300.0)).summary()
     assert s["open_at"] == "upper" and s["folds"] == []
     (region,) = s["hard_regions_kmh"]
     assert region[0] == pytest.approx(_scaled(hopfs[1], 0.115), rel=1e-9) and region[1] is None
@@ -296,7 +296,7 @@ def test_sustained_irregular_oscillation_is_quasi_periodic_or_chaotic():
     20 maxima) but its swing is sustained. Check: an independent 5 s run from a 1 mm
     disturbance has, in its last second, the same peak-to-peak of x (2 %)."""
     params = with_updates(Params(), {"friction.mu_coulomb": 0.3})
-    diagram = bifurcation_diagram(params, (85.0, 95.0), extend=False)  # unstable rolling, no continuation
+    diagram = bifurcation(params, (85.0, 95.0), extend=False)  # unstable rolling, no continuation
     (found,) = reached_attractors(diagram, 90.0)
     assert found.regime == QUASI_PERIODIC and found.run.steady.outcome == "transient"
     assert 100.0 < found.dominant_frequency_hz < 160.0
@@ -319,7 +319,7 @@ CASCADE_AXLE = {"model": "axle4dof", "tread.lateral_stiffness_n_per_m": 948930.9
 @pytest.fixture(scope="module")
 def cascade_axle():
     params = with_updates(Params(), CASCADE_AXLE)
-    return params, bifurcation_diagram(params, (10.0, 600.0), extend=False)
+    return params, bifurcation(params, (10.0, 600.0), extend=False)
 
 
 @pytest.mark.slow

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from polywear.dynamics.bifurcation import bifurcation_diagram
-from polywear.dynamics.design import clear_operating_range
+from polywear.dynamics.bifurcation import bifurcation
+from polywear.dynamics.design import design
 from polywear.dynamics.sensitivity import perturbed
 from polywear.dynamics.simulation import simulate
 from polywear.wear.indicators import wear_indicators
@@ -17,7 +17,7 @@ MODEL = get_model("tread1dof")
 
 @pytest.fixture(scope="module")
 def diagram():
-    return bifurcation_diagram(Params())
+    return bifurcation(Params())
 
 
 def test_frictional_power_obeys_the_energy_balance_of_the_cycle(diagram):
@@ -54,7 +54,7 @@ def test_rms_acceleration_matches_direct_simulation(diagram):
 @pytest.mark.slow
 def test_design_option_clears_the_range_and_is_nearly_least(diagram):
     params = Params()
-    result = clear_operating_range(params, (80.0, 130.0), keys=("friction.mu_static",), diagram=diagram)
+    result = design(params, (80.0, 130.0), keys=("friction.mu_static",), diagram=diagram)
     (option,) = result.options
     assert option.achieved
     (value,) = option.values
@@ -67,5 +67,5 @@ def test_design_option_clears_the_range_and_is_nearly_least(diagram):
     assert run.steady.amplitude[0] < 0.02 * 0.27e-3
     # 3 % less change does not clear the range
     weaker = perturbed(params, "friction.mu_static", 0.9 - 0.97 * (0.9 - value))
-    band = bifurcation_diagram(weaker).sev_band_kmh
+    band = bifurcation(weaker).sev_band_kmh
     assert any(a < 130.0 and b > 80.0 for a, b in band)

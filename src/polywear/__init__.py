@@ -13,20 +13,22 @@ The entry points are reachable from the top level and imported on first use, so
 Entry points (each is the function or class named in brackets):
 
 - ``Params``, ``load_params``, ``ParameterError`` [polywear.params]
-- ``stability`` [dynamics.stability.stability_analysis]
-- ``bifurcation`` [dynamics.bifurcation.bifurcation_diagram]
+- ``stability`` [dynamics.stability.stability]
+- ``bifurcation`` [dynamics.bifurcation.bifurcation]
 - ``simulate`` [dynamics.simulation.simulate]
-- ``sensitivity`` [dynamics.sensitivity.local_sensitivity]
+- ``sensitivity`` [dynamics.sensitivity.sensitivity]
 - ``stability_map`` [dynamics.stability_map.stability_map]
-- ``study`` [studies.global_sensitivity.global_sensitivity], ``StudySpec``, ``load_study``
+- ``study`` [studies.global_sensitivity.study], ``StudySpec``, ``load_study``
   [polywear.params]: the study specification (the ``[study]`` table), not a parameter
-- ``design`` [dynamics.design.clear_operating_range]
-- ``excitation`` [dynamics.excitation.excitation_portraits]
+- ``design`` [dynamics.design.design]
+- ``excitation`` [dynamics.excitation.excitation]
 - ``report`` [report.run_report]
 - ``wear_map`` [wear.map.wear_map]: linear wear stability over speed and order
 - ``calibrate``, ``read_observations`` [measured.calibration]: fit parameters to observations
-- ``read_tir``, ``load_with_tir`` [tir]: tyre property files (.tir) and parameters from them
+- ``read_tir``, ``load_with_tir`` [measured.tir]: tyre property files (.tir) and parameters from them
 - ``wear_evolution`` [wear.evolution.evolve]: the worn profile over distance
+- ``wear_design`` [wear.design.wear_design]: least parameter changes that keep polygonal wear
+  from growing (or invisible up to a distance)
 - ``fleet``, ``load_fleet_spec`` [studies.fleet]: SEV risk over a fleet of cars
 - ``campbell``, ``read_run`` [measured.campbell]: Campbell maps of measured run-ups
 - ``StabilitySettings``, ``ContinuationSettings``, ``SimulationSettings``, ``MapSettings``:
@@ -48,20 +50,20 @@ _ENTRY_POINTS: dict[str, tuple[str, str | None]] = {
     "Params": ("polywear.params", "Params"),
     "load_params": ("polywear.params", "load_params"),
     "ParameterError": ("polywear.params", "ParameterError"),
-    "stability": ("polywear.dynamics.stability", "stability_analysis"),
+    "stability": ("polywear.dynamics.stability", "stability"),
     "StabilitySettings": ("polywear.dynamics.stability", "StabilitySettings"),
     "ContinuationSettings": ("polywear.solvers.continuation", "ContinuationSettings"),
     "SimulationSettings": ("polywear.dynamics.simulation", "SimulationSettings"),
     "MapSettings": ("polywear.dynamics.stability_map", "MapSettings"),
-    "bifurcation": ("polywear.dynamics.bifurcation", "bifurcation_diagram"),
+    "bifurcation": ("polywear.dynamics.bifurcation", "bifurcation"),
     "simulate": ("polywear.dynamics.simulation", "simulate"),
-    "sensitivity": ("polywear.dynamics.sensitivity", "local_sensitivity"),
+    "sensitivity": ("polywear.dynamics.sensitivity", "sensitivity"),
     "stability_map": ("polywear.dynamics.stability_map", "stability_map"),
-    "study": ("polywear.studies.global_sensitivity", "global_sensitivity"),
+    "study": ("polywear.studies.global_sensitivity", "study"),
     "StudySpec": ("polywear.params", "StudySpec"),
     "load_study": ("polywear.params", "load_study"),
-    "design": ("polywear.dynamics.design", "clear_operating_range"),
-    "excitation": ("polywear.dynamics.excitation", "excitation_portraits"),
+    "design": ("polywear.dynamics.design", "design"),
+    "excitation": ("polywear.dynamics.excitation", "excitation"),
     "report": ("polywear.report", "run_report"),
     "wear_map": ("polywear.wear.map", "wear_map"),
     "calibrate": ("polywear.measured.calibration", "calibrate"),
@@ -69,7 +71,8 @@ _ENTRY_POINTS: dict[str, tuple[str, str | None]] = {
     "read_tir": ("polywear.measured.tir", "read_tir"),
     "load_with_tir": ("polywear.measured.tir", "load_with_tir"),
     "wear_evolution": ("polywear.wear.evolution", "evolve"),
-    "fleet": ("polywear.studies.fleet", "fleet_risk"),
+    "wear_design": ("polywear.wear.design", "wear_design"),
+    "fleet": ("polywear.studies.fleet", "fleet"),
     "load_fleet_spec": ("polywear.studies.fleet", "load_fleet_spec"),
     "campbell": ("polywear.measured.campbell", "campbell"),
     "SpecialPoint": ("polywear.dynamics.points", "SpecialPoint"),

@@ -77,12 +77,12 @@ def bifurcation(
         result = _sweep(params, (min(lo, op / OPERATING_MARGIN), max(hi, op * OPERATING_MARGIN)), n_speeds or 30, quiet)
         summary = {**sweep_bands(result), **result.summary()}
     else:
-        from ..dynamics.bifurcation import bifurcation_diagram
+        from ..dynamics.bifurcation import bifurcation
         from ..dynamics.stability import StabilitySettings
         from ..solvers.continuation import ContinuationSettings
 
         with progress("continuation steps", enabled=not quiet) as update:
-            result = bifurcation_diagram(
+            result = bifurcation(
                 params,
                 (lo, hi),
                 ContinuationSettings(n_intervals=n_intervals),

@@ -78,7 +78,7 @@ def design(
     if not (math.isfinite(margin) and 0.0 <= margin <= 100.0):
         raise UserError(f"--margin {margin:g}: must be in [0, 100] km/h")
     params = load(config, set_)
-    from ..dynamics.design import DEFAULT_KEYS, DesignSettings, clear_operating_range, default_operating_range
+    from ..dynamics.design import DEFAULT_KEYS, DesignSettings, default_operating_range, design
 
     operating_range = operating_range or default_operating_range(params.operating.speed_kmh)
     keys = tuple(dict.fromkeys(param or DEFAULT_KEYS))
@@ -87,7 +87,7 @@ def design(
          quiet)
     with progress("design: bifurcation diagrams", enabled=not quiet) as update:
         try:
-            result = clear_operating_range(
+            result = design(
                 params, operating_range, keys=keys, combine=tuple(combine or ()), max_relative_change=max_change,
                 speed_range_kmh=speed_range, settings=DesignSettings(margin_kmh=margin, search_factor=search_factor),
                 progress=update,

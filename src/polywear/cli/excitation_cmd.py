@@ -54,13 +54,13 @@ def excitation(
     if duration is not None and not duration <= MAX_DURATION_S:
         raise UserError(f"--duration {duration}: must be at most {MAX_DURATION_S:g} [s]")
     params = load(config, set_)
-    from ..dynamics.bifurcation import bifurcation_diagram
-    from ..dynamics.excitation import ExcitationSettings, default_speeds, excitation_portraits, portraits_figure
+    from ..dynamics.bifurcation import bifurcation
+    from ..dynamics.excitation import ExcitationSettings, default_speeds, excitation, portraits_figure
 
     info("excitation: bifurcation diagram ...", quiet)
     with progress("continuation steps", enabled=not quiet) as update:
-        diagram = bifurcation_diagram(params, (min([20.0, *(speed or [])]) * 0.5, max([300.0, *(speed or [])]) * 1.1),
-                                      progress=update)
+        diagram = bifurcation(params, (min([20.0, *(speed or [])]) * 0.5, max([300.0, *(speed or [])]) * 1.1),
+                              progress=update)
     speeds = speed or default_speeds(diagram, params.operating.speed_kmh)
     if not speeds:  # the safe car: an answer, not an error
         lo, hi = diagram.speed_range_kmh
@@ -72,7 +72,7 @@ def excitation(
         return
     info(f"excitation: simulating at {', '.join(f'{v:.1f}' for v in speeds)} km/h ...", quiet)
     with progress("excitation: simulations", enabled=not quiet) as update:
-        portraits = excitation_portraits(diagram, speeds, ExcitationSettings(duration_s=duration), progress=update)
+        portraits = excitation(diagram, speeds, ExcitationSettings(duration_s=duration), progress=update)
     if plot:
         write_figure(plot, lambda: portraits_figure(portraits), quiet)
     summary = {"model": params.model, "portraits": [p.summary() for p in portraits]}

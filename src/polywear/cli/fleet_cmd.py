@@ -56,7 +56,7 @@ def fleet(
     if checkpoint is not None and not checkpoint.is_dir():
         raise UserError(f"--checkpoint {checkpoint}: not a folder")
     params = load(config, set_)
-    from ..studies.fleet import fleet_risk, load_fleet_spec
+    from ..studies.fleet import fleet, load_fleet_spec
 
     fleet_spec = load_fleet_spec(spec, params)
     chosen = chosen_backend(backend, scheduler, 5.0)
@@ -65,8 +65,8 @@ def fleet(
     with progress("fleet", enabled=not quiet) as update, dask_connect_timeout(
         5.0 if chosen == "dask" else None
     ):
-        result = fleet_risk(params, fleet_spec, backend=chosen, workers=workers, scheduler=scheduler,
-                            checkpoint_dir=checkpoint, resume=resume, progress=update)
+        result = fleet(params, fleet_spec, backend=chosen, workers=workers, scheduler=scheduler,
+                       checkpoint_dir=checkpoint, resume=resume, progress=update)
     if out:
         write_output(out, result.save, quiet)
     if plot:

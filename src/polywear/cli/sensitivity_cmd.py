@@ -66,7 +66,7 @@ def sensitivity(
     if not 0.0 < step <= MAX_STEP:
         raise UserError(f"--step {step}: must be in (0, {MAX_STEP:g}]")
     params = load(config, set_)
-    from ..dynamics.sensitivity import PAPER_PARAMETERS, SensitivitySettings, local_sensitivity, parameter_direction
+    from ..dynamics.sensitivity import PAPER_PARAMETERS, SensitivitySettings, parameter_direction, sensitivity
     from ..models import get_model
 
     keys = tuple(dict.fromkeys(param)) if param else PAPER_PARAMETERS
@@ -77,8 +77,8 @@ def sensitivity(
             info(f"note: {key} does not enter model {params.model}; its sensitivity is 0", quiet)
     with progress(f"{method.value} sensitivity: continuation steps", enabled=not quiet) as update:
         try:
-            result = local_sensitivity(params, keys, SensitivitySettings(method.value, step), (lo, hi),
-                                       progress=update)
+            result = sensitivity(params, keys, SensitivitySettings(method.value, step), (lo, hi),
+                                 progress=update)
         except ValueError as exc:
             raise UserError(str(exc)) from None
     for note in result.notes:  # why a bifurcation speed has no row (none in the range, an open band edge)

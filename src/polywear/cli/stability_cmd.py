@@ -46,11 +46,11 @@ def stability(
     lo, hi = check_speed_range(speed_range)
     check_count(n_speeds, "--n-speeds", 3, MAX_GRID_POINTS)
     params = load(config, set_)
-    from ..dynamics.stability import StabilitySettings, stability_analysis
+    from ..dynamics.stability import StabilitySettings, stability
 
     info(f"stability: eigenvalues at {n_speeds} speeds ...", quiet)
     try:
-        result = stability_analysis(params, (lo, hi), StabilitySettings(n_speeds=n_speeds))
+        result = stability(params, (lo, hi), StabilitySettings(n_speeds=n_speeds))
     except ValueError as exc:
         raise UserError(str(exc)) from None
     if out:

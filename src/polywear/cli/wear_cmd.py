@@ -134,10 +134,10 @@ def _write_rows(path: Path, rows: list[dict]) -> None:
 
 def _sev_band(params, speed_range, quiet) -> tuple[float, float] | None:
     """Outer bounds of the SEV band from the bifurcation diagram (None if there is none)."""
-    from ..dynamics.bifurcation import bifurcation_diagram
+    from ..dynamics.bifurcation import bifurcation
 
     info("wear map: bifurcation diagram for the SEV band ...", quiet)
-    bands = bifurcation_diagram(params, speed_range).sev_band_kmh
+    bands = bifurcation(params, speed_range).sev_band_kmh
     return (bands[0][0], bands[-1][1]) if bands else None
 
 

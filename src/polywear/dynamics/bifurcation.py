@@ -31,12 +31,12 @@ from ..solvers.continuation import (Branch, BranchEnd, ContinuationSettings, con
 from ..units import DEFAULT_SPEED_RANGE_KMH, MAX_SPEED_KMH, plot_scale
 from .intervals import subtract, union
 from .points import PointKind, SpecialPoint
-from .stability import HopfPoint, StabilityResult, StabilitySettings, stability_analysis
+from .stability import HopfPoint, StabilityResult, StabilitySettings, stability
 
 __all__ = [
     "BifurcationDiagram",
     "CyclePoint",
-    "bifurcation_diagram",
+    "bifurcation",
     "SPEED_FLOOR_KMH",
     "SPEED_CEILING_KMH",
 ]
@@ -562,7 +562,7 @@ def _special_point(branch_index: int, kind: PointKind, point) -> SpecialPoint:
     return SpecialPoint(kind, cycle.speed_kmh, 1.0 / cycle.period, cycle.amplitude, branch_index, orbit=point.orbit)
 
 
-def bifurcation_diagram(
+def bifurcation(
     params: Params,
     speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
     settings: ContinuationSettings = ContinuationSettings(),
@@ -610,7 +610,7 @@ def bifurcation_diagram(
     if extend:
         return _extended_diagram(params, speed_range_kmh, settings, stability_settings, progress)
     lo, hi = (float(v) for v in speed_range_kmh)
-    stab = stability_analysis(params, (lo, hi), settings=stability_settings)
+    stab = stability(params, (lo, hi), settings=stability_settings)
     model = get_model(params.model)
     p = model.pack(params)
     bounds = (kmh_to_ms(lo), kmh_to_ms(hi))
@@ -647,8 +647,8 @@ def bifurcation_diagram(
     # e.g. a step across a sharp bend that landed on another branch passing close by: all
     # branches again in steps that turn half as much, kept if that lost fewer
     finer = replace(settings, max_turn=settings.max_turn / 2, max_steps=2 * settings.max_steps)
-    again = bifurcation_diagram(params, (lo, hi), finer, stability_settings, step.relay if progress else None,
-                                extend=False)
+    again = bifurcation(params, (lo, hi), finer, stability_settings, step.relay if progress else None,
+                        extend=False)
     left = _branch_trouble(again.branch_info)
     kept = again if len(left) < len(trouble) else diagram
     kept.continuation_notes = [
@@ -733,8 +733,8 @@ def _extended_diagram(params, speed_range_kmh, settings, stability_settings, pro
     while True:
         n = min(max(n_speeds, int(np.ceil((hi - lo) / spacing)) + 1), 4 * n_speeds)
         try:
-            wider = bifurcation_diagram(params, (lo, hi), settings, replace(stability_settings, n_speeds=n),
-                                        step.relay if progress else None, extend=False)
+            wider = bifurcation(params, (lo, hi), settings, replace(stability_settings, n_speeds=n),
+                                step.relay if progress else None, extend=False)
         except (RuntimeError, ValueError, ArithmeticError) as exc:
             if diagram is None:
                 raise

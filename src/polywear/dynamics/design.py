@@ -39,10 +39,10 @@ from ..params import ADHESION_SCALE, Params
 from ..progress import Progress, StepCounter
 from ..settings import check_positive
 from ..units import DEFAULT_SPEED_RANGE_KMH
-from .bifurcation import BifurcationDiagram, bifurcation_diagram
+from .bifurcation import BifurcationDiagram, bifurcation
 from .sensitivity import (
     PARAMETER_LABELS,
-    local_sensitivity,
+    sensitivity,
     nominal_value,
     parameter_direction,
     perturbed,
@@ -53,7 +53,7 @@ __all__ = [
     "DesignOption",
     "DesignResult",
     "DesignSettings",
-    "clear_operating_range",
+    "design",
     "default_operating_range",
     "parameter_category",
 ]
@@ -403,7 +403,7 @@ class _Search:
             p = perturbed(p, k, v)  # ParameterError (a ValueError) outside the parameter rules
         option = DesignOption(self.keys, tuple(float(v) for v in self.nominal), values, False, [])
         self.step.begin(option.change_text())
-        diagram = bifurcation_diagram(p, self.speed_range)
+        diagram = bifurcation(p, self.speed_range)
         self.step()
         band = diagram.sev_band_kmh
         g = _gap(band, self.low, self.high)
@@ -510,7 +510,7 @@ def _best_option(search: _Search, grad_first, grad_second, original_band) -> Des
 
 @dataclass(frozen=True)
 class DesignSettings:
-    """Numerical settings of :func:`clear_operating_range` (``polywear design --margin,
+    """Numerical settings of :func:`design` (``polywear design --margin,
     --search-factor``)."""
 
     margin_kmh: float = 2.0
@@ -529,7 +529,7 @@ class DesignSettings:
             raise ValueError(f"DesignSettings: search_factor = {self.search_factor!r}: must be above 1")
 
 
-def clear_operating_range(
+def design(
     params: Params,
     operating_range_kmh: tuple[float, float],
     keys: Sequence[str] = DEFAULT_KEYS,
@@ -572,7 +572,7 @@ def clear_operating_range(
     speed_range_kmh = (min(speed_range_kmh[0], max(lo - margin_kmh, 0.5 * lo)), max(speed_range_kmh[1], hi + margin_kmh))
     if diagram is None:
         step.begin("nominal bifurcation diagram")
-        diagram = bifurcation_diagram(params, speed_range_kmh)
+        diagram = bifurcation(params, speed_range_kmh)
         step()
     original = diagram
     model = get_model(params.model)
@@ -593,7 +593,7 @@ def clear_operating_range(
     if _gap(band, low, high) <= 0.0:
         return result([], f"The SEV band lies outside the operating range (with the {margin_kmh:g} km/h margin): "
                           "nothing to move.")
-    sens = local_sensitivity(params, keys=tuple(dict.fromkeys((*keys, *combine))), diagram=original)
+    sens = sensitivity(params, keys=tuple(dict.fromkeys((*keys, *combine))), diagram=original)
     # d ln V / dx per key, x = ln(p / p0) (x = p where p0 = 0), for the first and last band edge
     grad: dict[tuple[str, str], float] = {}
     for r in sens.rows:

@@ -22,7 +22,7 @@ from ..settings import check_order, check_positive
 from .bifurcation import BifurcationDiagram, CyclePoint
 from .simulation import SimulationResult, simulate
 
-__all__ = ["ExcitationPortrait", "ExcitationSettings", "excitation_portraits", "default_speeds", "portraits_figure",
+__all__ = ["ExcitationPortrait", "ExcitationSettings", "excitation", "default_speeds", "portraits_figure",
            "settling_time"]
 
 
@@ -123,7 +123,7 @@ def default_speeds(diagram: BifurcationDiagram, operating_kmh: float) -> list[fl
 
 @dataclass(frozen=True)
 class ExcitationSettings:
-    """Numerical settings of :func:`excitation_portraits` (``polywear excitation --duration``)."""
+    """Numerical settings of :func:`excitation` (``polywear excitation --duration``)."""
 
     duration_s: float | None = None
     """Simulated time per start [s]; None: long enough for the slowest attractor at the
@@ -164,9 +164,9 @@ def settling_time(diagram: BifurcationDiagram, speed_kmh: float, cycles,
     return float(np.clip(factor / min(rates), *bounds))
 
 
-def excitation_portraits(diagram: BifurcationDiagram, speeds_kmh: Iterable[float],
-                         settings: ExcitationSettings = ExcitationSettings(),
-                         progress: Progress | None = None) -> list[ExcitationPortrait]:
+def excitation(diagram: BifurcationDiagram, speeds_kmh: Iterable[float],
+               settings: ExcitationSettings = ExcitationSettings(),
+               progress: Progress | None = None) -> list[ExcitationPortrait]:
     """Cycles from the diagram and trajectories from inside/outside each cycle at every speed.
 
     ``settings.duration_s`` [s] per start; by default long enough for the slowest attractor

@@ -37,7 +37,7 @@ from ..params import ADHESION_SCALE, PAPER_KEYS, Params, get_value, with_updates
 from ..progress import Progress, StepCounter
 from ..settings import check_positive
 from ..units import DEFAULT_SPEED_RANGE_KMH
-from .bifurcation import BifurcationDiagram, bifurcation_diagram
+from .bifurcation import BifurcationDiagram, bifurcation
 from .derivatives import rhs_directional
 from .points import PointKind
 from .stability import critical_eigenvalue_derivative
@@ -47,7 +47,7 @@ __all__ = [
     "ADHESION_SCALE",
     "SensitivityResult",
     "SensitivitySettings",
-    "local_sensitivity",
+    "sensitivity",
     "parameter_direction",
     "hopf_speed_derivative",
     "fold_speed_derivative",
@@ -62,7 +62,7 @@ METHODS = ("exact", "central", "forward")
 
 @dataclass(frozen=True)
 class SensitivitySettings:
-    """Numerical settings of :func:`local_sensitivity`."""
+    """Numerical settings of :func:`sensitivity`."""
 
     method: str = "exact"
     """``"exact"``: implicit-function theorem on the defining system of each Hopf point and
@@ -291,7 +291,7 @@ def _speed_kmh(entry) -> float:
     return obj.speed_kmh if kind == "hopf" else ms_to_kmh(obj.orbit.speed)
 
 
-def local_sensitivity(
+def sensitivity(
     params: Params,
     keys: Sequence[str] = PAPER_PARAMETERS,
     settings: SensitivitySettings = SensitivitySettings(),
@@ -322,7 +322,7 @@ def local_sensitivity(
         Progress callback (:mod:`polywear.progress`): continuation steps of all the
         diagrams computed, total unknown.
     **diagram_options
-        Passed to :func:`polywear.dynamics.bifurcation.bifurcation_diagram`.
+        Passed to :func:`polywear.dynamics.bifurcation.bifurcation`.
 
     Returns
     -------
@@ -335,7 +335,7 @@ def local_sensitivity(
     p = model.pack(params)
     if progress is not None:
         diagram_options = {**diagram_options, "progress": StepCounter(progress).relay}
-    diagram = diagram or bifurcation_diagram(params, speed_range_kmh, **diagram_options)
+    diagram = diagram or bifurcation(params, speed_range_kmh, **diagram_options)
     nominal_q = _quantities(diagram)
     rows = []
     for key in keys:
@@ -390,11 +390,11 @@ def _notes(diagram: BifurcationDiagram, quantities: dict) -> list[str]:
 def _finite_difference(params, key, p0, method, step, speed_range_kmh, nominal_q, diagram_options):
     """Forward or central differences of the quantities, matched by name."""
     h = step * abs(p0) if p0 != 0.0 else step
-    plus = _quantities(bifurcation_diagram(perturbed(params, key, p0 + h), speed_range_kmh, **diagram_options))
+    plus = _quantities(bifurcation(perturbed(params, key, p0 + h), speed_range_kmh, **diagram_options))
     if method == "forward":
         base, lower, denom = nominal_q, None, h
     else:
-        lower = _quantities(bifurcation_diagram(perturbed(params, key, p0 - h), speed_range_kmh, **diagram_options))
+        lower = _quantities(bifurcation(perturbed(params, key, p0 - h), speed_range_kmh, **diagram_options))
         base, denom = None, 2.0 * h
     out = {}
     for name in nominal_q:

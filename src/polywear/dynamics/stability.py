@@ -35,14 +35,14 @@ __all__ = [
     "locate_hopf",
     "first_lyapunov_coefficient",
     "critical_eigenvalue_derivative",
-    "stability_analysis",
+    "stability",
     "fast_linear_band",
 ]
 
 
 @dataclass(frozen=True)
 class StabilitySettings:
-    """Numerical settings of :func:`stability_analysis`."""
+    """Numerical settings of :func:`stability`."""
 
     n_speeds: int = 400
     """Grid points for bracketing (at least 3); a pair of crossings closer than the grid
@@ -283,7 +283,7 @@ class StabilityResult(Result):
         return artists
 
 
-def stability_analysis(
+def stability(
     params: Params,
     speed_range_kmh: tuple[float, float] = STABILITY_SPEED_RANGE_KMH,
     settings: StabilitySettings = StabilitySettings(),

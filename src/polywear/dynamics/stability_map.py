@@ -26,8 +26,8 @@ this module evaluates the model along it, seeds the curves and builds the map.
   fails (a turning point of the fold curve, e.g. a cusp), or where the fold's
   amplitude has shrunk towards a Bautin point.
 
-Seeds: Hopf points of :func:`~polywear.dynamics.stability.stability_analysis` and folds
-of :func:`~polywear.dynamics.bifurcation.bifurcation_diagram` at a few parameter values;
+Seeds: Hopf points of :func:`~polywear.dynamics.stability.stability` and folds
+of :func:`~polywear.dynamics.bifurcation.bifurcation` at a few parameter values;
 a seed already on a computed curve is skipped, so isolated curves are found too.
 
 Bands per parameter value (for shading and the safe-parameter summary): the linear
@@ -458,8 +458,8 @@ def stability_map(
     StabilityMap
         Hopf and fold curves in the (speed, value) plane, the linear and SEV regions.
     """
-    from .bifurcation import bifurcation_diagram
-    from .stability import stability_analysis
+    from .bifurcation import bifurcation
+    from .stability import stability
 
     on_step = StepCounter(progress)  # called by the curve continuation after every step
     lo, hi = (float(v) for v in value_range)
@@ -490,7 +490,7 @@ def stability_map(
     fold_curves: list[FoldCurve] = []
 
     def fold_seeds_at(theta):
-        diagram = bifurcation_diagram(perturbed(params, key, theta), (s_lo, s_hi), settings.continuation, extend=False)
+        diagram = bifurcation(perturbed(params, key, theta), (s_lo, s_hi), settings.continuation, extend=False)
         seeds = [(pt, b.scales) for b in diagram.branches for label, pt, _ in b.special if PointKind(label) is PointKind.LP]
         return diagram.hopf_points, seeds
 
@@ -507,7 +507,7 @@ def stability_map(
                 hopfs, at_theta = fold_seeds_at(theta)
                 found.append((theta, at_theta))
             else:
-                hopfs = stability_analysis(perturbed(params, key, theta), (s_lo, s_hi)).hopf_points
+                hopfs = stability(perturbed(params, key, theta), (s_lo, s_hi)).hopf_points
         except RuntimeError as exc:  # e.g. a real eigenvalue crossing, no equilibrium
             notes.append(f"seed at {key} = {theta:.6g} skipped: {exc}")
             continue

@@ -204,11 +204,11 @@ def _friction_point(params: Params, v: float) -> tuple[float, dict[str, float]]:
 
 def _hopf_rows(params: Params, obs: list[Observation], keys: list[str], speed_range_kmh, n_speeds):
     from ..dynamics.sensitivity import hopf_speed_derivative, parameter_direction
-    from ..dynamics.stability import StabilitySettings, critical_eigenvalue_derivative, stability_analysis
+    from ..dynamics.stability import StabilitySettings, critical_eigenvalue_derivative, stability
 
     model = get_model(params.model)
     p = model.pack(params)
-    hopfs = stability_analysis(params, speed_range_kmh, StabilitySettings(n_speeds=n_speeds)).hopf_points
+    hopfs = stability(params, speed_range_kmh, StabilitySettings(n_speeds=n_speeds)).hopf_points
     directions = [parameter_direction(model, params, key) for key in keys]
     values, rows = [], []
     for o in obs:
@@ -237,9 +237,9 @@ def _hopf_rows(params: Params, obs: list[Observation], keys: list[str], speed_ra
 
 
 def _band_rows(params: Params, obs: list[Observation], keys: list[str], diagram):
-    from ..dynamics.sensitivity import local_sensitivity
+    from ..dynamics.sensitivity import sensitivity
 
-    sens = local_sensitivity(params, keys, diagram=diagram).rows
+    sens = sensitivity(params, keys, diagram=diagram).rows
     values, rows = [], []
     for o in obs:
         name = _BAND[o.quantity]
@@ -362,9 +362,9 @@ def predict(
                 vals, rows = _hopf_rows(cond, obs, keys, speed_range_kmh, settings.n_speeds)
             else:
                 if diagram is None:
-                    from ..dynamics.bifurcation import bifurcation_diagram
+                    from ..dynamics.bifurcation import bifurcation
 
-                    diagram = bifurcation_diagram(cond, speed_range_kmh)
+                    diagram = bifurcation(cond, speed_range_kmh)
                 vals, rows = (_band_rows if kind == "band" else _cycle_rows)(cond, obs, keys, diagram)
             values[mine] = vals
             jac[mine] = rows

@@ -662,10 +662,10 @@ class CampbellResult(Result):
 def _prediction(params: Params, speed_range, run_speeds_kmh) -> dict:
     """Hopf points and SEV band of the model; where steady rolling is stable, the wear
     map's fastest-growing polygon order at 25 speeds of the run (its frequency n V/(2 pi R))."""
-    from ..dynamics.bifurcation import bifurcation_diagram
+    from ..dynamics.bifurcation import bifurcation
     from ..wear.map import wear_map
 
-    diagram = bifurcation_diagram(params, speed_range)
+    diagram = bifurcation(params, speed_range)
     wear = wear_map(params, np.linspace(run_speeds_kmh.min(), run_speeds_kmh.max(), 25))
     return {
         "hopf_points": [h.summary() for h in diagram.hopf_points],
@@ -769,7 +769,7 @@ def campbell(
 
 def _correct_onset(sev: dict, run: Run, params: Params, disturbance_m: float) -> None:
     """Ramp rate at the onset, the model's nearest destabilizing Hopf point, the delay."""
-    from ..dynamics.stability import StabilitySettings, stability_analysis
+    from ..dynamics.stability import StabilitySettings, stability
 
     onset = sev["onset"]
     near = np.abs(run.t - onset["time_s"]) <= 2.0
@@ -778,7 +778,7 @@ def _correct_onset(sev: dict, run: Run, params: Params, disturbance_m: float) ->
     if abs(rate) < 0.05:
         onset["correction"] = "not corrected: the speed is not ramping at the onset"
         return
-    hopfs = stability_analysis(params, (5.0, max(300.0, 1.5 * run.speed_kmh.max())), StabilitySettings(n_speeds=300)).hopf_points
+    hopfs = stability(params, (5.0, max(300.0, 1.5 * run.speed_kmh.max())), StabilitySettings(n_speeds=300)).hopf_points
     entering = [h for h in hopfs if (h.dre_dspeed > 0) == (rate > 0)]
     if not entering:
         onset["correction"] = "not corrected: the model has no Hopf point entering instability in this direction"

@@ -252,9 +252,9 @@ def run_report(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..dynamics.bifurcation import bifurcation_diagram
-    from ..dynamics.design import clear_operating_range, default_operating_range
-    from ..dynamics.sensitivity import local_sensitivity
+    from ..dynamics.bifurcation import bifurcation
+    from ..dynamics.design import default_operating_range, design
+    from ..dynamics.sensitivity import sensitivity
     from ..dynamics.simulation import simulate_disturbances
 
     stage = StepCounter(progress)
@@ -278,7 +278,7 @@ def run_report(
             result.save(tmp)
 
     say("bifurcation diagram (continuation)")
-    diagram = bifurcation_diagram(params, speed_range_kmh)
+    diagram = bifurcation(params, speed_range_kmh)
     save_result(diagram, "bifurcation.nc")
     save_result(diagram, "cycles.csv")
     files["bifurcation.nc"] = "bifurcation diagram: branch table and equilibria (netCDF)"
@@ -295,10 +295,10 @@ def run_report(
 
     say("phase portraits at the operating speed")
     runs = simulate_disturbances(params, [1e-5, 1e-4, 1e-3], speed_kmh=speed, duration_s=1.0)
-    from ..dynamics.excitation import default_speeds, excitation_portraits, portraits_figure
+    from ..dynamics.excitation import default_speeds, excitation, portraits_figure
 
     speeds = default_speeds(diagram, speed)
-    portraits = excitation_portraits(diagram, speeds) if speeds else []
+    portraits = excitation(diagram, speeds) if speeds else []
     if portraits:
         save(portraits_figure(portraits), "excitation.png",
              "Soft and hard self-excitation: cycles from the continuation and trajectories from inside and "
@@ -306,20 +306,20 @@ def run_report(
     save(runs.plot()[0].figure, "phase_portraits.png", f"Phase portraits at {speed:g} km/h from small and large disturbances (paper Fig. 5)")
 
     say("exact sensitivities of the bifurcation speeds")
-    sens = local_sensitivity(params, diagram=diagram)
+    sens = sensitivity(params, diagram=diagram)
     save_result(sens, "sensitivity.csv")
     files["sensitivity.csv"] = "sensitivity rows (CSV)"
     if sens.rows:
         save(sens.figure(), "sensitivity.png", "Normalized sensitivities S = (p/V) dV/dp of every bifurcation speed (paper Fig. 9)")
 
     say("design options for the operating range")
-    design = clear_operating_range(params, operating_range, speed_range_kmh=speed_range_kmh, diagram=diagram,
-                                   progress=stage.detail("design diagram: "))
-    if design.best is not None:
+    options = design(params, operating_range, speed_range_kmh=speed_range_kmh, diagram=diagram,
+                     progress=stage.detail("design diagram: "))
+    if options.best is not None:
         fig, ax = plt.subplots(figsize=(8, 4.5))
-        design.plot(ax)
+        options.plot(ax)
         save(fig, "design.png", f"Original bifurcation diagram and the first-ranked design option, "
-                                f"{design.best.change_text()} (paper Figs. 10-12)")
+                                f"{options.best.change_text()} (paper Figs. 10-12)")
 
     from .wear import wear_section
 
@@ -328,7 +328,7 @@ def run_report(
                         sev_band_kmh=(sev[0][0], sev[-1][1]) if sev and None not in (sev[0][0], sev[-1][1]) else None,
                         progress=stage.detail(""))
 
-    report = Report(params, diagram, verdict, runs, sens, design, wear, portraits, files)
+    report = Report(params, diagram, verdict, runs, sens, options, wear, portraits, files)
     summary = report.summary()
     write_text(out_dir / "summary.json", json.dumps(summary, indent=2, default=float))
     write_text(out_dir / "params.toml", to_toml(params))

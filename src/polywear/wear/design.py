@@ -23,6 +23,7 @@ becomes visible, with the original parameters beside it.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -168,7 +169,8 @@ def _meets(params: Params, key: str, nominal: float, factor: float, cycle, targe
     return ok, g, order
 
 
-def wear_design(params: Params, keys=None, target_km: float | None = None, cycle=None, max_factor: float = 4.0,
+def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: float | None = None,
+                cycle: Sequence[tuple[float, float]] | None = None, max_factor: float = 4.0,
                 grid: int = 24) -> WearDesignResult:
     """Least relative change of each key (both directions) that meets the wear criterion.
 

@@ -33,7 +33,7 @@ from ..models.base import kmh_to_ms
 from ..models.profile import patch_sinc
 from ..params import Params
 from ..units import wheel_rotation_frequency_hz
-from ..dynamics.stability import mode_label, stability_analysis
+from ..dynamics.stability import mode_label, stability
 from .law import energetic_rate
 
 __all__ = ["WearMap", "wear_map", "load_to_power", "VIBRATING_NOTE"]
@@ -298,7 +298,7 @@ def wear_map(params: Params, speeds_kmh: ArrayLike, max_order: int | None = None
         H = X @ C + D
         change[i] = -(k_e / (V * b_w)) * sinc2 * (k_z + s * c_z) * H
     lo, hi = float(speeds_kmh.min()), float(speeds_kmh.max())
-    bands = stability_analysis(params, (lo, hi)).unstable_intervals_kmh if hi > lo else (
+    bands = stability(params, (lo, hi)).unstable_intervals_kmh if hi > lo else (
         [] if stable[0] else [(lo, hi)])
     return WearMap(params=params, speeds_kmh=speeds_kmh, orders=orders, relative_change=change,
                    rolling_stable=stable, mode_frequency_hz=mode_f, mean_wear_mm_per_1000km=mean_wear,
