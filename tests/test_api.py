@@ -24,6 +24,7 @@ EXPECTED = {
     "Params": "polywear.params:Params",
     "load_params": "polywear.params:load_params",
     "ParameterError": "polywear.params:ParameterError",
+    "PolywearError": "polywear.errors:PolywearError",
     "stability": "polywear.dynamics.stability:stability",
     "StabilitySettings": "polywear.dynamics.stability:StabilitySettings",
     "ContinuationSettings": "polywear.solvers.continuation:ContinuationSettings",

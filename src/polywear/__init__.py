@@ -13,6 +13,8 @@ The entry points are reachable from the top level and imported on first use, so
 Entry points (each is the function or class named in brackets):
 
 - ``Params``, ``load_params``, ``ParameterError`` [polywear.params]
+- ``PolywearError`` [polywear.errors]: the root of polywear's errors (parameter, input and
+  numerical errors sit under it)
 - ``stability`` [dynamics.stability.stability]
 - ``bifurcation`` [dynamics.bifurcation.bifurcation]
 - ``simulate`` [dynamics.simulation.simulate]
@@ -50,6 +52,7 @@ _ENTRY_POINTS: dict[str, tuple[str, str | None]] = {
     "Params": ("polywear.params", "Params"),
     "load_params": ("polywear.params", "load_params"),
     "ParameterError": ("polywear.params", "ParameterError"),
+    "PolywearError": ("polywear.errors", "PolywearError"),
     "stability": ("polywear.dynamics.stability", "stability"),
     "StabilitySettings": ("polywear.dynamics.stability", "StabilitySettings"),
     "ContinuationSettings": ("polywear.solvers.continuation", "ContinuationSettings"),

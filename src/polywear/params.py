@@ -22,6 +22,7 @@ from typing import Annotated, Any, Literal, TypeVar
 
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError, field_validator, model_validator
 
+from .errors import PolywearError
 from .units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH, MAX_SPEED_KMH
 
 __all__ = [
@@ -62,7 +63,7 @@ MAX_BOOTSTRAP = 100_000
 _T = TypeVar("_T", bound=BaseModel)
 
 
-class ParameterError(ValueError):
+class ParameterError(PolywearError, ValueError):
     """A configuration value is unknown, of the wrong type or out of range (one line)."""
 
 

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import brentq
 
+from ..errors import NumericalError
 from ..models import get_model
 from ..results import Result
 from ..models.base import kmh_to_ms, ms_to_kmh
@@ -399,7 +400,7 @@ def _hopf_in_bracket(model, p, V_lo, V_hi, eig_lo, eig_hi, xtol) -> tuple[list[H
     if crossing is None:  # ambiguous: split the bracket
         V_mid = 0.5 * (V_lo + V_hi)
         if V_hi - V_lo < 1e-6:
-            raise RuntimeError(f"cannot separate eigenvalue crossings near {ms_to_kmh(V_lo):.6f} km/h")
+            raise NumericalError(f"cannot separate eigenvalue crossings near {ms_to_kmh(V_lo):.6f} km/h")
         _, eig_mid = equilibrium_eigenvalues(model, p, [V_mid])
         h1, r1 = _hopf_in_bracket(model, p, V_lo, V_mid, eig_lo, eig_mid[0], xtol)
         h2, r2 = _hopf_in_bracket(model, p, V_mid, V_hi, eig_mid[0], eig_hi, xtol)

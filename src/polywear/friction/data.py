@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import InputError
 from ..params import Friction
 from ..physics.lugre import steady_friction
 from .curve import _steady_args
@@ -33,7 +34,7 @@ VELOCITY_COLUMN = "sliding_velocity_m_per_s"
 FRICTION_COLUMN = "friction_coefficient"
 
 
-class FrictionDataError(ValueError):
+class FrictionDataError(InputError):
     """Measured friction data cannot be used (one line naming the file, row and problem)."""
 
 

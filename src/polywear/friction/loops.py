@@ -13,6 +13,7 @@ from typing import Any, Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..errors import NumericalError
 from ..params import Friction
 from ..physics.lugre import (
     bristle_decay_rate,
@@ -112,7 +113,7 @@ def bristle_response(
     sol = solve_ivp(rhs, (t[0], t[-1]), [float(z0), 0.0], method="Radau", t_eval=t, jac=jac,
                     rtol=rtol, atol=[atol, 1e-12], max_step=max_step)
     if not sol.success:
-        raise RuntimeError(f"bristle integration failed: {sol.message}")
+        raise NumericalError(f"bristle integration failed: {sol.message}")
     v = np.asarray(velocity(t), dtype=float) * np.ones_like(t)
     z = sol.y[0]
     zdot = _bristle_rates(f, v, z)

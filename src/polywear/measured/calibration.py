@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import InputError
 from ..models import get_model
 from ..results import Result
 from ..models.base import kmh_to_ms, ms_to_kmh
@@ -69,7 +70,7 @@ Z_95 = 1.959963984540054
 """Normal quantile of a 95 % linearized interval."""
 
 
-class CalibrationError(ParameterError):
+class CalibrationError(InputError, ParameterError):
     """The observations or the request cannot be fitted (one line)."""
 
 

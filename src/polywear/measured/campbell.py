@@ -38,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import InputError
 from ..params import ParameterError, Params
 from ..results import Result
 from ..settings import check_fraction, check_positive
@@ -55,7 +56,7 @@ __all__ = [
 ]
 
 
-class MeasurementError(ParameterError):
+class MeasurementError(InputError, ParameterError):
     """A measurement file cannot be read or used (one line)."""
 
 

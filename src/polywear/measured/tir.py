@@ -19,12 +19,13 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from ..errors import InputError
 from ..params import ParameterError, load_params, parse_override, study_keys
 
 __all__ = ["TirError", "TirEntry", "TirFile", "TirMapping", "read_tir", "tir_parameters", "user_keys", "load_with_tir"]
 
 
-class TirError(ParameterError):
+class TirError(InputError, ParameterError):
     """The file is not a readable tyre property file, or lacks what is needed (one line)."""
 
 

@@ -23,6 +23,7 @@ import numpy as np
 
 from . import _axle4dof_generated as _gen
 from . import axle4dof_kernels as _kernels
+from ..errors import NumericalError
 from .base import DEG, Model, ParamSlot
 
 _KEYS = {
@@ -131,7 +132,7 @@ def equilibrium(V, p):
                 continue
         dr *= 0.5
         if dr < 1e-6:
-            raise RuntimeError(
+            raise NumericalError(
                 f"axle4dof: no unloaded-reference equilibrium connected to the running state at "
                 f"V = {V * 3.6:.3f} km/h (the preload homotopy stalled at r = {r:.6f})"
             )

@@ -27,6 +27,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike
 
+from ..errors import NumericalError
+
 if TYPE_CHECKING:
     from ..models.base import Model
 
@@ -48,7 +50,7 @@ METHODS = ("rodas", "radau", "bdf", "lsoda", "dop853")
 _SCIPY_NAMES = {"radau": "Radau", "bdf": "BDF", "lsoda": "LSODA", "dop853": "DOP853"}
 
 
-class IntegrationError(RuntimeError):
+class IntegrationError(NumericalError):
     """The integration failed (step size underflow, too many steps, non-finite state)."""
 
 

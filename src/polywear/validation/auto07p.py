@@ -50,6 +50,7 @@ from typing import Any, Callable, Iterator
 import numpy as np
 
 from ..dynamics.points import PointKind, SpecialPoint
+from ..errors import NumericalError
 from ..models import get_model
 from ..models.base import Model, kmh_to_ms, ms_to_kmh
 from ..models.tread1dof import MODEL
@@ -117,7 +118,7 @@ def point_kind(point) -> PointKind | None:
     return AUTO_KINDS.get(point.point_type.name)
 
 
-class Auto07pError(RuntimeError):
+class Auto07pError(NumericalError):
     """AUTO-07p did not complete a run (its output, already deleted, is quoted)."""
 
 
