@@ -30,15 +30,15 @@ from bench_fleet import _samples
 from polywear.dynamics.bifurcation import bifurcation
 from polywear.studies.fast_band import _FIXED_RANGE
 from polywear.params import Params, with_updates
-from polywear.solvers import continuation
+from polywear.solvers.continuation import from_hopf, stepper
 
 COMPLEX_SAMPLES = (13, 16, 34, 36, 42, 43, 52, 63, 72)
 
 
 def _counting_correctors():
-    """Make ``continuation._locate_crossing`` count the correctors it calls; returns the counter."""
+    """Make the branches' ``_locate_crossing`` count the correctors it calls; returns the counter."""
     count = {"inside": False, "correctors": 0, "calls": 0}
-    correct, locate = continuation._Stepper.correct, continuation._locate_crossing
+    correct, locate = stepper._Stepper.correct, from_hopf._locate_crossing
 
     def counted_correct(self, *args, **kwargs):
         count["correctors"] += count["inside"]
@@ -51,8 +51,8 @@ def _counting_correctors():
         finally:
             count["inside"] = False
 
-    continuation._Stepper.correct = counted_correct
-    continuation._locate_crossing = counted_locate
+    stepper._Stepper.correct = counted_correct
+    from_hopf._locate_crossing = counted_locate
     return count
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from polywear.dynamics.bifurcation import bifurcation
+from polywear.dynamics.bifurcation import bifurcation, branch_start
 from polywear.dynamics.points import PointKind
 from polywear.models import get_model
 from polywear.params import Params, load_params
@@ -199,6 +199,6 @@ def test_cycles_at_finds_the_cycle_between_the_hopf_point_and_the_first_point(de
     speed = hopf.speed_kmh + 0.7 * (first - hopf.speed_kmh)
     (cycle,) = default_diagram.cycles_at(speed)
     assert cycle.stable and cycle.amplitude[0] > 0.0
-    along = cycle_along_branch(MODEL, MODEL.pack(default_diagram.params), hopf, speed / 3.6)
+    along = cycle_along_branch(MODEL, MODEL.pack(default_diagram.params), branch_start(hopf), speed / 3.6)
     assert along is not None
     np.testing.assert_allclose(cycle.amplitude[0], along.orbit.amplitude()[0], rtol=1e-6)

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from polywear.dynamics.bifurcation import branch_start
 from polywear.dynamics.stability import equilibrium_eigenvalues, locate_hopf
 from polywear.solvers.bordered import solve_bordered
 from polywear.solvers.collocation import Collocation, PeriodicOrbit, monodromy, scheme
@@ -97,7 +98,7 @@ def normal_form_branch():
     lam_hi, lam_lo = (e[np.argmax(e.imag)] for e in eig)
     hopf = locate_hopf(MODEL, P, 0.9, 1.1, lam_lo, lam_hi)
     branch = continue_from_hopf(
-        MODEL, P, hopf, (0.5, 1.5), ContinuationSettings(n_intervals=20, ds_max=0.2), amplitude_ref=0.3
+        MODEL, P, branch_start(hopf), (0.5, 1.5), ContinuationSettings(n_intervals=20, ds_max=0.2), amplitude_ref=0.3
     )
     return hopf, branch
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from polywear.dynamics.bifurcation import bifurcation
+from polywear.dynamics.bifurcation import bifurcation, branch_start
 from polywear.dynamics.points import PointKind
 from polywear.dynamics.stability import StabilitySettings
 from polywear.cli.bifurcation_cmd import _print_summary
@@ -193,7 +193,7 @@ def test_a_small_cycle_near_its_hopf_point_is_found_at_the_round_off_floor():
     ix = d.state_names.index("x")
     assert cycle.stable and 5e-6 < cycle.amplitude[ix] < 2e-5
     model = get_model("axle4dof")
-    along = cycle_along_branch(model, model.pack(d.params), hopf, 80.0 / 3.6)
+    along = cycle_along_branch(model, model.pack(d.params), branch_start(hopf), 80.0 / 3.6)
     assert along is not None
     np.testing.assert_allclose(cycle.amplitude[ix], along.orbit.amplitude()[ix], rtol=1e-6)
 

@@ -11,7 +11,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from polywear.dynamics.bifurcation import bifurcation
+from polywear.dynamics.bifurcation import bifurcation, branch_start
 from polywear.studies.fast_band import (_FIXED_RANGE, BandPath, Fallback, FallbackReason, FastBand, band_from_diagram,
                                          band_reference, pilot_indices, pilot_references)
 from polywear.studies.global_sensitivity import DEFAULT_KEYS
@@ -217,7 +217,7 @@ def test_cycle_along_branch_is_the_diagrams_cycle():
     diagram = bifurcation(with_updates(Params(), {"model": "tread1dof"}), **_FIXED_RANGE)
     model = get_model("tread1dof")
     p, ix = model.pack(diagram.params), model.index("x")
-    soft, hard = diagram.hopf_points
+    soft, hard = (branch_start(hopf) for hopf in diagram.hopf_points)
     (branch,) = diagram.branches
     (fold,) = [point for label, point, _ in branch.special if label == "LP"]
 
@@ -289,7 +289,7 @@ def test_small_cycle_just_above_a_hopf_point_is_found_either_way():
     full = solver.full(car)
     newton = solve_at_speed(model, model.pack(car), ref.cycles[0], V, solver.settings)
     hopf = stability(car, DEFAULT_SPEED_RANGE_KMH).hopf_points[0]
-    along = cycle_along_branch(model, model.pack(car), hopf, V, solver.settings)
+    along = cycle_along_branch(model, model.pack(car), branch_start(hopf), V, solver.settings)
     for point in (newton, along):
         assert point is not None and point.stable
         assert point.orbit.amplitude()[model.index("x")] == pytest.approx(full.amplitude_x_m[0], rel=1e-6)

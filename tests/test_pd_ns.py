@@ -15,8 +15,9 @@ from polywear.dynamics.bifurcation import bifurcation
 from polywear.studies.global_sensitivity import DEFAULT_KEYS, sample_params
 from polywear.models import get_model
 from polywear.params import Params, get_value, with_updates
-from polywear.solvers.continuation import (BranchPoint, ContinuationSettings, _collisions_only, _ns_pair,
-                                           _pd_test, same_special_point, solve_at_speed, stability_decided)
+from polywear.solvers.continuation import (BranchPoint, ContinuationSettings, same_special_point, solve_at_speed,
+                                           stability_decided)
+from polywear.solvers.continuation.events import _collisions_only, _ns_pair, _pd_test
 
 SETTINGS = ContinuationSettings()
 DELTA_KMH = 1e-4

@@ -110,7 +110,7 @@ def test_stopping_early_loses_nothing(monkeypatch):
     stops on the estimate one iteration before its correction itself is below tol, and the
     cycle it stops at is within tol of the one iterated to 1e-13 from there (the estimate's
     error bound is honest)."""
-    import polywear.solvers.continuation as continuation
+    from polywear.solvers.continuation import stepper
 
     base = with_updates(Params(), {"model": "axle4dof"})
     diagram = bifurcation(base, **_FIXED_RANGE)
@@ -120,7 +120,7 @@ def test_stopping_early_loses_nothing(monkeypatch):
     early = solve_at_speed(model, p, guess, V, SETTINGS)
     strict = solve_at_speed(model, p, early.orbit, V, ContinuationSettings(newton_tol=1e-13))
     with monkeypatch.context() as m:
-        m.setattr(continuation, "newton_converged", lambda size, previous, tol: size < tol)
+        m.setattr(stepper, "newton_converged", lambda size, previous, tol: size < tol)  # solve_at_speed's
         plain = solve_at_speed(model, p, guess, V, SETTINGS)
     assert early.newton_iterations == plain.newton_iterations - 1
     scale = np.abs(strict.orbit.nodes).max(axis=0) + np.ptp(strict.orbit.nodes, axis=0)

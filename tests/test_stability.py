@@ -7,6 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from polywear.dynamics.bifurcation import branch_start
 from polywear.dynamics.stability import StabilitySettings, stability
 from polywear.models import get_model
 from polywear.params import Params, with_updates
@@ -86,7 +87,7 @@ def test_first_lyapunov_coefficient_predicts_the_emerging_cycle(index):
     params = Params()
     p = MODEL.pack(params)
     hopf = stability(params, (5.0, 300.0)).hopf_points[index]
-    branch = continue_from_hopf(MODEL, p, hopf, (20 / 3.6, 300 / 3.6))
+    branch = continue_from_hopf(MODEL, p, branch_start(hopf), (20 / 3.6, 300 / 3.6))
     first = branch.points[0]
     mu = hopf.dre_dspeed * (first.orbit.speed - hopf.speed_ms)
     predicted = 2 * abs(hopf.q[0]) * math.sqrt(-mu / (hopf.omega * hopf.l1))

@@ -26,7 +26,7 @@ from ..results import Result
 from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params
 from ..progress import Progress, StepCounter
-from ..solvers.continuation import (Branch, BranchEnd, ContinuationSettings, continue_from_hopf,
+from ..solvers.continuation import (Branch, BranchEnd, ContinuationSettings, HopfStart, continue_from_hopf,
                                    same_special_point)
 from ..units import DEFAULT_SPEED_RANGE_KMH, MAX_SPEED_KMH, plot_scale
 from .intervals import subtract, union
@@ -556,6 +556,12 @@ def _cycle_point(branch_index, point) -> CyclePoint:
     )
 
 
+def branch_start(hopf: HopfPoint) -> HopfStart:
+    """The Hopf point as the start of its branch of cycles, the plain data the solvers take
+    (:func:`~polywear.solvers.continuation.continue_from_hopf`, ``cycle_along_branch``)."""
+    return HopfStart(hopf.speed_ms, hopf.omega, hopf.u, hopf.q)
+
+
 def _special_point(branch_index: int, kind: PointKind, point) -> SpecialPoint:
     """A special point located on a cycle branch: its speed, frequency and amplitudes."""
     cycle = _cycle_point(branch_index, point)
@@ -622,7 +628,7 @@ def bifurcation(
             continue
         callback = None if progress is None else (
             lambda br, b=len(runs): step(f"branch {b}: {ms_to_kmh(br.points[-1].orbit.speed):.1f} km/h"))
-        branch = continue_from_hopf(model, p, hopf, bounds, settings, on_step=callback)
+        branch = continue_from_hopf(model, p, branch_start(hopf), bounds, settings, on_step=callback)
         end_hopf = None
         if branch.end is BranchEnd.HOPF_REACHED and branch.points:
             end_hopf = _nearest_hopf(stab.hopf_points, branch.points[-1], exclude=k)

@@ -708,7 +708,9 @@ class FastBand:
             return None
         kind, j = min(ends)[1]
         if kind == "H":
-            return cycle_along_branch(model, p, stab.hopf_points[j], V, self.settings)
+            from ..dynamics.bifurcation import branch_start
+
+            return cycle_along_branch(model, p, branch_start(stab.hopf_points[j]), V, self.settings)
         # first step from V - V_F = curvature s^2 / 2 (the reference's curvature), within the branches' steps
         fold = fold_points[j]
         s = np.sqrt(2.0 * abs((V - fold.orbit.speed) / ref.fold_curvatures[j]))
