@@ -19,7 +19,7 @@ import timeit
 import numpy as np
 
 from polywear.dynamics.bifurcation import bifurcation
-from polywear.models.base import kmh_to_ms
+from polywear.units import kmh_to_ms
 from polywear.params import Params
 from polywear.validation.auto07p import AUTO_MODELS, SPEED_INDEX, model_diagram
 

@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from polywear.models.base import kmh_to_ms, ms_to_kmh
+from polywear.units import kmh_to_ms, ms_to_kmh
 from polywear.models.tread1dof import MODEL
 from polywear.params import Params, with_updates
 from polywear.validation import auto07p as A

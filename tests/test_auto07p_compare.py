@@ -11,7 +11,7 @@ import pytest
 
 from polywear.dynamics.bifurcation import bifurcation
 from polywear.dynamics.points import PointKind
-from polywear.models.base import kmh_to_ms
+from polywear.units import kmh_to_ms
 from polywear.params import Params
 from polywear.validation.auto07p import auto07p_available, special_points
 

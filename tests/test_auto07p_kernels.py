@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from polywear.models.base import kmh_to_ms
+from polywear.units import kmh_to_ms
 from polywear.models.tread1dof import MODEL as TREAD
 from polywear.params import ParameterError, Params, with_updates
 from polywear.validation import auto07p as A

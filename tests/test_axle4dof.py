@@ -19,7 +19,7 @@ from scipy.optimize import brentq
 from polywear.models import _axle4dof_generated as gen
 from polywear.models import axle4dof, axle4dof_kernels, tread1dof
 from polywear.models.axle4dof import MODEL
-from polywear.models.base import kmh_to_ms
+from polywear.units import kmh_to_ms
 from polywear.params import Params, with_updates
 
 NQ = 4

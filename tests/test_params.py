@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from polywear.keys import KEYS
 from polywear.params import (
     ParameterError,
     Params,
@@ -126,18 +127,14 @@ def test_choices_are_accepted():
 
 
 def _bounds(key: str) -> dict[str, float | bool]:
-    """Hypothesis float bounds from the field's own numeric rules (gt/ge/lt/le)."""
-    table, name = key.split(".")
-    field = type(getattr(Params(), table)).model_fields[name]
-    out: dict[str, float | bool] = {"allow_nan": False, "allow_infinity": False}
-    for rule in field.metadata:
-        for attr, bound, exclude in (("gt", "min_value", True), ("ge", "min_value", False),
-                                     ("lt", "max_value", True), ("le", "max_value", False)):
-            if getattr(rule, attr, None) is not None:
-                out[bound] = float(getattr(rule, attr))
-                out[f"exclude_{bound[:3]}"] = exclude
-    out.setdefault("min_value", -1e12)
-    out.setdefault("max_value", 1e12)
+    """Hypothesis float bounds from the key's registered bounds (polywear.keys)."""
+    info = KEYS[key]
+    out: dict[str, float | bool] = {"allow_nan": False, "allow_infinity": False,
+                                    "min_value": -1e12, "max_value": 1e12}
+    if math.isfinite(info.lower):
+        out.update(min_value=info.lower, exclude_min=not info.lower_inclusive)
+    if math.isfinite(info.upper):
+        out.update(max_value=info.upper, exclude_max=not info.upper_inclusive)
     return out
 
 

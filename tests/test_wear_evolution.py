@@ -26,7 +26,7 @@ from polywear.wear.evolution import (
 from polywear.wear.law import written_harmonics
 from polywear.wear.map import wear_map
 from polywear.models import get_model
-from polywear.models.base import kmh_to_ms
+from polywear.units import kmh_to_ms
 from polywear.models.profile import coupled_model, profile_vector
 from polywear.params import Params, with_updates
 

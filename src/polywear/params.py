@@ -41,7 +41,7 @@ __all__ = [
     "load_study",
     "STUDY_TABLE",
     "ADHESION_SCALE",
-    "PAPER_KEYS",
+    "DERIVED_FIELDS",
     "load_params",
     "parse_override",
     "with_updates",
@@ -156,23 +156,22 @@ ADHESION_SCALE = "adhesion_scale"
 """Study and sensitivity key scaling mu_s and mu_c together (nominal 1; the paper's
 adhesion coefficient, second reading)."""
 
-PAPER_KEYS = (
-    "tread.lateral_stiffness_n_per_m",
-    "tread.lateral_damping_ns_per_m",
-    "operating.toe_deg",
-    "operating.camber_deg",
-    "friction.mu_static",
-    "tread.mass_kg",
-    "operating.vertical_load_n",
-)
-"""The paper's seven parameters (its Fig. 9), adhesion read as the peak friction mu_s;
-:data:`ADHESION_SCALE` is the other reading."""
+DERIVED_FIELDS: dict[str, Any] = {
+    ADHESION_SCALE: Field(
+        gt=0.0,
+        description="factor on mu_s and mu_c together, nominal 1 (the paper's adhesion, second reading) [-]",
+        json_schema_extra={"scales": ("friction.mu_static", "friction.mu_coulomb")},
+    ),
+}
+"""Derived keys (no fields: a factor on the stored keys ``scales``), declared beside the
+fields; read and set through :mod:`polywear.keys`."""
 
 DISTRIBUTIONS = ("uniform", "loguniform", "triangular", "normal")
 
 
-def _float_fields() -> dict[str, Any]:
-    """"table.key" -> pydantic FieldInfo of every float key of the model tables."""
+def _study_fields() -> dict[str, Any]:
+    """"table.key" -> pydantic FieldInfo of every float key of the model tables (not the
+    wear's), then the derived keys."""
     out = {}
     for table, cls in _TABLES.items():
         if table == "wear":
@@ -180,12 +179,12 @@ def _float_fields() -> dict[str, Any]:
         for name, info in cls.model_fields.items():
             if info.annotation is float:
                 out[f"{table}.{name}"] = info
-    return out
+    return {**out, **DERIVED_FIELDS}
 
 
 def study_keys() -> tuple[str, ...]:
     """Keys a study (or a sensitivity) may vary: every float key, and ``adhesion_scale``."""
-    return (*_float_fields(), ADHESION_SCALE)
+    return tuple(_study_fields())
 
 
 def _number(value: Any) -> Any:
@@ -296,12 +295,12 @@ class StudyParameter(_Table):
     @model_validator(mode="after")
     def _consistent(self) -> StudyParameter:
         where = f"study.parameters: {self.key}"
-        fields = _float_fields()
-        if self.key != ADHESION_SCALE and self.key not in fields:
+        fields = _study_fields()
+        if self.key not in fields:
             raise ParameterError(f"{where}: unknown or non-numeric key (use a table.key of a float, or {ADHESION_SCALE})")
         if not self.low < self.high:
             raise ParameterError(f"{where}: low = {self.low!r} must be below high = {self.high!r}")
-        rule = Annotated[(float, *fields[self.key].metadata)] if self.key in fields else Annotated[float, Field(gt=0.0)]
+        rule = Annotated[(float, *fields[self.key].metadata)]
         for name in ("low", "high"):
             try:
                 TypeAdapter(rule).validate_python(getattr(self, name))

@@ -1,7 +1,8 @@
-"""Speed limits, default speed ranges, wheel rotation and unit tables, in one place.
+"""Speed limits, default speed ranges, unit conversions, wheel rotation and unit tables, in one place.
 
-Plain Python (only :mod:`math`), so the command line may import it without slowing
-``polywear --help``; the functions accept floats or numpy arrays alike.
+Plain Python at import (only :mod:`math`; numpy is imported when a conversion is called), so
+the command line may import it without slowing ``polywear --help``; the functions accept
+floats or numpy arrays alike.
 """
 
 from __future__ import annotations
@@ -13,6 +14,11 @@ __all__ = [
     "DEFAULT_SPEED_RANGE_KMH",
     "DEFAULT_OPERATING_RANGE_KMH",
     "STABILITY_SPEED_RANGE_KMH",
+    "KMH",
+    "KMH_PER_MS",
+    "kmh_to_ms",
+    "ms_to_kmh",
+    "wheel_circumference_m",
     "wheel_rotation_frequency_hz",
     "polygon_order",
     "plot_scale",
@@ -31,9 +37,35 @@ STABILITY_SPEED_RANGE_KMH: tuple[float, float] = (5.0, 300.0)
 """Speeds of steady-rolling stability analyses (``stability``, ``calibrate``) by default [km/h]."""
 
 
+KMH_PER_MS = 3.6
+"""1 m/s in km/h."""
+
+KMH = 1.0 / KMH_PER_MS
+"""1 km/h in m/s."""
+
+
+def kmh_to_ms(v_kmh):
+    """Speed km/h -> m/s: a float for a scalar, an array for a sequence or an array."""
+    import numpy as np  # here, not at import: see the module docstring
+
+    return np.asarray(v_kmh) * KMH if np.ndim(v_kmh) else float(v_kmh) * KMH
+
+
+def ms_to_kmh(v_ms):
+    """Speed m/s -> km/h: a float for a scalar, an array for a sequence or an array."""
+    import numpy as np  # here, not at import: see the module docstring
+
+    return np.asarray(v_ms) * KMH_PER_MS if np.ndim(v_ms) else float(v_ms) * KMH_PER_MS
+
+
+def wheel_circumference_m(rolling_radius_m):
+    """Rolling circumference ``2 pi R_e`` [m] of a wheel of rolling radius R_e [m]."""
+    return 2.0 * math.pi * rolling_radius_m
+
+
 def wheel_rotation_frequency_hz(speed_ms, rolling_radius_m):
     """Wheel rotation frequency ``V / (2 pi R_e)`` [Hz] at speed V [m/s], rolling radius R_e [m]."""
-    return speed_ms / (2.0 * math.pi * rolling_radius_m)
+    return speed_ms / wheel_circumference_m(rolling_radius_m)
 
 
 def polygon_order(frequency_hz, speed_ms, rolling_radius_m):

@@ -39,7 +39,7 @@ app = typer.Typer(help="LuGre friction: static curve, hysteresis loops, fits to 
 def _operating_sliding_velocity(params) -> float:
     """Sliding velocity v_r of steady rolling at the operating point [m/s]."""
     from ..models import get_model
-    from ..models.base import kmh_to_ms
+    from ..units import kmh_to_ms
 
     model = get_model(params.model)
     p = model.pack(params)

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..models.base import ms_to_kmh
+from ..units import ms_to_kmh
 from ..results import Result
 from .simulation import SimulationResult, _finite, simulate
 

@@ -23,12 +23,11 @@ import numpy as np
 
 from ..models import get_model
 from ..results import Result
-from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params
 from ..progress import Progress, StepCounter
 from ..solvers.continuation import (Branch, BranchEnd, ContinuationSettings, HopfStart, continue_from_hopf,
                                    same_special_point)
-from ..units import DEFAULT_SPEED_RANGE_KMH, MAX_SPEED_KMH, plot_scale
+from ..units import DEFAULT_SPEED_RANGE_KMH, MAX_SPEED_KMH, plot_scale, kmh_to_ms, ms_to_kmh
 from .intervals import subtract, union
 from .points import PointKind, SpecialPoint
 from .stability import HopfPoint, StabilityResult, StabilitySettings, stability

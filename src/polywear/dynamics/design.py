@@ -26,7 +26,6 @@ the bound is still searched (up to ``DesignSettings.search_factor``) and flagged
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -34,11 +33,11 @@ import numpy as np
 
 from ..models import get_model
 from ..results import Result
-from ..models.base import ms_to_kmh
-from ..params import ADHESION_SCALE, Params
+from ..keys import ADHESION_SCALE, key_info
+from ..params import Params
 from ..progress import Progress, StepCounter
 from ..settings import check_positive
-from ..units import DEFAULT_SPEED_RANGE_KMH
+from ..units import DEFAULT_SPEED_RANGE_KMH, ms_to_kmh
 from .bifurcation import BifurcationDiagram, bifurcation
 from .sensitivity import (
     PARAMETER_LABELS,
@@ -95,13 +94,9 @@ def parameter_category(key: str) -> str:
 
 
 def parameter_unit(key: str) -> str:
-    """Unit of a configuration key from its description ('deg', 'N/m', ...); '' if dimensionless."""
-    if key == ADHESION_SCALE:
-        return ""  # a factor on mu_s and mu_c
-    table, name = key.split(".", 1)
-    description = Params.model_fields[table].annotation.model_fields[name].description or ""
-    units = re.findall(r"\[([^\]]*)\]", description)
-    return units[-1] if units and units[-1] != "-" else ""
+    """Unit of a configuration key ('deg', 'N/m', ...); '' if dimensionless (``adhesion_scale`` too)."""
+    unit = key_info(key).unit
+    return "" if unit == "-" else unit
 
 
 def parameter_label(key: str) -> str:
@@ -109,9 +104,9 @@ def parameter_label(key: str) -> str:
 
 
 def _with_unit(key: str, value: float) -> str:
-    """'0.22°', '80 N s/m', '×1.15' (adhesion_scale), '0.6048'."""
+    """'0.22°', '80 N s/m', '×1.15' (a derived key: a factor), '0.6048'."""
     unit = parameter_unit(key)
-    if key == ADHESION_SCALE:
+    if key_info(key).kind == "derived":
         return f"×{value:.4g}"
     if unit == "deg":
         return f"{value:.4g}°"

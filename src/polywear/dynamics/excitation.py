@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..models import get_model
-from ..models.base import kmh_to_ms
+from ..units import kmh_to_ms
 from ..results import Result
 from ..progress import Progress, StepCounter
 from ..settings import check_order, check_positive

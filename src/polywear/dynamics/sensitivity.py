@@ -32,11 +32,12 @@ import numpy as np
 
 from ..models import get_model
 from ..results import Result
-from ..models.base import ms_to_kmh
-from ..params import ADHESION_SCALE, PAPER_KEYS, Params, get_value, with_updates
+from .. import keys as _keys
+from ..keys import ADHESION_SCALE, PAPER_KEYS
+from ..params import Params
 from ..progress import Progress, StepCounter
 from ..settings import check_positive
-from ..units import DEFAULT_SPEED_RANGE_KMH
+from ..units import DEFAULT_SPEED_RANGE_KMH, ms_to_kmh
 from .bifurcation import BifurcationDiagram, bifurcation
 from .derivatives import rhs_directional
 from .points import PointKind
@@ -98,32 +99,21 @@ def parameter_direction(model, params: Params, key: str) -> np.ndarray:
     Zero vector when the key does not enter the model (e.g. camber in tread1dof).
     """
     direction = np.zeros(len(model.slots))
-    if key == ADHESION_SCALE:
-        direction[model.param_names.index("mu_s")] = params.friction.mu_static
-        direction[model.param_names.index("mu_c")] = params.friction.mu_coulomb
-        return direction
-    get_value(params, key)  # raises ParameterError for an unknown key
-    for i, slot in enumerate(model.slots):
-        if slot.key == key and slot.encode is None:
-            direction[i] = slot.factor
+    for stored, rate in _keys.stored_rates(params, key).items():  # ParameterError for an unknown key
+        for i, slot in enumerate(model.slots):
+            if slot.key == stored and slot.encode is None:
+                direction[i] += slot.factor * rate
     return direction
 
 
 def nominal_value(params: Params, key: str) -> float:
-    return 1.0 if key == ADHESION_SCALE else float(get_value(params, key))
+    """The value of ``key`` in ``params`` (``adhesion_scale``: 1) [key unit]."""
+    return float(_keys.get_value(params, key))
 
 
 def perturbed(params: Params, key: str, value: float) -> Params:
     """Parameters with ``key`` set to ``value`` (``adhesion_scale`` scales mu_s and mu_c)."""
-    if key == ADHESION_SCALE:
-        return with_updates(
-            params,
-            {
-                "friction.mu_static": params.friction.mu_static * value,
-                "friction.mu_coulomb": params.friction.mu_coulomb * value,
-            },
-        )
-    return with_updates(params, {key: value})
+    return _keys.with_updates(params, {key: value})
 
 
 # -- exact derivatives ----------------------------------------------------------------

@@ -39,10 +39,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .. import __version__, units
-from ..units import plot_scale
+from ..units import plot_scale, kmh_to_ms
 from ..models import get_model
 from ..results import Result
-from ..models.base import kmh_to_ms
 from ..params import Params, get_value, to_toml, with_updates
 from ..progress import Progress, StepCounter
 from ..settings import check_count, check_fraction, check_positive

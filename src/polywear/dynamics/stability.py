@@ -21,10 +21,9 @@ from scipy.optimize import brentq
 from ..errors import NumericalError
 from ..models import get_model
 from ..results import Result
-from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params
 from ..settings import check_count, check_positive
-from ..units import DEFAULT_SPEED_RANGE_KMH, STABILITY_SPEED_RANGE_KMH
+from ..units import DEFAULT_SPEED_RANGE_KMH, STABILITY_SPEED_RANGE_KMH, kmh_to_ms, ms_to_kmh
 from .derivatives import bilinear, jac_directional, rhs_directional, trilinear
 from .points import PointKind, SpecialPoint
 

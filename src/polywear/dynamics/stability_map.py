@@ -45,13 +45,12 @@ import numpy as np
 
 from ..models import get_model
 from ..results import Result
-from ..models.base import kmh_to_ms, ms_to_kmh
 from ..params import Params, ParameterError
 from ..progress import Progress, StepCounter
 from ..settings import check_count, check_fraction, check_order, check_positive
 from ..solvers.continuation import BranchPoint, ContinuationSettings
 from ..solvers.curve_continuation import HopfCurveTracer, HopfState, follow_fold_curve, trace_hopf_curve
-from ..units import DEFAULT_SPEED_RANGE_KMH
+from ..units import DEFAULT_SPEED_RANGE_KMH, kmh_to_ms, ms_to_kmh
 from .intervals import runs_of, union
 from .points import PointKind, SpecialPoint
 from .sensitivity import PARAMETER_LABELS, fold_speed_derivative, nominal_value, parameter_direction, perturbed

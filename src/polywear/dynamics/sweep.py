@@ -35,7 +35,7 @@ from ..params import Params, to_toml
 from ..progress import Progress, StepCounter
 from ..settings import check_order, check_positive
 from ..solvers.integrate import integrate
-from ..units import plot_scale
+from ..units import plot_scale, kmh_to_ms
 from .bifurcation import _open_at, _open_warning
 from .intervals import runs_of
 from .simulation import SimulationSettings, classify_window, initial_state

@@ -27,11 +27,11 @@ import numpy as np
 from ..errors import InputError
 from ..models import get_model
 from ..results import Result
-from ..models.base import kmh_to_ms, ms_to_kmh
-from ..params import ADHESION_SCALE, ParameterError, Params, get_value, study_keys, with_updates
+from ..keys import KEYS, study_keys
+from ..params import ParameterError, Params, get_value, with_updates
 from ..progress import Progress, StepCounter
 from ..settings import check_count, check_positive
-from ..units import STABILITY_SPEED_RANGE_KMH, polygon_order
+from ..units import STABILITY_SPEED_RANGE_KMH, polygon_order, kmh_to_ms, ms_to_kmh
 
 __all__ = [
     "QUANTITIES",
@@ -380,17 +380,7 @@ def predict(
 # -- bounds from the parameter validation ---------------------------------------------
 def _bounds(key: str) -> tuple[float, float]:
     """(low, high) of a float key from its validation rules (open bounds as closed)."""
-    table, name = key.split(".")
-    info = type(getattr(Params(), table)).model_fields[name]
-    lo, hi = -math.inf, math.inf
-    for rule in info.metadata:
-        for attr in ("gt", "ge"):
-            if getattr(rule, attr, None) is not None:
-                lo = max(lo, float(getattr(rule, attr)))
-        for attr in ("lt", "le"):
-            if getattr(rule, attr, None) is not None:
-                hi = min(hi, float(getattr(rule, attr)))
-    return lo, hi
+    return KEYS[key].lower, KEYS[key].upper
 
 
 # -- the result -------------------------------------------------------------------------
@@ -479,7 +469,7 @@ def calibrate(
 
     n_speeds, undetermined_above = settings.n_speeds, settings.undetermined_above
     keys = list(keys)
-    allowed = set(study_keys()) - {ADHESION_SCALE}
+    allowed = {k for k in study_keys() if KEYS[k].kind == "stored"}
     for key in keys:
         if key not in allowed:
             raise CalibrationError(f"--vary {key}: not a float parameter key (e.g. tread.lateral_damping_ns_per_m)")

@@ -42,7 +42,7 @@ from ..errors import InputError
 from ..params import ParameterError, Params
 from ..results import Result
 from ..settings import check_fraction, check_positive
-from ..units import polygon_order, wheel_rotation_frequency_hz
+from ..units import KMH_PER_MS, kmh_to_ms, ms_to_kmh, polygon_order, wheel_rotation_frequency_hz
 
 __all__ = [
     "MeasurementError",
@@ -61,7 +61,7 @@ class MeasurementError(InputError, ParameterError):
 
 
 _TIME_UNITS = {"s": 1.0, "sec": 1.0, "second": 1.0, "seconds": 1.0, "ms": 1e-3}
-_SPEED_UNITS = {"km/h": 1.0, "kmh": 1.0, "kph": 1.0, "m/s": 3.6, "mph": 1.609344}
+_SPEED_UNITS = {"km/h": 1.0, "kmh": 1.0, "kph": 1.0, "m/s": KMH_PER_MS, "mph": 1.609344}
 _WHEEL_UNITS = {"rad/s": 1.0, "rpm": 2.0 * math.pi / 60.0, "1/min": 2.0 * math.pi / 60.0}
 _HEADER = re.compile(r"^\s*(.*?)\s*[\[(]\s*([^\])]*?)\s*[\])]\s*$")
 
@@ -96,7 +96,7 @@ class CampbellSettings:
 
 def order_frequency_hz(order: float, speed_kmh, radius_m: float):
     """Frequency of wheel order n at vehicle speed V: ``n V / (2 pi R)`` [Hz]."""
-    return wheel_rotation_frequency_hz(order * np.asarray(speed_kmh) / 3.6, radius_m)
+    return wheel_rotation_frequency_hz(kmh_to_ms(order * np.asarray(speed_kmh)), radius_m)
 
 
 @dataclass
@@ -198,7 +198,7 @@ def read_run(
     elif unit in _WHEEL_UNITS:
         if rolling_radius_m is None:
             raise MeasurementError(f"{path}: wheel speed in {v_unit} needs the rolling radius")
-        speed = v * _WHEEL_UNITS[unit] * rolling_radius_m * 3.6
+        speed = ms_to_kmh(v * _WHEEL_UNITS[unit] * rolling_radius_m)
     else:
         raise MeasurementError(f"{path}: speed column {v_name!r} has unit {v_unit!r}: "
                                f"use one of {', '.join([*_SPEED_UNITS, *_WHEEL_UNITS])}")
@@ -378,7 +378,7 @@ def _classify(ridge: _Ridge, speeds, radius_m, min_segments) -> dict | None:
     slope = float(np.polyfit(np.log(v), np.log(f), 1)[0])
     feature["slope"] = slope
     if abs(slope - 1.0) < 0.25:
-        feature.update(kind="order", order=float(np.median(polygon_order(f, v / 3.6, radius_m))))
+        feature.update(kind="order", order=float(np.median(polygon_order(f, kmh_to_ms(v), radius_m))))
     elif abs(slope) < 0.5:  # an SEV cycle's frequency drifts with speed (slopes up to about 0.3 seen)
         feature["kind"] = "constant_frequency"
     else:

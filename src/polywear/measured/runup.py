@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..models import get_model
-from ..models.base import kmh_to_ms
+from ..units import kmh_to_ms
 from ..params import Params
 from ..solvers.integrate import integrate
 

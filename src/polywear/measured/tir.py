@@ -20,7 +20,9 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputError
-from ..params import ParameterError, load_params, parse_override, study_keys
+from ..keys import study_keys
+from ..params import ParameterError, load_params, parse_override
+from ..units import kmh_to_ms
 
 __all__ = ["TirError", "TirEntry", "TirFile", "TirMapping", "read_tir", "tir_parameters", "user_keys", "load_with_tir"]
 
@@ -388,7 +390,7 @@ def tir_parameters(
 
     if r0 is not None and cz is not None and tir.has("BREFF", "DREFF", "FREFF"):
         v0 = num("LONGVL", 16.7)
-        v = speed_kmh / 3.6
+        v = kmh_to_ms(speed_kmh)
         omega_r0_v0 = v / v0  # Omega R0 / V0 with Omega ~ V / R0
         r_omega = r0 * (num("Q_RE0", 1.0) + num("Q_V1", 0.0) * omega_r0_v0**2)
         rho = fz / fz0

@@ -24,6 +24,7 @@ import numpy as np
 from . import _axle4dof_generated as _gen
 from . import axle4dof_kernels as _kernels
 from ..errors import NumericalError
+from ..units import ms_to_kmh
 from .base import DEG, Model, ParamSlot
 
 _KEYS = {
@@ -134,7 +135,7 @@ def equilibrium(V, p):
         if dr < 1e-6:
             raise NumericalError(
                 f"axle4dof: no unloaded-reference equilibrium connected to the running state at "
-                f"V = {V * 3.6:.3f} km/h (the preload homotopy stalled at r = {r:.6f})"
+                f"V = {ms_to_kmh(V):.3f} km/h (the preload homotopy stalled at r = {r:.6f})"
             )
     return u
 

@@ -31,20 +31,9 @@ import numpy as np
 
 from ..params import Params, get_value
 
-__all__ = ["ParamSlot", "Model", "KMH", "kmh_to_ms", "ms_to_kmh"]
+from ..units import kmh_to_ms  # noqa: F401  for wear/evolution.py until it imports from units
 
-KMH = 1.0 / 3.6
-"""1 km/h in m/s."""
-
-
-def kmh_to_ms(v_kmh):
-    """km/h -> m/s."""
-    return np.asarray(v_kmh) * KMH if np.ndim(v_kmh) else float(v_kmh) * KMH
-
-
-def ms_to_kmh(v_ms):
-    """m/s -> km/h."""
-    return np.asarray(v_ms) * 3.6 if np.ndim(v_ms) else float(v_ms) * 3.6
+__all__ = ["ParamSlot", "Model"]
 
 
 @dataclass(frozen=True)

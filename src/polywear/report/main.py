@@ -95,7 +95,7 @@ def operating_verdict(diagram, params: Params, speed_kmh: float) -> dict:
     from ..dynamics.bifurcation import statically_divergent
     from ..wear.indicators import wear_indicators
     from ..models import get_model
-    from ..models.base import kmh_to_ms
+    from ..units import kmh_to_ms
 
     model = get_model(params.model)
     p = model.pack(params)

@@ -52,11 +52,11 @@ import numpy as np
 from ..dynamics.points import PointKind, SpecialPoint
 from ..errors import NumericalError
 from ..models import get_model
-from ..models.base import Model, kmh_to_ms, ms_to_kmh
+from ..models.base import Model
 from ..models.tread1dof import MODEL
 from ..params import ParameterError, Params
 from ..settings import check_count, check_order, check_positive
-from ..units import DEFAULT_SPEED_RANGE_KMH
+from ..units import DEFAULT_SPEED_RANGE_KMH, kmh_to_ms, ms_to_kmh
 
 __all__ = [
     "AutoSettings",

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..models import get_model
 from ..results import Result
-from ..params import ADHESION_SCALE, Params
+from ..params import Params
 from ..dynamics.design import DEFAULT_KEYS, ENGINEERING, parameter_category, parameter_label
 from ..dynamics.sensitivity import nominal_value, parameter_direction, perturbed
 from .evolution import EvolutionSettings, evolve
@@ -189,7 +189,7 @@ def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: fl
         keys = ()
     for key in DEFAULT_KEYS if keys is None else keys:
         wear_key = key.startswith("tire.")  # the load coupling and the patch: every model
-        if key != ADHESION_SCALE and not wear_key and not np.any(parameter_direction(model, params, key)):
+        if not wear_key and not np.any(parameter_direction(model, params, key)):
             if keys:
                 not_found.append(f"{key}: does not enter the {params.model} model")
             continue

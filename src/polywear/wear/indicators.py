@@ -28,8 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..models.base import ms_to_kmh
-from ..units import polygon_order
+from ..units import polygon_order, ms_to_kmh
 
 __all__ = ["WearIndicators", "wear_indicators"]
 

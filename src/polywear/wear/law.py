@@ -23,6 +23,7 @@ import math
 import numpy as np
 
 from ..models.profile import patch_sinc
+from ..units import wheel_circumference_m
 
 __all__ = ["energetic_rate", "written_harmonics", "profile_samples", "friction_power"]
 
@@ -61,7 +62,7 @@ def written_harmonics(t, power, angle, orders, params) -> tuple[np.ndarray, floa
     integral = phase @ wp
     sinc = patch_sinc(orders, params.tire.contact_length_m, R)
     dW = (k_e / (math.pi * R * b_w)) * sinc * integral
-    mean = k_e / (2.0 * math.pi * R * b_w) * float(wp.sum())
+    mean = k_e / (wheel_circumference_m(R) * b_w) * float(wp.sum())
     return dW, mean
 
 

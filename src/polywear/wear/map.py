@@ -29,10 +29,9 @@ from numpy.typing import ArrayLike
 
 from ..models import get_model
 from ..results import Result
-from ..models.base import kmh_to_ms
 from ..models.profile import patch_sinc
 from ..params import Params
-from ..units import wheel_rotation_frequency_hz
+from ..units import wheel_circumference_m, wheel_rotation_frequency_hz, kmh_to_ms
 from ..dynamics.stability import mode_label, stability
 from .law import energetic_rate
 
@@ -289,7 +288,7 @@ def wear_map(params: Params, speeds_kmh: ArrayLike, max_order: int | None = None
         u0, A, B, C, D = load_to_power(model, p, V)
         mode_f[i] = _tread_mode_frequency(model, p, A)
         p0 = max(float(_power(model, u0, V, model.prepared(V, p)).real), 0.0)
-        mean_wear[i] = k_e * p0 / (V * b_w) * 1e6 / (2.0 * math.pi * R) * 1e3  # m/rev -> mm/1000 km
+        mean_wear[i] = k_e * p0 / (V * b_w) * 1e6 / wheel_circumference_m(R) * 1e3  # m/rev -> mm/1000 km
         stable[i] = bool(np.max(np.linalg.eigvals(A).real) < 0.0)
         if not stable[i]:
             continue
