@@ -577,3 +577,16 @@ def test_a_car_records_a_numerical_failure_and_raises_a_programming_error():
         assert np.all(np.isnan(out)) and outcome.failure == "ValueError" and "speed range" in outcome.detail
     with pytest.raises(AttributeError):
         FleetEvaluator(Params(), ("operating.toe_deg",), object(), (100.0,), band_every=2)((1, [0.5]))
+
+
+def test_a_fleet_takes_an_executor_or_the_separate_options(tmp_path, reference):
+    """The same cars with the same numbers from an Executor as from backend/batch_size; both at once is refused."""
+    from polywear.parallel import Executor
+
+    spec = _spec(tmp_path, samples=6, every=6)
+    keywords = fleet(Params(), spec, backend="serial", batch_size=2, reference=reference)
+    executed = fleet(Params(), spec, executor=Executor("serial", batch_size=4), reference=reference)
+    np.testing.assert_array_equal(keywords.values, executed.values)
+    assert keywords.outcomes == executed.outcomes and executed.settings["backend"] == "serial"
+    with pytest.raises(ValueError, match="not both"):
+        fleet(Params(), spec, workers=2, executor=Executor("serial"), reference=reference)

@@ -5,6 +5,7 @@ killed in the middle of a study, which must still complete with identical result
 from __future__ import annotations
 
 import math
+import pickle
 import signal
 import socket
 import subprocess
@@ -18,7 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from polywear.studies.global_sensitivity import study
-from polywear.parallel import default_batch_size, map_batched
+from polywear.parallel import Executor, default_batch_size, map_batched
 from polywear.params import Params, StudySpec
 
 DASK = Path(sys.executable).parent / "dask"
@@ -70,6 +71,34 @@ def test_errors_in_a_task_propagate():
 def test_bad_arguments(kwargs, fragment):
     with pytest.raises(ValueError, match=fragment):
         map_batched(square, [1, 2], **kwargs)
+
+
+@pytest.mark.parametrize("kwargs, fragment", [
+    ({"backend": "threads"}, "backend"),
+    ({"backend": "dask"}, "scheduler"),
+    ({"scheduler": "tcp://127.0.0.1:1"}, "dask"),
+    ({"workers": 0}, "workers"),
+    ({"batch_size": 0}, "batch_size"),
+])
+def test_an_executor_is_checked_when_made(kwargs, fragment):
+    with pytest.raises(ValueError, match=fragment):
+        Executor(**kwargs)
+
+
+def test_executor_from_options_or_given_not_both():
+    made = Executor.from_options("serial", batch_size=3)
+    assert made == Executor("serial", None, None, 3)
+    assert Executor.from_options() == Executor("processes")  # the default backend of pw.study and pw.fleet
+    assert Executor.from_options(executor=made) is made
+    with pytest.raises(ValueError, match="not both"):
+        Executor.from_options(workers=2, executor=made)
+
+
+def test_executor_map_reports_each_batch_and_survives_pickling():
+    executor = pickle.loads(pickle.dumps(Executor("serial", batch_size=3)))  # a task's argument on Dask
+    done = []
+    assert executor.map(square, range(10), lambda d, total, message="": done.append(d)) == [x * x for x in range(10)]
+    assert done == [3, 6, 9, 10]
 
 
 def test_default_batch_size():
@@ -182,6 +211,12 @@ def reference():
     result = study(Params(), _study(), backend="serial")
     assert result.failures() == {} and len(result.status) == 64 * 8
     return result
+
+
+def test_a_study_takes_an_executor_or_the_separate_options(reference):
+    _same(reference, study(Params(), _study(), executor=Executor("serial", batch_size=5)))
+    with pytest.raises(ValueError, match="not both"):
+        study(Params(), _study(), backend="serial", executor=Executor("serial"))
 
 
 @pytest.mark.slow

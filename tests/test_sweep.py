@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import pickle
-from functools import partial
 
 import matplotlib
 import numpy as np
@@ -12,7 +11,7 @@ import pytest
 from polywear.dynamics.simulation import SimulationSettings, simulate
 from polywear.dynamics.sweep import START_TYPES, SweepSettings, settle, sweep
 from polywear.models import get_model
-from polywear.parallel import map_batched
+from polywear.parallel import Executor
 from polywear.params import Params
 
 matplotlib.use("Agg")
@@ -88,7 +87,7 @@ def test_settle_continues_in_chunks_until_steady():
 
 @pytest.mark.slow
 def test_runs_can_go_through_the_executor_interface():
-    pooled = sweep(DEFAULTS, [110.0], map=partial(map_batched, backend="processes", workers=2),
+    pooled = sweep(DEFAULTS, [110.0], executor=Executor("processes", workers=2),
                    settings=SweepSettings(max_duration_s=1.0))
     serial = sweep(DEFAULTS, [110.0], settings=SweepSettings(max_duration_s=1.0))
     for start in START_TYPES:

@@ -1,7 +1,10 @@
 """One interface for many small independent evaluations: serial, local processes, Dask.
 
-:func:`map_batched` computes ``[func(item) for item in items]`` with the work cut into
-batches (one task per batch, so that task overhead stays small against the work):
+An :class:`Executor` (backend, workers, scheduler address, batch size; made once, then
+handed to the studies, the fleet and the sweep) computes ``executor.map(func, items)`` =
+``[func(item) for item in items]`` with the work cut into batches (one task per batch, so
+that task overhead stays small against the work); :func:`map_batched` is the same call
+with the options as keywords. The backends:
 
 ``"serial"``     in this process, batch after batch (debugging, tiny jobs);
 ``"processes"``  a local pool of ``workers`` processes (the default). Processes are
@@ -21,11 +24,12 @@ from __future__ import annotations
 import math
 import os
 from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
 from .progress import Progress, StepCounter
 
-__all__ = ["BACKENDS", "map_batched", "default_batch_size"]
+__all__ = ["BACKENDS", "Executor", "map_batched", "default_batch_size"]
 
 BACKENDS = ("serial", "processes", "dask")
 
@@ -44,6 +48,73 @@ def default_batch_size(n_items: int, slots: int) -> int:
     return max(1, math.ceil(n_items / (max(slots, 1) * TASKS_PER_SLOT)))
 
 
+@dataclass(frozen=True)
+class Executor:
+    """Where many small independent evaluations run (picklable, validated when made).
+
+    Parameters
+    ----------
+    backend : ``"serial"``, ``"processes"`` (default) or ``"dask"``.
+    workers : size of the process pool [-] (default: the number of CPUs; ``"processes"`` only).
+    scheduler : Dask scheduler address, e.g. ``tcp://10.0.0.5:8786`` (backend ``"dask"``).
+    batch_size : items per task [-] (default :func:`default_batch_size`).
+    """
+
+    backend: str = "processes"
+    workers: int | None = None
+    scheduler: str | None = None
+    batch_size: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.backend not in BACKENDS:
+            raise ValueError(f"backend = {self.backend!r}: must be one of {', '.join(BACKENDS)}")
+        if self.backend == "dask" and not self.scheduler:
+            raise ValueError("backend dask: give the scheduler address (tcp://host:port)")
+        if self.backend != "dask" and self.scheduler:
+            raise ValueError(f"a scheduler address needs backend dask, not {self.backend!r}")
+        if self.workers is not None and self.workers < 1:
+            raise ValueError(f"workers = {self.workers!r}: must be at least 1")
+        if self.batch_size is not None and self.batch_size < 1:
+            raise ValueError(f"batch_size = {self.batch_size!r}: must be at least 1")
+
+    @classmethod
+    def from_options(cls, backend: str | None = None, workers: int | None = None, scheduler: str | None = None,
+                     batch_size: int | None = None, executor: Executor | None = None) -> Executor:
+        """``executor``, or the executor of the separate options (the keywords of ``pw.study``
+        and ``pw.fleet``; ``backend`` default ``"processes"``); ValueError when both are given."""
+        if executor is None:
+            return cls(backend or "processes", workers, scheduler, batch_size)
+        if any(v is not None for v in (backend, workers, scheduler, batch_size)):
+            raise ValueError("give an executor or backend/workers/scheduler/batch_size, not both")
+        return executor
+
+    def map(self, func: Callable[[Any], Any], items: Sequence[Any], progress: Progress | None = None) -> list:
+        """``[func(item) for item in items]`` computed in batches on the backend.
+
+        ``func``: picklable callable of one item (top-level function or class instance);
+        the result list has the order of ``items``. ``progress`` (:mod:`polywear.progress`):
+        items finished of all items, after every batch.
+        """
+        items = list(items)
+        if not items:
+            return []
+        step = StepCounter(progress, len(items))
+
+        def report(n: int) -> None:
+            step(n=n)
+
+        if self.backend == "serial":
+            size = self.batch_size or default_batch_size(len(items), 1)
+            out: list = []
+            for start in range(0, len(items), size):
+                out += run_batch(func, items[start : start + size])
+                report(len(items[start : start + size]))
+            return out
+        if self.backend == "processes":
+            return _processes(func, items, self.workers or os.cpu_count() or 1, self.batch_size, report)
+        return _dask(func, items, self.scheduler, self.batch_size, report)
+
+
 def map_batched(
     func: Callable[[Any], Any],
     items: Sequence[Any],
@@ -54,47 +125,9 @@ def map_batched(
     batch_size: int | None = None,
     progress: Progress | None = None,
 ) -> list:
-    """``[func(item) for item in items]`` computed in batches on a backend.
-
-    Parameters
-    ----------
-    func : picklable callable of one item (top-level function or class instance).
-    items : the inputs; the result list has the same order.
-    backend : ``"serial"``, ``"processes"`` (default) or ``"dask"``.
-    workers : size of the process pool [-] (default: the number of CPUs).
-    scheduler : Dask scheduler address, e.g. ``tcp://10.0.0.5:8786`` (backend ``"dask"``).
-    batch_size : items per task (default :func:`default_batch_size`).
-    progress : progress callback (:mod:`polywear.progress`): items finished of all items,
-        after every batch.
-    """
-    if backend not in BACKENDS:
-        raise ValueError(f"backend = {backend!r}: must be one of {', '.join(BACKENDS)}")
-    if backend == "dask" and not scheduler:
-        raise ValueError("backend dask: give the scheduler address (tcp://host:port)")
-    if backend != "dask" and scheduler:
-        raise ValueError(f"a scheduler address needs backend dask, not {backend!r}")
-    if workers is not None and workers < 1:
-        raise ValueError(f"workers = {workers!r}: must be at least 1")
-    if batch_size is not None and batch_size < 1:
-        raise ValueError(f"batch_size = {batch_size!r}: must be at least 1")
-    items = list(items)
-    if not items:
-        return []
-    step = StepCounter(progress, len(items))
-
-    def report(n: int) -> None:
-        step(n=n)
-
-    if backend == "serial":
-        size = batch_size or default_batch_size(len(items), 1)
-        out: list = []
-        for start in range(0, len(items), size):
-            out += run_batch(func, items[start : start + size])
-            report(len(items[start : start + size]))
-        return out
-    if backend == "processes":
-        return _processes(func, items, workers or os.cpu_count() or 1, batch_size, report)
-    return _dask(func, items, scheduler, batch_size, report)
+    """``Executor(backend, workers, scheduler, batch_size).map(func, items, progress)``
+    (:class:`Executor`: the options and their defaults)."""
+    return Executor(backend, workers, scheduler, batch_size).map(func, items, progress)
 
 
 def _batches(items: list, size: int) -> list[list]:

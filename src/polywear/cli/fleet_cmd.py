@@ -56,6 +56,7 @@ def fleet(
     if checkpoint is not None and not checkpoint.is_dir():
         raise UserError(f"--checkpoint {checkpoint}: not a folder")
     params = load(config, set_)
+    from ..parallel import Executor
     from ..studies.fleet import fleet, load_fleet_spec
 
     fleet_spec = load_fleet_spec(spec, params)
@@ -65,7 +66,7 @@ def fleet(
     with progress("fleet", enabled=not quiet) as update, dask_connect_timeout(
         5.0 if chosen == "dask" else None
     ):
-        result = fleet(params, fleet_spec, backend=chosen, workers=workers, scheduler=scheduler,
+        result = fleet(params, fleet_spec, executor=Executor(chosen, workers, scheduler),
                        checkpoint_dir=checkpoint, resume=resume, progress=update)
     if out:
         write_output(out, result.save, quiet)

@@ -57,6 +57,7 @@ def study(
         raise UserError(f"--connect-timeout {connect_timeout}: must be in (0, 3600] [s]")
     params, study_ = load_with_study(config, set_)
     chosen = chosen_backend(backend, scheduler, connect_timeout)
+    from ..parallel import Executor
     from ..studies.global_sensitivity import study, study_parameters
 
     D = len(study_parameters(params, study_))
@@ -70,8 +71,7 @@ def study(
         connect_timeout if chosen == "dask" else None
     ):
         try:
-            result = study(params, study_, backend=chosen, workers=workers, scheduler=scheduler,
-                           batch_size=batch_size, progress=update)
+            result = study(params, study_, executor=Executor(chosen, workers, scheduler, batch_size), progress=update)
         except OSError as exc:  # includes connection failures and timeouts of the Dask client
             raise UserError(f"cannot reach the Dask scheduler {scheduler} within {connect_timeout:g} s: {exc}") from None
     if out:

@@ -14,9 +14,9 @@ end differently, and the up and down chains show the hysteresis.
 Each run (:func:`settle`) integrates in chunks, continuing from the end of the last, and
 stops when :func:`polywear.dynamics.simulation.classify_window` finds the equilibrium or
 a cycle in the latest chunk, or when ``max_duration_s`` is used up (``steady`` False).
-:func:`settle` is a pure function of picklable inputs, so the independent runs can be
-handed to any ``map``, e.g. the project's executor interface:
-``sweep(..., map=functools.partial(polywear.parallel.map_batched, backend="processes"))``.
+:func:`settle` is a pure function of picklable inputs, so the independent runs (small
+and large starts) can go to an executor:
+``sweep(..., executor=polywear.parallel.Executor("processes", workers=2))``.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ import numpy as np
 from .. import __version__
 from ..models import get_model
 from ..results import Result
-from ..models.base import kmh_to_ms
+from ..parallel import Executor
 from ..params import Params, to_toml
 from ..progress import Progress, StepCounter
 from ..settings import check_order, check_positive
@@ -250,13 +250,14 @@ def sweep(
     speeds_kmh,
     *,
     settings: SweepSettings = SweepSettings(),
-    map=map,  # noqa: A002 - the builtin is the default executor
+    executor: Executor | None = None,
     progress: Progress | None = None,
 ) -> SweepResult:
     """Steady states at each speed [km/h] from small and large disturbances of ``x`` [m]
-    and along increasing and decreasing speed. ``map`` runs the independent small/large
-    starts (e.g. a process pool's ``map``); ``progress(runs done, runs, start)`` is
-    called after every run (:mod:`polywear.progress`). ``settings``: the disturbances,
+    and along increasing and decreasing speed. ``executor`` (:class:`polywear.parallel.Executor`)
+    runs the independent small/large starts (None: one after another in this process);
+    ``progress(runs done, runs, start)`` is called after every run (:mod:`polywear.progress`;
+    with an executor, the independent runs are reported once they are all done). ``settings``: the disturbances,
     chunk and longest run, and the simulation settings (:class:`SweepSettings`)."""
     speeds = np.unique(np.asarray(speeds_kmh, dtype=float))
     if speeds.size == 0 or not np.all(np.isfinite(speeds)) or speeds[0] <= 0.0:
@@ -265,7 +266,7 @@ def sweep(
     jobs = [(params, v, s, d, settings) for s, d in (("small", small), ("large", large)) for v in speeds]
     independent = []
     step = StepCounter(progress, 4 * speeds.size)
-    for run in map(_settle_job, jobs):
+    for run in map(_settle_job, jobs) if executor is None else executor.map(_settle_job, jobs):
         independent.append(run)
         step(f"{run.start} start at {run.speed_kmh:.1f} km/h")
     runs = {"small": independent[: speeds.size], "large": independent[speeds.size:]}

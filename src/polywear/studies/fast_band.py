@@ -63,7 +63,9 @@ from enum import Enum
 import numpy as np
 
 from ..models import get_model
+from ..parallel import Executor
 from ..params import Params
+from ..progress import Progress
 from ..results import Result
 from ..units import DEFAULT_SPEED_RANGE_KMH, kmh_to_ms, ms_to_kmh
 from ..solvers.continuation import (BranchPoint, ContinuationSettings, cycle_along_branch, fold_at, fold_curvature,
@@ -401,29 +403,29 @@ def pilot_size(n_samples: int) -> int:
 
 
 def pilot_references(params_list, speed_range_kmh=DEFAULT_SPEED_RANGE_KMH, amplitude_speeds_kmh=(),
-                     settings: ContinuationSettings | None = None, **map_options) -> tuple[tuple, list[str]]:
+                     settings: ContinuationSettings | None = None, executor: Executor = Executor(),
+                     progress: Progress | None = None) -> tuple[tuple, list[str]]:
     """References of several parameter sets by the full continuation, for :class:`FastBand`.
 
     A sample then starts from the nearest reference with its own Hopf signature, so the
     topologies the pilot met (e.g. a hard first Hopf point, a second band) take the fast
     path too. The pilot is computed before any sample and depends only on the parameter
     sets given, so results stay independent of backend, batch size and worker count.
-    ``map_options`` go to :func:`polywear.parallel.map_batched` (backend, workers, ...).
+    ``executor`` (:class:`polywear.parallel.Executor`) runs the continuations; ``progress``:
+    parameter sets done of all.
 
     Returns (the references, usable or not, and the messages of the pilots that failed).
     """
-    results = _solved(params_list, speed_range_kmh, amplitude_speeds_kmh, settings, **map_options)
+    results = _solved(params_list, speed_range_kmh, amplitude_speeds_kmh, settings, executor, progress)
     return tuple(r for r in results if isinstance(r, BandReference)), [r for r in results if isinstance(r, str)]
 
 
 def _solved(params_list, speed_range_kmh, amplitude_speeds_kmh=(), settings: ContinuationSettings | None = None,
-            **map_options) -> list:
+            executor: Executor = Executor(), progress: Progress | None = None) -> list:
     """Per parameter set, in order: its :class:`BandReference` or why it failed."""
-    from ..parallel import map_batched
-
     task = _PilotReference(tuple(speed_range_kmh), tuple(float(v) for v in amplitude_speeds_kmh),
                            settings or ContinuationSettings())
-    return map_batched(task, list(params_list), **map_options)
+    return executor.map(task, list(params_list), progress)
 
 
 @dataclass(frozen=True)
@@ -441,12 +443,13 @@ class Pilot:
 
 
 def pilot_stage(base: Params, keys, X, nominal: Params | BandReference, speed_range_kmh=DEFAULT_SPEED_RANGE_KMH,
-                amplitude_speeds_kmh=(), **map_options) -> Pilot:
+                amplitude_speeds_kmh=(), executor: Executor = Executor(), progress: Progress | None = None) -> Pilot:
     """The pilot stage of a study or fleet: the nominal set and the :func:`pilot_size`
     samples at :func:`pilot_indices` of the design ``X`` (rows of values of ``keys``, set
     on ``base``) by the full continuation (:func:`pilot_references`). ``nominal`` is a
     parameter set, or its reference when already solved. A sample that is no valid
-    parameter set is left out (the study or fleet records it with its own evaluation)."""
+    parameter set is left out (the study or fleet records it with its own evaluation).
+    ``executor`` and ``progress`` as in :func:`pilot_references`."""
     from ..params import ParameterError
 
     todo: dict[int, Params] = {}
@@ -457,7 +460,7 @@ def pilot_stage(base: Params, keys, X, nominal: Params | BandReference, speed_ra
             continue
     given = isinstance(nominal, BandReference)
     results = _solved(([] if given else [nominal]) + list(todo.values()), speed_range_kmh, amplitude_speeds_kmh,
-                      **map_options)
+                      executor=executor, progress=progress)
     first = nominal if given else results.pop(0)
     samples = {i: r for i, r in zip(todo, results) if isinstance(r, BandReference)}
     return Pilot(references=tuple(r for r in (first, *results) if isinstance(r, BandReference)), samples=samples,

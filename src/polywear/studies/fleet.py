@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import hashlib
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
@@ -53,6 +53,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from ..keys import get_value
 from ..params import ParameterError, Params, to_toml
+from ..parallel import Executor
 from ..progress import Progress, report, shifted
 from ..results import Result
 from .sampling import SAMPLE_FAILURES, sample_params
@@ -673,22 +674,24 @@ def _pilot_progress(progress: Progress | None, done: int, samples: int) -> Progr
     return pilot
 
 
-def fleet(params: Params, spec: FleetSpec, *, backend: str = "processes", workers: int | None = None,
-          scheduler: str | None = None, batch_size: int | None = None, checkpoint_dir: str | Path | None = None,
-          resume: bool = False, progress: Progress | None = None,
+def fleet(params: Params, spec: FleetSpec, *, backend: str | None = None, workers: int | None = None,
+          scheduler: str | None = None, batch_size: int | None = None, executor: Executor | None = None,
+          checkpoint_dir: str | Path | None = None, resume: bool = False, progress: Progress | None = None,
           reference: BandReference | None = None, pilot: bool = True) -> FleetResult:
     """Evaluate the fleet; with ``checkpoint_dir`` save every ``spec.checkpoint_every`` cars
     (``resume`` continues from the checkpoint, which must belong to the same params and spec).
-    Every round of ``checkpoint_every`` cars is one :func:`~polywear.parallel.map_batched` call
-    (a new pool on the ``processes`` backend); without ``checkpoint_dir`` all cars are one round.
+    The cars run on ``executor`` (:class:`~polywear.parallel.Executor`), or on the one made of
+    ``backend`` (default ``"processes"``), ``workers``, ``scheduler`` and ``batch_size`` (give
+    either). Every round of ``checkpoint_every`` cars is one ``executor.map`` call (a new
+    pool on the ``processes`` backend); without ``checkpoint_dir`` all cars are one round.
     First the pilot stage (:func:`~polywear.studies.fast_band.pilot_stage`, on the same
-    backend; a resumed run solves it again): the nominal car, unless its ``reference`` is
+    executor in its default batches; a resumed run solves it again): the nominal car, unless its ``reference`` is
     given, and with ``pilot`` evenly spaced cars (off: the nominal reference alone).
     ``progress`` (:mod:`polywear.progress`): cars done of ``spec.samples``; during the
     pilot stage the references done in the message."""
-    from ..parallel import map_batched
     from .fast_band import FastBand, pilot_stage
 
+    executor = Executor.from_options(backend, workers, scheduler, batch_size, executor)
     keys = tuple(q.key for q in spec.parameter)
     X = sample_fleet(spec)
     digest = _spec_hash(params, spec)
@@ -707,8 +710,9 @@ def fleet(params: Params, spec: FleetSpec, *, backend: str = "processes", worker
                                  "remove it or drop --resume")
     done = int(data["done"]) if data is not None else 0
     nominal = reference if reference is not None else sample_params(params, keys, [q.center for q in spec.parameter])
-    stage = pilot_stage(params, keys, X if pilot else X[:0], nominal, spec.speed_range_kmh, backend=backend,
-                        workers=workers, scheduler=scheduler, progress=_pilot_progress(progress, done, spec.samples))
+    stage = pilot_stage(params, keys, X if pilot else X[:0], nominal, spec.speed_range_kmh,
+                        executor=replace(executor, batch_size=None),
+                        progress=_pilot_progress(progress, done, spec.samples))
     if stage.nominal is None:  # no fleet without its nominal car
         raise RuntimeError(f"nominal car: {stage.failed[0]}")
     pilot_cars = np.array(sorted(stage.samples), dtype=int)
@@ -728,8 +732,7 @@ def fleet(params: Params, spec: FleetSpec, *, backend: str = "processes", worker
     every = spec.checkpoint_every if ckpt is not None else spec.samples  # no checkpoint: one round
     for start in range(len(outcomes), spec.samples, every):
         chunk = X[start:start + every]
-        results = map_batched(evaluator, list(enumerate(chunk, start)), backend=backend, workers=workers, scheduler=scheduler,
-                              batch_size=batch_size, progress=shifted(progress, start, spec.samples))
+        results = executor.map(evaluator, list(enumerate(chunk, start)), shifted(progress, start, spec.samples))
         values[start:start + len(chunk)] = [r[0] for r in results]
         outcomes += [r[1] for r in results]
         if ckpt is not None:
@@ -740,6 +743,6 @@ def fleet(params: Params, spec: FleetSpec, *, backend: str = "processes", worker
                     columns = {name: np.array([getattr(c, name) for c in outcomes], dtype=str) for name in CAR_FIELDS}
                     np.savez(fh, digest=digest, done=len(outcomes), values=values, pilot=pilot_cars, **columns)
     return FleetResult(params=params, spec=spec, samples=X, values=values, outcomes=outcomes,
-                       settings={"backend": backend, "seed": spec.seed, "samples": spec.samples,
+                       settings={"backend": executor.backend, "seed": spec.seed, "samples": spec.samples,
                                  "reference_unusable": stage.nominal.unusable or None,
                                  "pilot_cars": len(pilot_cars), "pilot_failed": len(stage.failed)})

@@ -53,6 +53,7 @@ from ..params import (
     StudySpec,
     get_value,
 )
+from ..parallel import Executor
 from ..progress import Progress
 from ..results import Result
 from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH, ms_to_kmh
@@ -460,14 +461,15 @@ def study(
     params: Params,
     study: StudySpec | None = None,
     *,
-    backend: str = "processes",
+    backend: str | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
     batch_size: int | None = None,
+    executor: Executor | None = None,
     progress: Progress | None = None,
     fast_band: bool = True,
 ) -> GlobalSensitivityResult:
-    """Run ``study`` around ``params`` on the given backend (see :func:`polywear.parallel.map_batched`).
+    """Run ``study`` around ``params`` on an executor (:class:`polywear.parallel.Executor`).
 
     This is ``polywear study`` and ``pw.study``.
 
@@ -479,14 +481,16 @@ def study(
         The ``[study]`` table (:func:`polywear.params.load_study`): method (Sobol or
         Morris), sample size, outputs, seed and the uncertain parameters; default
         ``StudySpec()``.
-    backend : {"serial", "processes", "dask"}
-        Where the samples are evaluated.
+    backend : {"serial", "processes", "dask"}, optional
+        Where the samples are evaluated (default ``"processes"``).
     workers : int, optional
         Process-pool size (default: the number of CPUs).
     scheduler : str, optional
         Dask scheduler address, e.g. ``tcp://host:8786`` (backend ``"dask"``).
     batch_size : int, optional
-        Samples per task.
+        Samples per task (the pilot stage keeps the default batches).
+    executor : Executor, optional
+        The four options above as one object (give either).
     progress : callable, optional
         Progress callback (:mod:`polywear.progress`): samples finished of all samples,
         after every batch.
@@ -505,8 +509,7 @@ def study(
     from SALib.sample import morris as morris_sample
     from SALib.sample import sobol as sobol_sample
 
-    from ..parallel import map_batched
-
+    executor = Executor.from_options(backend, workers, scheduler, batch_size, executor)
     study = StudySpec() if study is None else study
     parameters = study_parameters(params, study)
     problem = _salib_problem(parameters)
@@ -522,13 +525,12 @@ def study(
 
         # the nominal set and evenly spaced samples: one reference per topology met
         pilot = pilot_stage(params, problem["names"], X, params, study.speed_range_kmh, study.operating_range_kmh,
-                            backend=backend, workers=workers, scheduler=scheduler)
+                            executor=replace(executor, batch_size=None))
         fast = FastBand(pilot.references, tuple(study.speed_range_kmh), tuple(study.operating_range_kmh))
     evaluator = StudyEvaluator(
         params, tuple(problem["names"]), study.outputs, study.speed_range_kmh, study.operating_range_kmh, fast
     )
-    results = map_batched(evaluator, list(X), backend=backend, workers=workers, scheduler=scheduler,
-                          batch_size=batch_size, progress=progress)
+    results = executor.map(evaluator, list(X), progress)
     Y = np.array([r[0] for r in results], dtype=float)
     status = [r[1] for r in results]
     n_fast = sum(r[1].fast for r in results)  # fast band path; the others: continuation
@@ -563,7 +565,7 @@ def study(
         status=status,
         indices=indices,
         convergence=convergence,
-        settings={**settings, "backend": backend, "seed": study.seed, "n_base": study.n_base,
+        settings={**settings, "backend": executor.backend, "seed": study.seed, "n_base": study.n_base,
                   "fast_band_samples": n_fast,
                   "speed_range_kmh": list(study.speed_range_kmh),
                   "operating_range_kmh": list(study.operating_range_kmh)},
