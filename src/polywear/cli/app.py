@@ -7,7 +7,7 @@ import sys
 import typer
 
 from .. import __version__
-from .common import UserError, add_tir_option
+from .common import UserError, add_shared_options
 
 app = typer.Typer(
     name="polywear",
@@ -44,6 +44,7 @@ def _register() -> None:
         map_cmd,
         measure_cmd,
         params_cmd,
+        profile_cmd,
         report_cmd,
         sensitivity_cmd,
         simulate_cmd,
@@ -66,11 +67,12 @@ def _register() -> None:
     app.command("report")(report_cmd.report)
     app.add_typer(wear_cmd.app, name="wear")
     app.command("calibrate")(calibrate_cmd.calibrate)
+    measure_cmd.app.command("profile")(profile_cmd.profile)
     app.add_typer(measure_cmd.app, name="measure")
 
 
 _register()
-add_tir_option(app)
+add_shared_options(app)
 
 
 def _is_user_error(exc: Exception) -> bool:

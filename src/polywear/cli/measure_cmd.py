@@ -7,24 +7,10 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import (
-    PLOT_SUFFIXES,
-    ConfigOpt,
-    JsonOpt,
-    OutOpt,
-    PlotOpt,
-    QuietOpt,
-    SetOpt,
-    UserError,
-    emit_json,
-    info,
-    load,
-    output_file,
-    write_figure,
-    write_output,
-)
+from .common import ConfigOpt, Outputs, SetOpt
+from .common import NETCDF_OUTPUTS, UserError, load, one_axes, output_file, save_text, write_output
 
-app = typer.Typer(help="Measured data: Campbell maps of run-ups and coast-downs.", no_args_is_help=True,
+app = typer.Typer(help="Measured data: Campbell maps of run-ups and coast-downs; worn tire profiles.", no_args_is_help=True,
                   rich_markup_mode=None)
 
 
@@ -47,17 +33,13 @@ def campbell(
                                                         "and the frequency as calibrate observations (TOML).")] = None,
     config: ConfigOpt = None,
     set_: SetOpt = None,
-    json_: JsonOpt = False,
-    plot: PlotOpt = None,
-    out: OutOpt = None,
-    quiet: QuietOpt = False,
+    outputs: Outputs = NETCDF_OUTPUTS,
 ) -> None:
     """Campbell map (frequency against speed), order rays, predicted SEV band and Hopf points;
     order-tracking vs constant-frequency features; SEV onset/offset, frequency, amplitude."""
     import math
 
-    output_file(out, "--out", (".nc",))
-    output_file(plot, "--plot", PLOT_SUFFIXES)
+    outputs.check()
     output_file(observations, "--observations", (".toml",))
     if not (math.isfinite(window_s) and 0.01 <= window_s <= 60.0):
         raise UserError(f"--window {window_s}: must be between 0.01 and 60 s")
@@ -68,40 +50,43 @@ def campbell(
 
     run = read_run(run_file, time_column, speed_column, channel or (), params.operating.rolling_radius_m)
     for note in run.notes:
-        info(f"note: {note}", quiet)
-    info(f"measure campbell: {len(run.t)} samples at {run.sample_rate_hz:g} Hz, {len(run.channels)} channel(s)"
-         + (", model prediction and ramp simulation ..." if predict or ramp_correction else " ..."), quiet)
+        outputs.note(f"note: {note}")
+    outputs.note(f"measure campbell: {len(run.t)} samples at {run.sample_rate_hz:g} Hz, {len(run.channels)} "
+                 "channel(s)" + (", model prediction and ramp simulation ..." if predict or ramp_correction else " ..."))
     result = analyze(run, params, CampbellSettings(window_s=window_s, disturbance_m=disturbance_m), predict=predict,
                      correct_ramp=ramp_correction)
-    if out:  # save() is atomic itself and writes the summary next to the map (.json)
-        result.save(out)
-        info(f"wrote {out} and {out.with_suffix('.json')}", quiet)
+    if outputs.out:  # save() is atomic itself and writes the summary next to the map (.json)
+        result.save(outputs.out)
+        outputs.note(f"wrote {outputs.out} and {outputs.out.with_suffix('.json')}")
+    onset = (result.sev or {}).get("onset") or {}
+    if onset.get("warning"):
+        typer.echo(f"warning: {onset['warning']}", err=True)
     if observations:
         entries = result.observations()
         if not entries:
-            info("note: no observations written: the SEV onset was not detected or not ramp-corrected", quiet)
+            why = ("no SEV in this run" if result.sev is None else "the model's Hopf point is far from the onset"
+                   if onset.get("warning") else "the SEV onset was not detected or not ramp-corrected")
+            outputs.note(f"note: no observations written: {why}")
         else:
             text = "".join("[[observation]]\n" + "".join(f"{k} = {v!r}\n".replace("'", '"') for k, v in e.items())
                            + "\n" for e in entries)
-            write_output(observations, lambda tmp: tmp.write_text(text, encoding="utf-8"), quiet)
-    if plot:
-        from .common import one_axes
+            write_output(observations, save_text(text), outputs.quiet)
+    outputs.write(make_figure=lambda: one_axes(result.plot, (9, 5.5)))
+    outputs.show(result.summary(), lambda _: _print_run(result))
 
-        write_figure(plot, lambda: one_axes(result.plot, (9, 5.5)), quiet)
-    summary = result.summary()
-    if json_:
-        emit_json(summary)
-        return
+
+def _print_run(result) -> None:
+    """The spectral features and the SEV found in the run as text on stdout."""
     for f in result.features:
         label = {"order": f"order {f.get('order', 0):.2f}", "constant_frequency": "constant frequency"}.get(
             f["kind"], f["kind"])
         extra = " <- SEV" if f["sev"] else (f" (harmonic {f['harmonic_of_sev']} of SEV)" if "harmonic_of_sev" in f
-                                            else "")
+                                            else " (not SEV)" if "not_sev" in f else "")
         typer.echo(f"{label:<20} {f['frequency_from_hz']:7.1f}-{f['frequency_to_hz']:7.1f} Hz  "
                    f"{f['speed_from_kmh']:6.1f}-{f['speed_to_kmh']:6.1f} km/h  {f['level_db']:5.1f} dB{extra}")
     sev = result.sev
     if not sev:
-        typer.echo("no SEV detected (no constant-frequency feature switching on within the run)")
+        typer.echo(f"no SEV in this run: {result.no_sev}")
         return
     onset, offset = sev.get("onset"), sev.get("offset")
     if onset:

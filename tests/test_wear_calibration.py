@@ -1,0 +1,82 @@
+"""The wear rate from measured worn tires (measured/wear_calibration.py): a round trip through
+profiles written by the evolution itself for a known k_e, and the case the data cannot
+decide."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from polywear.measured.profile import read_profiles
+from polywear.measured.wear_calibration import calibrate_wear
+from polywear.params import load_params, with_updates
+from polywear.wear.evolution import EvolutionSettings, evolve
+from polywear.wear.law import profile_samples
+
+pytestmark = pytest.mark.slow
+
+K_TRUE = 3.0e-3  # mm^3/J, three times the default
+
+
+@pytest.fixture(scope="module")
+def truth():
+    """The tire as the model wears it at K_TRUE on the default cycle, and two mileages
+    before the polygon is visible (where the dominant order stands above a 20 um gauge)."""
+    params = load_params()
+    run = evolve(with_updates(params, {"wear.energetic_rate_mm3_per_j": K_TRUE}), 7000.0,
+                 settings=EvolutionSettings(step_km=500.0))
+    visible = run.visible_km
+    assert visible is not None and 5000.0 < visible < 7000.0
+    mileages = [float(run.distance_km[np.argmin(np.abs(run.distance_km - f * visible))]) for f in (0.75, 0.95)]
+    return params, run, mileages
+
+
+def _gauge(tmp_path, run, mileages, noise_mm, name, ribs=3, seed=4):
+    """A depth gauge at 36 points on ``ribs`` ribs at each mileage, with Gaussian noise."""
+    rng = np.random.default_rng(seed)
+    angle = np.arange(36) * 10.0
+    rows = []
+    for km in mileages:
+        i = int(np.argmin(np.abs(run.distance_km - km)))
+        worn = profile_samples(run.harmonics[i], 360) * 1e3  # [mm] at every degree
+        for rib in range(1, ribs + 1):
+            depth = 7.0 - worn[angle.astype(int)] + rng.normal(0.0, noise_mm, angle.size)
+            rows += [f"{rib},{km:.3f},{a:g},{d:.4f}" for a, d in zip(angle, depth)]
+    path = tmp_path / name
+    path.write_text("rib,distance_km,angle_deg,depth_mm\n" + "\n".join(rows) + "\n")
+    return read_profiles([path])
+
+
+def test_round_trip_gives_k_e_back_within_its_interval_and_the_interval_shrinks_with_the_noise(truth, tmp_path):
+    params, run, mileages = truth
+    widths = []
+    for noise in (0.02, 0.005):
+        measured = _gauge(tmp_path, run, mileages, noise, f"gauge{noise}.csv")
+        assert measured.dominant_order == int(run.dominant_order[-1])
+        cal = calibrate_wear(measured, params, roughness_known=True)
+        assert cal.identifiable
+        lo, hi = cal.rate_interval
+        assert lo < K_TRUE < hi, (noise, lo, hi)
+        widths.append(hi / lo)
+        assert cal.comparison["measured_dominant_order"] == cal.comparison["predicted_dominant_order"]
+        assert not [d for d in cal.disagreements if "cannot grow" in d]
+        lo_km, hi_km = cal.comparison["predicted_visible_interval_km"]
+        assert lo_km < run.visible_km < hi_km
+    assert widths[1] < widths[0]
+
+
+def test_one_mileage_and_an_unknown_roughness_is_refused_with_the_combination(truth, tmp_path):
+    params, run, mileages = truth
+    measured = _gauge(tmp_path, run, mileages[-1:], 0.01, "one.csv")
+    cal = calibrate_wear(measured, params, roughness_known=False)
+    assert not cal.identifiable
+    assert cal.energetic_rate_mm3_per_j is None
+    assert "k_e / ln(A" in cal.combination
+    summary = cal.summary()
+    assert summary["identifiable"] is False and summary["energetic_rate_mm3_per_j"] is None
+    # the combination is what the data fix: with the true roughness it gives K_TRUE back
+    value = float(cal.combination.split("= ")[1].split(" mm^3/J")[0])
+    n = cal.orders[0]
+    a_meas = float(np.abs(run.harmonics[np.argmin(np.abs(run.distance_km - mileages[-1])), n - 1]))
+    r_true = float(np.abs(run.harmonics[0, n - 1]))
+    assert value * np.log(a_meas / r_true) == pytest.approx(K_TRUE, rel=0.15)
