@@ -9,25 +9,16 @@ from typing import Annotated, Optional
 import typer
 
 from ..units import DEFAULT_SPEED_RANGE_KMH
+from .common import ConfigOpt, Outputs, SetOpt, SpeedRangeOpt
 from .common import (
     MAX_GRID_POINTS,
-    PLOT_SUFFIXES,
-    ConfigOpt,
-    JsonOpt,
-    OutOpt,
-    PlotOpt,
-    QuietOpt,
-    SetOpt,
-    SpeedRangeOpt,
+    NETCDF_OUTPUTS,
     UserError,
     check_count,
     check_speed_range,
-    emit_json,
     load,
     one_axes,
     output_file,
-    progress,
-    write_figure,
     write_output,
 )
 
@@ -54,15 +45,11 @@ def bifurcation(
         Optional[int], typer.Option("--n-speeds", min=3, help="Speeds of the sweep (30) / stability grid (400).")
     ] = None,
     csv: Annotated[Optional[Path], typer.Option("--csv", help="Write the branch table as CSV.")] = None,
-    json_: JsonOpt = False,
-    plot: PlotOpt = None,
-    out: OutOpt = None,
-    quiet: QuietOpt = False,
+    outputs: Outputs = NETCDF_OUTPUTS,
 ) -> None:
     """Bifurcation diagram: Hopf points, cycle branches (stable and unstable), folds, SEV band."""
-    output_file(out, "--out", (".nc",))
+    outputs.check()
     output_file(csv, "--csv", (".csv",))
-    output_file(plot, "--plot", PLOT_SUFFIXES)
     if csv and method is Method.sweep:
         raise UserError("--csv: the sweep writes netCDF only (use --out FILE.nc)")
     lo, hi = check_speed_range(speed_range)
@@ -74,14 +61,14 @@ def bifurcation(
         from ..dynamics.sweep import sweep_bands
 
         op = params.operating.speed_kmh  # the grid holds the operating speed, as the continuation's range does
-        result = _sweep(params, (min(lo, op / OPERATING_MARGIN), max(hi, op * OPERATING_MARGIN)), n_speeds or 30, quiet)
+        result = _sweep(params, (min(lo, op / OPERATING_MARGIN), max(hi, op * OPERATING_MARGIN)), n_speeds or 30, outputs)
         summary = {**sweep_bands(result), **result.summary()}
     else:
         from ..dynamics.bifurcation import bifurcation
         from ..dynamics.stability import StabilitySettings
         from ..solvers.continuation import ContinuationSettings
 
-        with progress("continuation steps", enabled=not quiet) as update:
+        with outputs.progress("continuation steps") as update:
             result = bifurcation(
                 params,
                 (lo, hi),
@@ -90,25 +77,19 @@ def bifurcation(
                 progress=update,
             )
         summary = result.summary()
-    if out:
-        write_output(out, result.save, quiet)
+    outputs.write(result.save, (lambda: one_axes(result.plot)) if method is Method.sweep else result.figure)
     if csv:
-        write_output(csv, result.save, quiet)
-    if plot:
-        write_figure(plot, (lambda: one_axes(result.plot)) if method is Method.sweep else result.figure, quiet)
-    if json_:
-        emit_json(summary)
-    else:
-        _print_summary(summary)
+        write_output(csv, result.save, outputs.quiet)
+    outputs.show(summary, _print_summary)
 
 
-def _sweep(params, speed_range, n_speeds, quiet):
+def _sweep(params, speed_range, n_speeds, outputs: Outputs):
     import numpy as np
 
     from ..dynamics.sweep import sweep
 
     speeds = np.linspace(speed_range[0], speed_range[1], n_speeds)
-    with progress("sweep", enabled=not quiet) as update:
+    with outputs.progress("sweep") as update:
         return sweep(params, speeds, progress=update)
 
 

@@ -8,24 +8,23 @@ from typing import Annotated, Optional
 import typer
 
 from ..units import STABILITY_SPEED_RANGE_KMH
+from .common import ConfigOpt, JsonOpt, PlotOpt, QuietOpt, SetOpt, SpeedRangeOpt
 from .common import (
-    ConfigOpt,
-    JsonOpt,
-    PlotOpt,
     PLOT_SUFFIXES,
-    QuietOpt,
-    SetOpt,
-    SpeedRangeOpt,
     check_speed_range,
-    emit_json,
     info,
     load,
     one_axes,
+    out_option,
     output_file,
     progress,
+    save_text,
+    show_summary,
     write_figure,
     write_output,
 )
+
+JsonOutOpt = out_option("Write the result (JSON).")
 
 
 def calibrate(
@@ -37,7 +36,7 @@ def calibrate(
     profile: Annotated[
         bool, typer.Option("--profile/--no-profile", help="Profile-likelihood intervals (a refit per point).")
     ] = True,
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write the result (JSON).")] = None,
+    out: JsonOutOpt = None,
     fitted: Annotated[
         Optional[Path], typer.Option("--fitted", help="Write the fitted parameter set (TOML), identifiable keys only.")
     ] = None,
@@ -62,15 +61,17 @@ def calibrate(
     if out:
         write_output(out, result.save, quiet)
     if fitted:
-        write_output(fitted, lambda tmp: tmp.write_text(to_toml(result.fitted), encoding="utf-8"), quiet)
+        write_output(fitted, save_text(to_toml(result.fitted)), quiet)
     if plot:
         write_figure(plot, lambda: one_axes(result.plot, (7, 1.0 + 0.4 * len(observations))), quiet)
     for p in result.parameters:
         if not p["identifiable"]:
             info(f"refused: {p['key']}: {p['reason']}", quiet)
-    if json_:
-        emit_json(result.summary())
-        return
+    show_summary(result.summary(), json_, lambda _: _print_fit(result))
+
+
+def _print_fit(result) -> None:
+    """Fit, intervals, singular values and residuals as text on stdout."""
     ident = result.identifiability
     typer.echo(f"chi2 = {ident['chi2']:.4g} with {ident['dof']} degree(s) of freedom"
                f"{'' if ident['converged'] else ' (least squares did not converge)'}")

@@ -11,6 +11,7 @@ import math
 import tempfile
 from contextlib import contextmanager
 from contextvars import ContextVar
+from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any, Callable, Iterator, Optional
@@ -36,9 +37,6 @@ def out_option(help: str) -> Any:
     return Annotated[Optional[Path], typer.Option("--out", "-o", help=help)]
 
 
-OutOpt = out_option("Write the result (netCDF .nc).")
-NETCDF = (".nc",)
-"""File types of :data:`OutOpt`."""
 QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="No progress output or notes on stderr.")]
 SpeedRangeOpt = Annotated[
     tuple[float, float], typer.Option("--speed-range", help="Lowest and highest speed [km/h].")
@@ -138,16 +136,106 @@ def with_tir_option(command: Callable) -> Callable:
     return wrapper
 
 
-def add_tir_option(app: typer.Typer) -> None:
-    """Give every command of ``app`` and its sub-applications the ``--tir`` option."""
+@dataclass(frozen=True)
+class Outputs:
+    """The output options of a command, declared as one parameter ``outputs: Outputs =
+    Outputs(...)`` whose default says which it takes (:func:`with_output_options` puts them
+    in its place: ``--json``, ``--plot FILE``, ``--out FILE``, ``--quiet``); when the command
+    runs, their values and what it does with them."""
+
+    out_help: str | None = None
+    """Help of ``--out FILE``: what the command writes there (None: no ``--out``)."""
+    suffixes: tuple[str, ...] = ()
+    """File types ``--out`` writes."""
+    takes_plot: bool = True
+    """Whether the command takes ``--plot FILE``."""
+    json_: bool = False
+    plot: Path | None = None
+    out: Path | None = None
+    quiet: bool = False
+
+    def options(self) -> list[tuple[str, Any, Any]]:
+        """(parameter name, typer annotation, default) of each option, in --help order."""
+        return [
+            ("json_", JsonOpt, False),
+            *([("plot", PlotOpt, None)] if self.takes_plot else []),
+            *([("out", out_option(self.out_help), None)] if self.out_help else []),
+            ("quiet", QuietOpt, False),
+        ]
+
+    def check(self) -> None:
+        """``--out``, then ``--plot``, checked before any computation (:func:`output_file`)."""
+        output_file(self.out, "--out", self.suffixes)
+        output_file(self.plot, "--plot", PLOT_SUFFIXES)
+
+    def note(self, message: str) -> None:
+        """A status line on stderr, unless ``--quiet`` (:func:`info`)."""
+        info(message, self.quiet)
+
+    def progress(self, description: str):
+        """A progress bar for the block, unless ``--quiet`` (:func:`progress`)."""
+        return progress(description, enabled=not self.quiet)
+
+    def write(self, save: Callable[[Path], Any] | None = None, make_figure: Callable[[], Any] | None = None) -> None:
+        """``save(tmp)`` to ``--out``, then the figure of ``make_figure()`` to ``--plot``, each
+        when the option is given (``make_figure`` None: no figure to draw; :func:`write_output`,
+        :func:`write_figure`)."""
+        if self.out and save is not None:
+            write_output(self.out, save, self.quiet)
+        if self.plot and make_figure is not None:
+            write_figure(self.plot, make_figure, self.quiet)
+
+    def show(self, summary: Any, print_text: Callable[[Any], None]) -> None:
+        """``summary`` as JSON with ``--json``, else as text (:func:`show_summary`)."""
+        show_summary(summary, self.json_, print_text)
+
+
+NETCDF_OUTPUTS = Outputs("Write the result (netCDF .nc).", (".nc",))
+"""``--json``, ``--plot`` and ``--out`` of a result written as netCDF, ``--quiet``."""
+
+
+def with_output_options(command: Callable) -> Callable:
+    """``command`` with its ``outputs`` parameter replaced by the options its default
+    (an :class:`Outputs`) declares; the command receives their values as one Outputs."""
+    import dataclasses
+    import functools
+    import inspect
+
+    sig = inspect.signature(command, eval_str=True)
+    declared = sig.parameters.get("outputs")
+    if declared is None or not isinstance(declared.default, Outputs):
+        return command
+    options = declared.default.options()
+
+    @functools.wraps(command)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        values = {name: kwargs.pop(name) for name, _, _ in options}
+        return command(*args, **kwargs, outputs=dataclasses.replace(declared.default, **values))
+
+    parameters = []
+    for p in sig.parameters.values():
+        if p is declared:
+            parameters += [inspect.Parameter(n, p.kind, default=d, annotation=a) for n, a, d in options]
+        else:
+            parameters.append(p)
+    wrapper.__signature__ = sig.replace(parameters=parameters)  # type: ignore[attr-defined]
+    wrapper.__annotations__ = {p.name: p.annotation for p in parameters}
+    return wrapper
+
+
+def add_shared_options(app: typer.Typer) -> None:
+    """Expand the ``outputs`` parameter (:func:`with_output_options`) and add ``--tir``
+    (:func:`with_tir_option`) in every command of ``app`` and its sub-applications."""
     for command in app.registered_commands:
-        command.callback = with_tir_option(command.callback)
+        command.callback = with_tir_option(with_output_options(command.callback))
     for group in app.registered_groups:
-        add_tir_option(group.typer_instance)
+        add_shared_options(group.typer_instance)
 
 
-def check_speed_range(pair: tuple[float, float], option: str = "--speed-range") -> tuple[float, float]:
-    """``(low, high)`` checked: finite, 0 < low < high <= MAX_SPEED_KMH [km/h]."""
+def check_speed_range(pair: tuple[float, float] | None, option: str = "--speed-range") -> tuple[float, float] | None:
+    """``(low, high)`` checked: finite, 0 < low < high <= MAX_SPEED_KMH [km/h] (None passes)."""
+    if pair is None:
+        return None
     lo, hi = pair
     if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 < lo < hi <= MAX_SPEED_KMH):
         raise UserError(f"{option} {lo:g} {hi:g}: need 0 < low < high <= {MAX_SPEED_KMH:g} [km/h]")
@@ -250,13 +338,6 @@ def _writable_directory(directory: Path, what: str) -> None:
         raise UserError(f"{what}: cannot write in {where} ({exc.strerror})") from None
 
 
-def check_outputs(out: Path | None, suffixes: tuple[str, ...], plot: Path | None) -> None:
-    """``--out`` (one of ``suffixes``), then ``--plot``, checked before any computation
-    (:func:`output_file`)."""
-    output_file(out, "--out", suffixes)
-    output_file(plot, "--plot", PLOT_SUFFIXES)
-
-
 def write_output(path: Path, write: Callable[[Path], Any], quiet: bool = False) -> None:
     """``write(tmp)`` to a temporary file next to ``path``, renamed onto it when complete."""
     from ..io import atomic_path
@@ -266,14 +347,9 @@ def write_output(path: Path, write: Callable[[Path], Any], quiet: bool = False) 
     info(f"wrote {path}", quiet)
 
 
-def write_results(out: Path | None, save: Callable[[Path], Any], plot: Path | None, make_figure: Callable[[], Any],
-                  quiet: bool = False) -> None:
-    """``save(tmp)`` to ``--out``, then the figure of ``make_figure()`` to ``--plot``, each
-    only when given (:func:`write_output`, :func:`write_figure`)."""
-    if out:
-        write_output(out, save, quiet)
-    if plot:
-        write_figure(plot, make_figure, quiet)
+def save_text(text: str) -> Callable[[Path], Any]:
+    """A ``save(path)`` for :func:`write_output` that writes ``text`` (UTF-8)."""
+    return lambda path: path.write_text(text, encoding="utf-8")
 
 
 def emit_json(payload: Any) -> None:
@@ -281,7 +357,7 @@ def emit_json(payload: Any) -> None:
     typer.echo(json.dumps(payload, indent=2, default=_jsonable, allow_nan=False))
 
 
-def show(summary: Any, json_: bool, print_text: Callable[[Any], None]) -> None:
+def show_summary(summary: Any, json_: bool, print_text: Callable[[Any], None]) -> None:
     """``summary`` as JSON on stdout with ``--json`` (:func:`emit_json`), else as text by
     ``print_text(summary)``."""
     if json_:

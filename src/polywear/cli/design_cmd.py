@@ -3,33 +3,13 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 
 from ..units import DEFAULT_SPEED_RANGE_KMH
-from .common import (
-    PLOT_SUFFIXES,
-    ConfigOpt,
-    JsonOpt,
-    OperatingRangeOpt,
-    PlotOpt,
-    QuietOpt,
-    SetOpt,
-    SpeedRangeOpt,
-    UserError,
-    check_param_keys,
-    check_speed_range,
-    emit_json,
-    info,
-    load,
-    one_axes,
-    output_file,
-    progress,
-    write_figure,
-    write_output,
-)
+from .common import ConfigOpt, OperatingRangeOpt, Outputs, SetOpt, SpeedRangeOpt
+from .common import UserError, check_param_keys, check_speed_range, load, one_axes, user_errors
 
 
 def design(
@@ -54,10 +34,7 @@ def design(
         float, typer.Option("--margin", help="Keep the band this far from the operating range [km/h].")
     ] = 2.0,
     speed_range: SpeedRangeOpt = DEFAULT_SPEED_RANGE_KMH,
-    json_: JsonOpt = False,
-    plot: PlotOpt = None,
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write the options (.csv or .json).")] = None,
-    quiet: QuietOpt = False,
+    outputs: Outputs = Outputs("Write the options (.csv or .json).", (".csv", ".json")),
 ) -> None:
     """Least change of each parameter (or a combination) that clears the operating range of SEV.
 
@@ -66,11 +43,9 @@ def design(
     axle bushings, tread) are listed first, adhesion as a road/compound option.
     Keys: any numeric configuration key, or adhesion_scale (mu_s and mu_c scaled together).
     """
-    output_file(plot, "--plot", PLOT_SUFFIXES)
-    output_file(out, "--out", (".csv", ".json"))
+    outputs.check()
     speed_range = check_speed_range(speed_range)
-    if operating_range is not None:
-        operating_range = check_speed_range(operating_range, "--operating-range")
+    operating_range = check_speed_range(operating_range, "--operating-range")
     if not (math.isfinite(max_change) and 0.0 < max_change <= 10.0):
         raise UserError(f"--max-change {max_change:g}: must be in (0, 10] (a relative change)")
     if not (math.isfinite(search_factor) and 1.0 < search_factor <= 10.0):
@@ -83,23 +58,19 @@ def design(
     operating_range = operating_range or default_operating_range(params.operating.speed_kmh)
     keys = tuple(dict.fromkeys(param or DEFAULT_KEYS))
     check_param_keys((*keys, *(combine or ())))
-    info(f"design: {len(keys) + bool(combine)} options, each searched in both directions by bifurcation diagrams ...",
-         quiet)
-    with progress("design: bifurcation diagrams", enabled=not quiet) as update:
-        try:
-            result = design(
-                params, operating_range, keys=keys, combine=tuple(combine or ()), max_relative_change=max_change,
-                speed_range_kmh=speed_range, settings=DesignSettings(margin_kmh=margin, search_factor=search_factor),
-                progress=update,
-            )
-        except ValueError as exc:
-            raise UserError(str(exc)) from None
-    if out:
-        write_output(out, result.save, quiet)
-    if plot:
-        write_figure(plot, lambda: one_axes(result.plot), quiet)
-    if json_:
-        emit_json(result.summary())
-        return
+    outputs.note(f"design: {len(keys) + bool(combine)} options, each searched in both directions by bifurcation "
+                 "diagrams ...")
+    with outputs.progress("design: bifurcation diagrams") as update, user_errors(ValueError):
+        result = design(
+            params, operating_range, keys=keys, combine=tuple(combine or ()), max_relative_change=max_change,
+            speed_range_kmh=speed_range, settings=DesignSettings(margin_kmh=margin, search_factor=search_factor),
+            progress=update,
+        )
+    outputs.write(result.save, lambda: one_axes(result.plot))
+    outputs.show(result.summary(), lambda _: _print_lines(result))
+
+
+def _print_lines(result) -> None:
+    """The options as text on stdout."""
     for line in result.lines():
         typer.echo(line)

@@ -6,22 +6,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import (
-    MAX_SPEED_KMH,
-    PLOT_SUFFIXES,
-    ConfigOpt,
-    JsonOpt,
-    PlotOpt,
-    QuietOpt,
-    SetOpt,
-    UserError,
-    emit_json,
-    info,
-    load,
-    output_file,
-    progress,
-    write_figure,
-)
+from .common import MAX_SPEED_KMH, ConfigOpt, Outputs, SetOpt, UserError, load
 from .simulate_cmd import MAX_DURATION_S
 
 
@@ -38,15 +23,13 @@ def excitation(
         typer.Option("--duration", min=0.01, help="Simulated time per start [s] (default: until the slowest "
                      "attractor settles, 0.6-8 s)."),
     ] = None,
-    json_: JsonOpt = False,
-    plot: PlotOpt = None,
-    quiet: QuietOpt = False,
+    outputs: Outputs = Outputs(),
 ) -> None:
     """Soft and hard self-excitation in the phase plane (paper Fig. 2).
 
     Cycles from the continuation (stable solid, unstable dashed) and trajectories started
     inside and outside each of them, at soft and hard speeds."""
-    output_file(plot, "--plot", PLOT_SUFFIXES)
+    outputs.check()
     if speed and not all(0.0 < v <= MAX_SPEED_KMH for v in speed):
         raise UserError(f"--speed {speed}: speeds must be in (0, {MAX_SPEED_KMH:g}] [km/h]")
     if speed and len(speed) > 10:
@@ -57,28 +40,25 @@ def excitation(
     from ..dynamics.bifurcation import bifurcation
     from ..dynamics.excitation import ExcitationSettings, default_speeds, excitation, portraits_figure
 
-    info("excitation: bifurcation diagram ...", quiet)
-    with progress("continuation steps", enabled=not quiet) as update:
+    outputs.note("excitation: bifurcation diagram ...")
+    with outputs.progress("continuation steps") as update:
         diagram = bifurcation(params, (min([20.0, *(speed or [])]) * 0.5, max([300.0, *(speed or [])]) * 1.1),
                               progress=update)
     speeds = speed or default_speeds(diagram, params.operating.speed_kmh)
     if not speeds:  # the safe car: an answer, not an error
         lo, hi = diagram.speed_range_kmh
         note = f"no self-excited vibration in {lo:g}-{hi:g} km/h: no soft or hard speed to draw (give --speed)"
-        if json_:
-            emit_json({"model": params.model, "portraits": [], "note": note})
-        else:
-            typer.echo(note)
+        outputs.show({"model": params.model, "portraits": [], "note": note}, lambda _: typer.echo(note))
         return
-    info(f"excitation: simulating at {', '.join(f'{v:.1f}' for v in speeds)} km/h ...", quiet)
-    with progress("excitation: simulations", enabled=not quiet) as update:
+    outputs.note(f"excitation: simulating at {', '.join(f'{v:.1f}' for v in speeds)} km/h ...")
+    with outputs.progress("excitation: simulations") as update:
         portraits = excitation(diagram, speeds, ExcitationSettings(duration_s=duration), progress=update)
-    if plot:
-        write_figure(plot, lambda: portraits_figure(portraits), quiet)
-    summary = {"model": params.model, "portraits": [p.summary() for p in portraits]}
-    if json_:
-        emit_json(summary)
-        return
+    outputs.write(make_figure=lambda: portraits_figure(portraits))
+    outputs.show({"model": params.model, "portraits": [p.summary() for p in portraits]}, _print_portraits)
+
+
+def _print_portraits(summary: dict) -> None:
+    """The regime at each speed and what each start ends in, as text on stdout."""
     for p in summary["portraits"]:
         typer.echo(f"{p['speed_kmh']:.1f} km/h: {p['regime']}")
         for c in p["cycles"]:

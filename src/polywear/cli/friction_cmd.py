@@ -8,24 +8,8 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import (
-    PLOT_SUFFIXES,
-    ConfigOpt,
-    JsonOpt,
-    OutOpt,
-    PlotOpt,
-    QuietOpt,
-    SetOpt,
-    UserError,
-    check_count,
-    emit_json,
-    load,
-    one_axes,
-    output_file,
-    progress,
-    write_figure,
-    write_output,
-)
+from .common import ConfigOpt, Outputs, SetOpt
+from .common import NETCDF_OUTPUTS, UserError, check_count, load, one_axes, save_text, user_errors
 
 MAX_POINTS = 100_000
 """Most samples of a curve or per loop."""
@@ -48,18 +32,15 @@ def _operating_sliding_velocity(params) -> float:
     return float(aux[model.aux_names.index("sliding_velocity")])
 
 
-def _write_plot(result, path: Path, extra=None, quiet: bool = False) -> None:
+def _figure(result, extra=None):
+    """The figure of ``result``, with ``extra(ax)`` drawn on top."""
+
     def draw(ax):
         result.plot(ax=ax)
         if extra is not None:
             extra(ax)
 
-    write_figure(path, lambda: one_axes(draw, (6.4, 4.4)), quiet)
-
-
-def _save(result, out: Path | None, quiet: bool = False) -> None:
-    if out is not None:
-        write_output(out, result.save, quiet)
+    return one_axes(draw, (6.4, 4.4))
 
 
 def _velocity(value: float, option: str) -> float:
@@ -74,10 +55,7 @@ def curve(
     set_: SetOpt = None,
     v_max: Annotated[float, typer.Option("--v-max", min=1e-9, help="Velocity range -v_max..v_max [m/s].")] = 1.5,
     points: Annotated[int, typer.Option("--points", min=3, help="Points of the curve.")] = 601,
-    json_: JsonOpt = False,
-    plot: PlotOpt = None,
-    out: OutOpt = None,
-    quiet: QuietOpt = False,
+    outputs: Outputs = NETCDF_OUTPUTS,
 ) -> None:
     """Static (Stribeck) friction curve mu_ss(v), its falling branch and the operating point."""
     import numpy as np
@@ -85,8 +63,7 @@ def curve(
     from ..friction import steady_curve
     from ..physics.lugre import steady_friction, steady_friction_slope
 
-    output_file(out, "--out", (".nc",))
-    output_file(plot, "--plot", PLOT_SUFFIXES)
+    outputs.check()
     _velocity(v_max, "--v-max")
     check_count(points, "--points", 3, MAX_POINTS)
     params = load(config, set_)
@@ -96,26 +73,25 @@ def curve(
     args = (f.sigma2_s_per_m, f.mu_static, f.mu_coulomb, f.stribeck_velocity_m_per_s, f.stribeck_exponent)
     mu_op = float(steady_friction(v_op, *args))
     slope_op = float(steady_friction_slope(v_op, *args)) if v_op != 0.0 else None
-    _save(result, out, quiet)
-    if plot:
 
-        def mark_operating_point(ax):
-            ax.plot([v_op], [mu_op], "o", color="C3", label=f"operating point, $v_r$ = {v_op:.3g} m/s")
-            ax.legend(fontsize="small")
+    def mark_operating_point(ax):
+        ax.plot([v_op], [mu_op], "o", color="C3", label=f"operating point, $v_r$ = {v_op:.3g} m/s")
+        ax.legend(fontsize="small")
 
-        _write_plot(result, plot, mark_operating_point, quiet)
+    outputs.write(result.save, lambda: _figure(result, mark_operating_point))
     summary = {
         **result.summary(),
         "operating_sliding_velocity_m_per_s": v_op,
         "operating_mu": mu_op,
         "operating_slope_s_per_m": slope_op,
     }
-    if json_:
-        emit_json(summary)
-        return
+    outputs.show(summary, lambda _: _print_curve(f, result.falling_branch, v_op, mu_op, slope_op))
+
+
+def _print_curve(f, branch, v_op: float, mu_op: float, slope_op: float | None) -> None:
+    """The static curve's keys, falling branch [m/s] and operating point as text on stdout."""
     typer.echo(f"mu_s = {f.mu_static:g}, mu_c = {f.mu_coulomb:g}, v_s = {f.stribeck_velocity_m_per_s:g} m/s, "
                f"delta = {f.stribeck_exponent:g}, sigma2 = {f.sigma2_s_per_m:g} s/m")
-    branch = result.falling_branch
     if branch is None:
         typer.echo("no falling branch: d mu_ss/dv >= 0 for all v > 0 (no negative damping from friction)")
     else:
@@ -152,16 +128,12 @@ def loops(
         float, typer.Option("--v-amplitude", min=1e-12, help="Amplitude of the sliding velocity [m/s].")
     ] = 0.2,
     points: Annotated[int, typer.Option("--points", min=8, help="Samples per loop.")] = 400,
-    json_: JsonOpt = False,
-    plot: PlotOpt = None,
-    out: OutOpt = None,
-    quiet: QuietOpt = False,
+    outputs: Outputs = NETCDF_OUTPUTS,
 ) -> None:
     """Friction hysteresis loops for v_r = v_mean + v_amplitude sin(2 pi f t) (paper Fig. 1)."""
     from ..friction import LoopSettings, hysteresis_loops
 
-    output_file(out, "--out", (".nc",))
-    output_file(plot, "--plot", PLOT_SUFFIXES)
+    outputs.check()
     freqs = _parse_frequencies(frequencies)
     _velocity(v_amplitude, "--v-amplitude")
     check_count(points, "--points", 8, MAX_POINTS)
@@ -170,16 +142,15 @@ def loops(
     params = load(config, set_)
     if v_mean is None:
         v_mean = _operating_sliding_velocity(params)
-    with progress("loops", enabled=not quiet) as update:
+    with outputs.progress("loops") as update:
         result = hysteresis_loops(params.friction, v_mean, v_amplitude, freqs,
                                   settings=LoopSettings(points_per_period=points), progress=update)
-    _save(result, out, quiet)
-    if plot:
-        _write_plot(result, plot, quiet=quiet)
-    summary = result.summary()
-    if json_:
-        emit_json(summary)
-        return
+    outputs.write(result.save, lambda: _figure(result))
+    outputs.show(result.summary(), lambda summary: _print_loops(summary, v_mean, v_amplitude))
+
+
+def _print_loops(summary: dict, v_mean: float, v_amplitude: float) -> None:
+    """One row per loop as text on stdout (velocities [m/s])."""
     typer.echo(f"v_r = {v_mean:.4g} + {v_amplitude:.4g} sin(2 pi f t) m/s")
     typer.echo(f"{'f [Hz]':>10} {'max |mu - mu_ss|':>17} {'area [m/s]':>11} {'mu min':>8} {'mu max':>8}")
     for row in summary["loops"]:
@@ -191,10 +162,7 @@ SampleOpt = Annotated[bool, typer.Option("--sample", help="Fit the shipped sampl
 ConfidenceOpt = Annotated[
     float, typer.Option("--confidence", min=0.5, max=0.9999, help="Level of the confidence intervals.")
 ]
-FitOutOpt = Annotated[
-    Optional[Path],
-    typer.Option("--out", "-o", help="Write the parameter set with the fitted values (.toml) or the fit (.nc)."),
-]
+FIT_OUTPUTS = Outputs("Write the parameter set with the fitted values (.toml) or the fit (.nc).", (".toml", ".nc"))
 
 
 def _data_path(file: Path | None, sample: bool, kind: str) -> Path:
@@ -205,27 +173,19 @@ def _data_path(file: Path | None, sample: bool, kind: str) -> Path:
     return sample_path(kind) if sample else file
 
 
-def _check_outputs(out: Path | None, plot: Path | None) -> None:
-    output_file(out, "--out", (".toml", ".nc"))
-    output_file(plot, "--plot", PLOT_SUFFIXES)
-
-
-def _report_fit(result, params, path: Path, out: Path | None, plot: Path | None, json_: bool,
-                quiet: bool = False) -> None:
+def _report_fit(result, params, path: Path, outputs: Outputs) -> None:
     """Write --out/--plot, then the summary: JSON, or a table and the [friction] snippet."""
-    if out is not None and out.suffix == ".toml":
+    save = result.save
+    if outputs.out is not None and outputs.out.suffix == ".toml":
         from ..params import to_toml
 
-        text = to_toml(result.updated_params(params), comments=True)
-        write_output(out, lambda tmp: tmp.write_text(text, encoding="utf-8"), quiet)
-    else:
-        _save(result, out, quiet)
-    if plot:
-        _write_plot(result, plot, quiet=quiet)
-    summary = result.summary()
-    if json_:
-        emit_json(summary)
-        return
+        save = save_text(to_toml(result.updated_params(params), comments=True))
+    outputs.write(save, lambda: _figure(result))
+    outputs.show(result.summary(), lambda summary: _print_fit(result, path, summary))
+
+
+def _print_fit(result, path: Path, summary: dict) -> None:
+    """The fitted values, their intervals and the [friction] snippet as text on stdout."""
     note = " (negative-velocity values read as magnitudes)" if getattr(result, "magnitudes", False) else ""
     typer.echo(f"{path}: {result.n_points} points{note}")
     typer.echo(f"{'key':<28} {'value':>12} {'std. error':>11}  {100 * result.confidence:g}% interval")
@@ -260,16 +220,13 @@ def fit(
                      "sigma2_s_per_m."),
     ] = None,
     confidence: ConfidenceOpt = 0.95,
-    json_: JsonOpt = False,
-    plot: PlotOpt = None,
-    out: FitOutOpt = None,
-    quiet: QuietOpt = False,
+    outputs: Outputs = FIT_OUTPUTS,
 ) -> None:
     """Fit mu_s, mu_c, v_s, delta, sigma2 of the static curve to measured steady mu(v) points."""
     from ..friction import STEADY_PARAMETERS, FrictionDataError, fit_steady_curve, read_steady_csv
 
     path = _data_path(file, sample, "steady")
-    _check_outputs(out, plot)
+    outputs.check()
     params = load(config, set_)
     unknown = sorted(set(fix or ()) - set(STEADY_PARAMETERS))
     if unknown:
@@ -277,12 +234,10 @@ def fit(
     free = tuple(name for name in STEADY_PARAMETERS if name not in (fix or ()))
     if not free:
         raise UserError("--fix: every key is fixed, nothing left to fit")
-    try:
+    with user_errors(FrictionDataError):
         velocity, mu = read_steady_csv(path)
         result = fit_steady_curve(velocity, mu, params.friction, fit=free, confidence=confidence, source=str(path))
-    except FrictionDataError as exc:
-        raise UserError(str(exc)) from None
-    _report_fit(result, params, path, out, plot, json_, quiet)
+    _report_fit(result, params, path, outputs)
 
 
 @app.command("fit-loops")
@@ -299,23 +254,18 @@ def fit_loops(
         int, typer.Option("--harmonics", min=1, max=20, help="Fourier harmonics kept of the measured velocity.")
     ] = 3,
     confidence: ConfidenceOpt = 0.95,
-    json_: JsonOpt = False,
-    plot: PlotOpt = None,
-    out: FitOutOpt = None,
-    quiet: QuietOpt = False,
+    outputs: Outputs = FIT_OUTPUTS,
 ) -> None:
     """Fit sigma0 and sigma1 to measured periodic loops (static-curve keys from -c/--set)."""
     from ..friction import FrictionDataError, LoopFitSettings, read_loops_csv
     from ..friction import fit_loops as fit_measured_loops
 
     path = _data_path(file, sample, "loops")
-    _check_outputs(out, plot)
+    outputs.check()
     params = load(config, set_)
-    try:
+    with user_errors(FrictionDataError):
         data = read_loops_csv(path)
-        with progress("fitting loops: model evaluations", enabled=not quiet) as update:
+        with outputs.progress("fitting loops: model evaluations") as update:
             result = fit_measured_loops(*data, params.friction, settings=LoopFitSettings(harmonics=harmonics),
                                         confidence=confidence, progress=update, source=str(path))
-    except FrictionDataError as exc:
-        raise UserError(str(exc)) from None
-    _report_fit(result, params, path, out, plot, json_, quiet)
+    _report_fit(result, params, path, outputs)

@@ -3,31 +3,13 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 
 from ..units import DEFAULT_SPEED_RANGE_KMH
-from .common import (
-    PLOT_SUFFIXES,
-    ConfigOpt,
-    JsonOpt,
-    PlotOpt,
-    QuietOpt,
-    SetOpt,
-    SpeedRangeOpt,
-    UserError,
-    check_param_keys,
-    check_speed_range,
-    emit_json,
-    load,
-    one_axes,
-    output_file,
-    progress,
-    write_figure,
-    write_output,
-)
+from .common import ConfigOpt, Outputs, SetOpt, SpeedRangeOpt
+from .common import UserError, check_param_keys, check_speed_range, load, one_axes
 
 
 def map_(
@@ -45,17 +27,12 @@ def map_(
         typer.Option("--operating-range", help="Operating speeds to keep free of SEV [km/h] (drawn, safe values)."),
     ] = None,
     no_folds: Annotated[bool, typer.Option("--no-folds", help="Hopf curves only (no cycle continuation).")] = False,
-    json_: JsonOpt = False,
-    plot: PlotOpt = None,
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write the map (.nc, or JSON otherwise).")] = None,
-    quiet: QuietOpt = False,
+    outputs: Outputs = Outputs("Write the map (.nc, or JSON otherwise).", (".nc", ".json")),
 ) -> None:
     """Stability map: Hopf and fold-of-cycles curves in the (speed, parameter) plane, linear and hard bands."""
-    output_file(out, "--out", (".nc", ".json"))
-    output_file(plot, "--plot", PLOT_SUFFIXES)
+    outputs.check()
     speed_range = check_speed_range(speed_range)
-    if operating_range is not None:
-        operating_range = check_speed_range(operating_range, "--operating-range")
+    operating_range = check_speed_range(operating_range, "--operating-range")
     params = load(config, set_)
     from ..dynamics.sensitivity import nominal_value
     from ..dynamics.stability_map import stability_map
@@ -69,18 +46,11 @@ def map_(
     lo, hi = range_
     if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
         raise UserError(f"--range {lo} {hi}: need finite low < high")
-    with progress(f"map of {param}: continuation steps", enabled=not quiet) as update:
+    with outputs.progress(f"map of {param}: continuation steps") as update:
         result = stability_map(params, param, (lo, hi), tuple(speed_range), operating_range, folds=not no_folds,
                                progress=update)
-    if out:
-        write_output(out, result.save, quiet)
-    if plot:
-        write_figure(plot, lambda: one_axes(result.plot, (10, 5.5)), quiet)
-    summary = result.summary()
-    if json_:
-        emit_json(summary)
-    else:
-        _print_summary(summary)
+    outputs.write(result.save, lambda: one_axes(result.plot, (10, 5.5)))
+    outputs.show(result.summary(), _print_summary)
 
 
 def _print_summary(s: dict) -> None:

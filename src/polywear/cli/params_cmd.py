@@ -3,25 +3,25 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, QuietOpt, SetOpt, emit_json, info, load_with_study, output_file, write_output
+from .common import ConfigOpt, JsonOpt, Outputs, QuietOpt, SetOpt
+from .common import info, load_with_study, out_option, output_file, save_text, show_summary, write_output
 
 app = typer.Typer(help="Show or write parameter sets (TOML).", no_args_is_help=True, rich_markup_mode=None)
+TomlOutOpt = out_option("Write the resolved parameter set (TOML).")
 
 
 @app.command("show")
-def show(config: ConfigOpt = None, set_: SetOpt = None, json_: JsonOpt = False, quiet: QuietOpt = False) -> None:
+def show(config: ConfigOpt = None, set_: SetOpt = None, outputs: Outputs = Outputs(takes_plot=False)) -> None:
     """Print the resolved parameter set and study table (defaults, file, --set) as TOML."""
     from ..params import STUDY_TABLE, to_toml
 
     params, study = load_with_study(config, set_)
-    if json_:
-        emit_json({**params.model_dump(), STUDY_TABLE: study.model_dump()})
-    else:
-        typer.echo(to_toml(params, study=study), nl=False)
+    outputs.show({**params.model_dump(), STUDY_TABLE: study.model_dump()},
+                 lambda _: typer.echo(to_toml(params, study=study), nl=False))
 
 
 @app.command("init")
@@ -32,20 +32,18 @@ def init(
 ) -> None:
     """Write a commented TOML file with every key at its default."""
     from ..params import default_toml
-    from .common import UserError, output_file, write_output
+    from .common import UserError
 
     output_file(path, "params init", (".toml",))
     if path.exists() and not force:
         raise UserError(f"{path}: exists (use --force to overwrite)")
-    write_output(path, lambda tmp: tmp.write_text(default_toml(), encoding="utf-8"), quiet)
+    write_output(path, save_text(default_toml()), quiet)
 
 
 @app.command("from-tir")
 def from_tir(
     tir: Annotated[Path, typer.Argument(help="Tyre property file (.tir): MF 5.2 (MF_05, PAC2002), MF 6.1, MF 6.2.")],
-    out: Annotated[
-        Optional[Path], typer.Option("--out", "-o", help="Write the resolved parameter set (TOML).")
-    ] = None,
+    out: TomlOutOpt = None,
     belt_mode: Annotated[
         bool,
         typer.Option("--belt-mode", help="Also map the belt's lateral mode (BELT_MASS, FREQ_LAT, DAMP_LAT) onto tread.*."),
@@ -87,10 +85,12 @@ def from_tir(
         header = [f"# polywear parameters from {tir} ({mapping.tir.family}); sources:"]
         header += [f"#   {r['key']} <- {r['source']}" for r in rows if r["source"] != "default"]
         text = "\n".join(header) + "\n" + to_toml(params, study=load_study(config))  # --config's [study] kept
-        write_output(out, lambda tmp: tmp.write_text(text, encoding="utf-8"), quiet)
-    if json_:
-        emit_json(summary)
-        return
+        write_output(out, save_text(text), quiet)
+    show_summary(summary, json_, lambda _: _print_sources(tir, mapping, rows, quiet))
+
+
+def _print_sources(tir: Path, mapping, rows: list[dict], quiet: bool) -> None:
+    """Each key's value and source as text on stdout, the mapping's notes on stderr."""
     typer.echo(f"{tir}: {mapping.tir.family} ({mapping.tir.format_label}); evaluated at "
                f"Fz = {mapping.conditions['load_n']:g} N, camber {mapping.conditions['camber_deg']:g} deg, "
                f"{mapping.conditions['speed_kmh']:g} km/h")

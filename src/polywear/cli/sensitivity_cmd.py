@@ -3,31 +3,13 @@
 from __future__ import annotations
 
 from enum import Enum
-from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 
 from ..units import DEFAULT_SPEED_RANGE_KMH
-from .common import (
-    PLOT_SUFFIXES,
-    ConfigOpt,
-    JsonOpt,
-    PlotOpt,
-    QuietOpt,
-    SetOpt,
-    SpeedRangeOpt,
-    UserError,
-    check_param_keys,
-    check_speed_range,
-    emit_json,
-    info,
-    load,
-    output_file,
-    progress,
-    write_figure,
-    write_output,
-)
+from .common import ConfigOpt, Outputs, SetOpt, SpeedRangeOpt
+from .common import UserError, check_param_keys, check_speed_range, load, user_errors
 
 MAX_STEP = 0.5
 """Largest finite-difference step [relative]: beyond it a difference is no derivative."""
@@ -54,14 +36,10 @@ def sensitivity(
                      "both ways). 'adhesion_scale' scales mu_s and mu_c together."),
     ] = None,
     speed_range: SpeedRangeOpt = DEFAULT_SPEED_RANGE_KMH,
-    json_: JsonOpt = False,
-    plot: PlotOpt = None,
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write the rows (.csv, or JSON otherwise).")] = None,
-    quiet: QuietOpt = False,
+    outputs: Outputs = Outputs("Write the rows (.csv, or JSON otherwise).", (".csv", ".json")),
 ) -> None:
     """Sensitivity of every Hopf speed, fold speed and first/second bifurcation speed to parameters."""
-    output_file(out, "--out", (".csv", ".json"))
-    output_file(plot, "--plot", PLOT_SUFFIXES)
+    outputs.check()
     lo, hi = check_speed_range(speed_range)
     if not 0.0 < step <= MAX_STEP:
         raise UserError(f"--step {step}: must be in (0, {MAX_STEP:g}]")
@@ -74,23 +52,13 @@ def sensitivity(
     model = get_model(params.model)
     for key in keys:
         if not parameter_direction(model, params, key).any():
-            info(f"note: {key} does not enter model {params.model}; its sensitivity is 0", quiet)
-    with progress(f"{method.value} sensitivity: continuation steps", enabled=not quiet) as update:
-        try:
-            result = sensitivity(params, keys, SensitivitySettings(method.value, step), (lo, hi),
-                                 progress=update)
-        except ValueError as exc:
-            raise UserError(str(exc)) from None
+            outputs.note(f"note: {key} does not enter model {params.model}; its sensitivity is 0")
+    with outputs.progress(f"{method.value} sensitivity: continuation steps") as update, user_errors(ValueError):
+        result = sensitivity(params, keys, SensitivitySettings(method.value, step), (lo, hi), progress=update)
     for note in result.notes:  # why a bifurcation speed has no row (none in the range, an open band edge)
-        info(f"note: {note}", quiet)
-    if out:
-        write_output(out, result.save, quiet)
-    if plot and result.rows:
-        write_figure(plot, result.figure, quiet)
-    if json_:
-        emit_json(result.summary())
-    else:
-        _print_rows(result)
+        outputs.note(f"note: {note}")
+    outputs.write(result.save, result.figure if result.rows else None)
+    outputs.show(result.summary(), lambda _: _print_rows(result))
 
 
 def _print_rows(result) -> None:

@@ -7,23 +7,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import (
-    MAX_SPEED_KMH,
-    PLOT_SUFFIXES,
-    ConfigOpt,
-    JsonOpt,
-    OutOpt,
-    PlotOpt,
-    QuietOpt,
-    SetOpt,
-    UserError,
-    emit_json,
-    load,
-    output_file,
-    progress,
-    write_figure,
-    write_output,
-)
+from .common import MAX_SPEED_KMH, NETCDF_OUTPUTS, ConfigOpt, Outputs, SetOpt, UserError, load, user_errors
 
 MAX_DURATION_S = 60.0
 """Longest simulated time per run [s] (50 000 stored samples per second and run)."""
@@ -90,16 +74,12 @@ def simulate(
     ] = None,
     method: Annotated[str, typer.Option("--method", help="rodas (compiled), radau, bdf, lsoda, dop853.")] = "rodas",
     rtol: Annotated[float, typer.Option("--rtol", help="Relative tolerance of the integrator.")] = 1e-8,
-    json_: JsonOpt = False,
-    plot: PlotOpt = None,
-    out: OutOpt = None,
-    quiet: QuietOpt = False,
+    outputs: Outputs = NETCDF_OUTPUTS,
 ) -> None:
     """Simulate from a disturbed steady rolling state: amplitudes, SEV frequency, polygon order.
 
     Phase portraits of every coordinate; --sweep KEY=v1,v2 compares parameter values."""
-    output_file(out, "--out", (".nc",))
-    output_file(plot, "--plot", PLOT_SUFFIXES)
+    outputs.check()
     disturbances = _numbers(disturbance or ["1e-4"], "--disturbance")
     if speed is not None and not (math.isfinite(speed) and 0.0 < speed <= MAX_SPEED_KMH):
         raise UserError(f"--speed {speed!r}: must be a speed in (0, {MAX_SPEED_KMH:g}] [km/h]")
@@ -110,10 +90,8 @@ def simulate(
     params = load(config, set_)
     from ..dynamics.simulation import SimulationSettings, simulate_disturbances, simulate_values
 
-    try:
+    with user_errors(ValueError):
         settings = SimulationSettings(method=method, rtol=rtol)
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
     if sweep and len(disturbances) > 1:
         raise UserError("--sweep runs one disturbance per value: give at most one --disturbance")
     key, values = _parse_sweep(sweep) if sweep else (None, [])
@@ -126,26 +104,22 @@ def simulate(
         raise UserError(f"{n_runs} runs: at most {MAX_RUNS} disturbances or sweep values")
     from ..solvers.integrate import IntegrationError
 
-    with progress(f"simulating {duration:g} s", enabled=not quiet) as update:
-        try:
-            if key:
-                result = simulate_values(params, key, values, speed, duration, disturbance=disturbances[0],
-                                         settings=settings, progress=update)
-            else:
-                result = simulate_disturbances(params, disturbances, speed, duration, settings=settings,
-                                               progress=update)
-        except IntegrationError as exc:
-            raise UserError(str(exc)) from None
+    with outputs.progress(f"simulating {duration:g} s") as update, user_errors(IntegrationError):
+        if key:
+            result = simulate_values(params, key, values, speed, duration, disturbance=disturbances[0],
+                                     settings=settings, progress=update)
+        else:
+            result = simulate_disturbances(params, disturbances, speed, duration, settings=settings,
+                                           progress=update)
     runs = result.runs
-    single = runs[0] if len(runs) == 1 else None
-    if out:
-        write_output(out, (single or result).save, quiet)
-    if plot:
-        # parameter sweeps compare the final cycles; disturbances show the way there
-        tail = settings.window_fraction * duration if key else None
-        write_figure(plot, lambda: (single or result).plot(tail_s=tail)[0].figure, quiet)
-    if json_:
-        emit_json(single.summary() if single else result.summary())
-    else:
-        for run in runs:
-            typer.echo(_status(run))
+    shown = runs[0] if len(runs) == 1 else result  # a single run is written and summarised as itself
+    # parameter sweeps compare the final cycles; disturbances show the way there
+    tail = settings.window_fraction * duration if key else None
+    outputs.write(shown.save, lambda: shown.plot(tail_s=tail)[0].figure)
+    outputs.show(shown.summary(), lambda _: _print_runs(runs))
+
+
+def _print_runs(runs) -> None:
+    """One status line per run on stdout."""
+    for run in runs:
+        typer.echo(_status(run))

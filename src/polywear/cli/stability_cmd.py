@@ -7,27 +7,8 @@ from typing import Annotated
 import typer
 
 from ..units import STABILITY_SPEED_RANGE_KMH
-from .common import (
-    MAX_GRID_POINTS,
-    PLOT_SUFFIXES,
-    ConfigOpt,
-    JsonOpt,
-    OutOpt,
-    PlotOpt,
-    QuietOpt,
-    SetOpt,
-    SpeedRangeOpt,
-    UserError,
-    check_count,
-    check_speed_range,
-    emit_json,
-    info,
-    load,
-    one_axes,
-    output_file,
-    write_figure,
-    write_output,
-)
+from .common import ConfigOpt, Outputs, SetOpt, SpeedRangeOpt
+from .common import MAX_GRID_POINTS, NETCDF_OUTPUTS, check_count, check_speed_range, load, one_axes, user_errors
 
 
 def stability(
@@ -35,32 +16,24 @@ def stability(
     set_: SetOpt = None,
     speed_range: SpeedRangeOpt = STABILITY_SPEED_RANGE_KMH,
     n_speeds: Annotated[int, typer.Option("--n-speeds", help="Speed grid points for bracketing.")] = 400,
-    json_: JsonOpt = False,
-    plot: PlotOpt = None,
-    out: OutOpt = None,
-    quiet: QuietOpt = False,
+    outputs: Outputs = NETCDF_OUTPUTS,
 ) -> None:
     """Linear stability of steady rolling: Hopf speeds, frequencies, unstable speed bands."""
-    output_file(out, "--out", (".nc",))
-    output_file(plot, "--plot", PLOT_SUFFIXES)
+    outputs.check()
     lo, hi = check_speed_range(speed_range)
     check_count(n_speeds, "--n-speeds", 3, MAX_GRID_POINTS)
     params = load(config, set_)
     from ..dynamics.stability import StabilitySettings, stability
 
-    info(f"stability: eigenvalues at {n_speeds} speeds ...", quiet)
-    try:
+    outputs.note(f"stability: eigenvalues at {n_speeds} speeds ...")
+    with user_errors(ValueError):
         result = stability(params, (lo, hi), StabilitySettings(n_speeds=n_speeds))
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
-    if out:
-        write_output(out, result.save, quiet)
-    if plot:
-        write_figure(plot, lambda: one_axes(result.plot, (7, 4)), quiet)
-    summary = result.summary()
-    if json_:
-        emit_json(summary)
-        return
+    outputs.write(result.save, lambda: one_axes(result.plot, (7, 4)))
+    outputs.show(result.summary(), lambda summary: _print_summary(result, summary))
+
+
+def _print_summary(result, summary: dict) -> None:
+    """The summary as text on stdout (the Hopf points from ``result``)."""
     typer.echo(f"model {summary['model']}")
     if not result.hopf_points:
         typer.echo("no Hopf point in the speed range: steady rolling is "

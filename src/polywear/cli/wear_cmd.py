@@ -9,27 +9,21 @@ from typing import Annotated, Optional
 import typer
 
 from ..units import DEFAULT_SPEED_RANGE_KMH
+from .common import ConfigOpt, JsonOpt, Outputs, PlotOpt, QuietOpt, SetOpt, SpeedRangeOpt
 from .common import (
     MAX_GRID_POINTS,
     MAX_SPEED_KMH,
     PLOT_SUFFIXES,
-    ConfigOpt,
-    JsonOpt,
-    PlotOpt,
-    QuietOpt,
-    SetOpt,
-    SpeedRangeOpt,
     UserError,
     check_count,
     check_param_keys,
     check_speed_range,
-    emit_json,
     info,
     load,
     one_axes,
     output_file,
+    user_errors,
     write_figure,
-    write_output,
 )
 
 app = typer.Typer(
@@ -75,14 +69,10 @@ def map_(
     sev_band: Annotated[
         bool, typer.Option("--sev-band", help="Figure: shade the SEV band too (runs the bifurcation diagram, seconds).")
     ] = False,
-    json_: JsonOpt = False,
-    plot: PlotOpt = None,
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write the map (.nc) or its rows (.csv).")] = None,
-    quiet: QuietOpt = False,
+    outputs: Outputs = Outputs("Write the map (.nc) or its rows (.csv).", (".nc", ".csv")),
 ) -> None:
     """Linear wear-stability map: growth of every polygon order at every speed (exact, no simulation)."""
-    output_file(out, "--out", (".nc", ".csv"))
-    output_file(plot, "--plot", PLOT_SUFFIXES)
+    outputs.check()
     check_count(max_order, "--max-order", 1, MAX_ORDER_LIMIT)
     if speeds is not None:
         grid = parse_speeds(speeds)
@@ -93,21 +83,23 @@ def map_(
     params = load(config, set_)
     from ..wear.map import wear_map
 
-    info(f"wear map: {len(grid)} speeds x {max_order or params.wear.max_order} orders ...", quiet)
-    try:
+    outputs.note(f"wear map: {len(grid)} speeds x {max_order or params.wear.max_order} orders ...")
+    with user_errors(ValueError, RuntimeError, ArithmeticError, prefix="wear map: "):
         result = wear_map(params, grid, max_order)
-    except (ValueError, RuntimeError, ArithmeticError) as exc:
-        raise UserError(f"wear map: {exc}") from None
-    if out:
-        write_output(out, result.save if out.suffix.lower() == ".nc" else lambda p: _write_rows(p, result.rows(True)),
-                     quiet)
-    if plot:
-        band = _sev_band(params, (min(grid), max(grid)), quiet) if sev_band else None
-        write_figure(plot, lambda: one_axes(lambda ax: result.plot(ax, sev_band_kmh=band), (9, 5.5)), quiet)
-    summary = result.summary(all_orders)
-    if json_:
-        emit_json(summary)
-        return
+    rows_only = outputs.out is not None and outputs.out.suffix.lower() != ".nc"
+    outputs.write((lambda p: _write_rows(p, result.rows(True))) if rows_only else result.save,
+                  lambda: _map_figure(result, params, (min(grid), max(grid)), sev_band, outputs.quiet))
+    outputs.show(result.summary(all_orders), _print_map)
+
+
+def _map_figure(result, params, speed_range: tuple[float, float], sev_band: bool, quiet: bool):
+    """The wear map's figure; the SEV band in ``speed_range`` [km/h] shaded if ``sev_band``."""
+    band = _sev_band(params, speed_range, quiet) if sev_band else None
+    return one_axes(lambda ax: result.plot(ax, sev_band_kmh=band), (9, 5.5))
+
+
+def _print_map(summary: dict) -> None:
+    """The most unstable order at each speed as text on stdout (one line per run of vibrating speeds)."""
     typer.echo(f"model {summary['model']}; distances scale as 1/k_e (k_e = {summary['energetic_rate_mm3_per_j']:g} mm^3/J)")
     rows = summary["rows"]
     for i, row in enumerate(rows):
@@ -139,6 +131,13 @@ def _sev_band(params, speed_range, quiet) -> tuple[float, float] | None:
     info("wear map: bifurcation diagram for the SEV band ...", quiet)
     bands = bifurcation(params, speed_range).sev_band_kmh
     return (bands[0][0], bands[-1][1]) if bands else None
+
+
+CycleOpt = Annotated[
+    Optional[str],
+    typer.Option("--cycle", help="Drive cycle speed:share,... e.g. 120:0.3,80:0.4,50:0.3 (default [[wear.cycle]])."),
+]
+"""``--cycle`` of ``wear evolve`` and ``wear design``, read by :func:`parse_cycle`."""
 
 
 def parse_cycle(text: str) -> tuple[tuple[float, float], ...]:
@@ -173,10 +172,7 @@ def evolve_(
     config: ConfigOpt = None,
     set_: SetOpt = None,
     distance_km: Annotated[float, typer.Option("--distance-km", help="Distance to drive [km].")] = 60000.0,
-    cycle: Annotated[
-        Optional[str],
-        typer.Option("--cycle", help="Drive cycle speed:share,... e.g. 120:0.3,80:0.4,50:0.3 (default [[wear.cycle]])."),
-    ] = None,
+    cycle: CycleOpt = None,
     speed: Annotated[
         Optional[float], typer.Option("--speed", help="One speed for the whole distance [km/h] (instead of a cycle).")
     ] = None,
@@ -197,8 +193,9 @@ def evolve_(
     quiet: QuietOpt = False,
 ) -> None:
     """Worn profile over distance from seeded roughness: depth, polygon order, visible distance."""
-    output_file(out, "--out", (".nc",))
-    for path, option in ((plot, "--plot"), (polar, "--polar"), (waterfall, "--waterfall")):
+    outputs = Outputs(suffixes=(".nc",), json_=json_, plot=plot, out=out, quiet=quiet)
+    outputs.check()
+    for path, option in ((polar, "--polar"), (waterfall, "--waterfall")):
         output_file(path, option, PLOT_SUFFIXES)
     if not (math.isfinite(distance_km) and 0.0 < distance_km <= 1e7):
         raise UserError(f"--distance-km {distance_km:g}: must be in (0, 1e7]")
@@ -222,26 +219,23 @@ def evolve_(
     params = load(config, set_)
     pairs = ((float(speed), 1.0),) if speed is not None else (parse_cycle(cycle) if cycle else None)
     from ..wear.evolution import EvolutionSettings, evolve
-    from .common import progress
 
-    with progress("wear evolve [km]", enabled=not quiet) as update:
-        try:
-            result = evolve(params, distance_km, pairs, EvolutionSettings(step_km=step_km, revolutions=revolutions),
-                            progress=update, workers=workers)
-        except (ValueError, RuntimeError, ArithmeticError) as exc:
-            raise UserError(f"wear evolve: {exc}") from None
-    if out:
-        write_output(out, result.save, quiet)
-    if plot:
-        write_figure(plot, lambda: one_axes(result.plot, (8, 4.5)), quiet)
+    with (
+        outputs.progress("wear evolve [km]") as update,
+        user_errors(ValueError, RuntimeError, ArithmeticError, prefix="wear evolve: "),
+    ):
+        result = evolve(params, distance_km, pairs, EvolutionSettings(step_km=step_km, revolutions=revolutions),
+                        progress=update, workers=workers)
+    outputs.write(result.save, lambda: one_axes(result.plot, (8, 4.5)))
     if polar:
         write_figure(polar, lambda: _polar_figure(result, chosen), quiet)
     if waterfall:
         write_figure(waterfall, lambda: one_axes(result.plot_waterfall, (8, 4.5)), quiet)
-    summary = result.summary()
-    if json_:
-        emit_json(summary)
-        return
+    outputs.show(result.summary(), _print_evolution)
+
+
+def _print_evolution(summary: dict) -> None:
+    """State at each cycle speed, depth and visible distance [km] as text on stdout."""
     visible = summary["visible_km"]
     typer.echo(f"model {summary['model']}: {summary['distance_km']:,.0f} km; distances scale as 1/k_e")
     for row in summary["cycle"]:
@@ -274,13 +268,12 @@ def design_(
     keys: Annotated[
         Optional[list[str]], typer.Option("--key", "-k", help="Parameter to change (repeatable; default: alignment, bushings, tread, adhesion).")
     ] = None,
-    cycle: Annotated[Optional[str], typer.Option("--cycle", help="Drive cycle speed:share,... (default [[wear.cycle]]).")] = None,
+    cycle: CycleOpt = None,
     max_factor: Annotated[float, typer.Option("--max-factor", help="Largest change searched: x or / this factor.")] = 4.0,
     verify_km: Annotated[
         Optional[float], typer.Option("--verify-km", help="Verify the best option by evolution over this distance [km] (minutes).")
     ] = None,
-    json_: JsonOpt = False,
-    quiet: QuietOpt = False,
+    outputs: Outputs = Outputs(takes_plot=False),
 ) -> None:
     """Least change (toe, camber, damping, stiffness, adhesion) that stops polygonal wear over the drive cycle."""
     if target_km is not None and not (math.isfinite(target_km) and target_km > 0):
@@ -294,15 +287,16 @@ def design_(
     from ..wear.design import verify_option, wear_design
 
     check_param_keys(keys or (), "--key")
-    info("wear design: searching with the linear wear map ...", quiet)
+    outputs.note("wear design: searching with the linear wear map ...")
     result = wear_design(params, keys or None, target_km, pairs, max_factor)
     if verify_km is not None and result.options:
-        info(f"wear design: verifying '{result.options[0].label}' by evolution over {verify_km:,.0f} km ...", quiet)
+        outputs.note(f"wear design: verifying '{result.options[0].label}' by evolution over {verify_km:,.0f} km ...")
         verify_option(params, result.options[0], verify_km, pairs)
-    summary = result.summary()
-    if json_:
-        emit_json(summary)
-        return
+    outputs.show(result.summary(), _print_design)
+
+
+def _print_design(summary: dict) -> None:
+    """The nominal growth and each option as text on stdout (growth per 1000 km)."""
     n = summary["nominal"]
     typer.echo(f"model {summary['model']}: {summary['criterion']}; distances scale as 1/k_e")
     typer.echo("nominal: " + (f"fastest order {n['order']} grows {n['growth_per_1000km']:+.4f}/1000 km over the cycle"
