@@ -8,21 +8,8 @@ from typing import Annotated, Optional
 import typer
 
 from ..units import STABILITY_SPEED_RANGE_KMH
-from .common import ConfigOpt, JsonOpt, PlotOpt, QuietOpt, SetOpt, SpeedRangeOpt
-from .common import (
-    PLOT_SUFFIXES,
-    check_speed_range,
-    info,
-    load,
-    one_axes,
-    out_option,
-    output_file,
-    progress,
-    save_text,
-    show_summary,
-    write_figure,
-    write_output,
-)
+from .common import ConfigOpt, JsonOpt, Outputs, PlotOpt, QuietOpt, SetOpt, SpeedRangeOpt
+from .common import check_speed_range, load, one_axes, out_option, output_file, save_text, write_output
 
 JsonOutOpt = out_option("Write the result (JSON).")
 
@@ -46,28 +33,28 @@ def calibrate(
 ) -> None:
     """Weighted least squares of --vary keys to observed onset speeds, frequencies, band edges
     and friction points; identifiability report, linearized and profile-likelihood intervals."""
+    outputs = Outputs(json_=json_, plot=plot, quiet=quiet)  # --out is written with --fitted, before the figure
     output_file(out, "--out", (".json",))
     output_file(fitted, "--fitted", (".toml",))
-    output_file(plot, "--plot", PLOT_SUFFIXES)
+    outputs.check()
     lo, hi = check_speed_range(speed_range)
     params = load(config, set_)
     from ..measured.calibration import calibrate as fit, read_observations
     from ..params import to_toml
 
     observations = read_observations(observed, params)
-    info(f"calibrate: {len(vary)} parameter(s) to {len(observations)} observation(s) ...", quiet)
-    with progress("model evaluations", enabled=not quiet) as update:
+    outputs.note(f"calibrate: {len(vary)} parameter(s) to {len(observations)} observation(s) ...")
+    with outputs.progress("model evaluations") as update:
         result = fit(params, observations, vary, (lo, hi), profile=profile, progress=update)
     if out:
         write_output(out, result.save, quiet)
     if fitted:
         write_output(fitted, save_text(to_toml(result.fitted)), quiet)
-    if plot:
-        write_figure(plot, lambda: one_axes(result.plot, (7, 1.0 + 0.4 * len(observations))), quiet)
+    outputs.write(make_figure=lambda: one_axes(result.plot, (7, 1.0 + 0.4 * len(observations))))
     for p in result.parameters:
         if not p["identifiable"]:
-            info(f"refused: {p['key']}: {p['reason']}", quiet)
-    show_summary(result.summary(), json_, lambda _: _print_fit(result))
+            outputs.note(f"refused: {p['key']}: {p['reason']}")
+    outputs.show(result.summary(), lambda _: _print_fit(result))
 
 
 def _print_fit(result) -> None:

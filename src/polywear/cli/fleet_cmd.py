@@ -7,17 +7,10 @@ from typing import Annotated, Optional
 
 import typer
 
+from .common import BackendOpt, ConfigOpt, JsonOpt, PlotOpt, QuietOpt, SchedulerOpt, SetOpt, WorkersOpt, out_option
 from .common import (
     PLOT_SUFFIXES,
-    BackendOpt,
-    ConfigOpt,
-    JsonOpt,
-    PlotOpt,
-    QuietOpt,
-    SchedulerOpt,
-    SetOpt,
     UserError,
-    WorkersOpt,
     chosen_backend,
     dask_connect_timeout,
     emit_json,
@@ -28,6 +21,8 @@ from .common import (
     write_figure,
     write_output,
 )
+
+FleetOutOpt = out_option("Write the result: .nc (every car), .csv or .json.")
 
 
 def fleet(
@@ -43,9 +38,7 @@ def fleet(
     resume: Annotated[bool, typer.Option("--resume", help="Continue from the checkpoint in --checkpoint.")] = False,
     json_: JsonOpt = False,
     plot: PlotOpt = None,
-    out: Annotated[
-        Optional[Path], typer.Option("--out", "-o", help="Write the result: .nc (every car), .csv or .json.")
-    ] = None,
+    out: FleetOutOpt = None,
     quiet: QuietOpt = False,
 ) -> None:
     """Fleet risk: probability that the SEV band overlaps the usage speeds, with an exact CI (docs/fleet.md)."""

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated, Any, Optional
 
 import typer
 
@@ -165,12 +165,16 @@ ConfidenceOpt = Annotated[
 FIT_OUTPUTS = Outputs("Write the parameter set with the fitted values (.toml) or the fit (.nc).", (".toml", ".nc"))
 
 
-def _data_path(file: Path | None, sample: bool, kind: str) -> Path:
+def _fit_inputs(file: Path | None, sample: bool, kind: str, outputs: Outputs, config: Path | None,
+                sets: list[str] | None) -> tuple[Path, Any]:
+    """(data file: FILE or the shipped sample of ``kind``, parameters) of a fit; the output
+    files are checked after the choice of data and before the parameters are loaded."""
     from ..friction import sample_path
 
     if sample == (file is not None):
         raise UserError("give either a CSV FILE or --sample")
-    return sample_path(kind) if sample else file
+    outputs.check()
+    return (sample_path(kind) if sample else file), load(config, sets)
 
 
 def _report_fit(result, params, path: Path, outputs: Outputs) -> None:
@@ -225,9 +229,7 @@ def fit(
     """Fit mu_s, mu_c, v_s, delta, sigma2 of the static curve to measured steady mu(v) points."""
     from ..friction import STEADY_PARAMETERS, FrictionDataError, fit_steady_curve, read_steady_csv
 
-    path = _data_path(file, sample, "steady")
-    outputs.check()
-    params = load(config, set_)
+    path, params = _fit_inputs(file, sample, "steady", outputs, config, set_)
     unknown = sorted(set(fix or ()) - set(STEADY_PARAMETERS))
     if unknown:
         raise UserError(f"--fix {', '.join(unknown)}: not a fitted key (choose from {', '.join(STEADY_PARAMETERS)})")
@@ -260,9 +262,7 @@ def fit_loops(
     from ..friction import FrictionDataError, LoopFitSettings, read_loops_csv
     from ..friction import fit_loops as fit_measured_loops
 
-    path = _data_path(file, sample, "loops")
-    outputs.check()
-    params = load(config, set_)
+    path, params = _fit_inputs(file, sample, "loops", outputs, config, set_)
     with user_errors(FrictionDataError):
         data = read_loops_csv(path)
         with outputs.progress("fitting loops: model evaluations") as update:

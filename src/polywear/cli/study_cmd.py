@@ -2,22 +2,14 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 
+from .common import BackendOpt, ConfigOpt, JsonOpt, PlotOpt, QuietOpt, SchedulerOpt, SetOpt, WorkersOpt, out_option
 from .common import (
     PLOT_SUFFIXES,
-    BackendOpt,
-    ConfigOpt,
-    JsonOpt,
-    PlotOpt,
-    QuietOpt,
-    SchedulerOpt,
-    SetOpt,
     UserError,
-    WorkersOpt,
     chosen_backend,
     dask_connect_timeout,
     emit_json,
@@ -28,6 +20,8 @@ from .common import (
     write_figure,
     write_output,
 )
+
+StudyOutOpt = out_option("Write the result: .nc (samples, outputs, indices), .csv (indices) or .json.")
 
 
 def study(
@@ -41,10 +35,7 @@ def study(
     ] = None,
     json_: JsonOpt = False,
     plot: PlotOpt = None,
-    out: Annotated[
-        Optional[Path],
-        typer.Option("--out", "-o", help="Write the result: .nc (samples, outputs, indices), .csv (indices) or .json."),
-    ] = None,
+    out: StudyOutOpt = None,
     connect_timeout: Annotated[
         float, typer.Option("--connect-timeout", help="Seconds to wait for the Dask scheduler to answer.")
     ] = 5.0,
