@@ -168,6 +168,50 @@ def _pick(columns: dict, wanted: str | None, pattern: str, what: str, path: Path
     return found[0]
 
 
+SAMPLE_RATE_HZ = (50.0, 1e6)
+"""Plausible sample rates of a vibration measurement [Hz]; outside them the time unit is off."""
+MAX_RAMP_KMH_PER_S = 100.0
+"""Fastest plausible mean speed change of a run [km/h/s] (about 3 g; a car brakes at 1 g)."""
+STANDSTILL_JITTER_KMH = 1.0
+"""Negative speeds down to this [km/h] in a run of positive ones are noise at standstill."""
+
+
+def _check_time_unit(path, name, unit, rate_hz, duration_s, speed_kmh) -> None:
+    """A sample rate or a speed change no vehicle measurement has: the time unit is off
+    (by 1000, s for ms or the reverse): one line that says so."""
+    other = "ms" if _TIME_UNITS[unit.lower()] == 1.0 else "s"
+    hint = f"is the time in {other} rather than {unit}? (header: '{name} [{other}]')"
+    if not SAMPLE_RATE_HZ[0] <= rate_hz <= SAMPLE_RATE_HZ[1]:
+        raise MeasurementError(f"{path}: time column {name!r} [{unit}] gives a sample rate of {rate_hz:.4g} Hz, "
+                               f"outside {SAMPLE_RATE_HZ[0]:g} Hz to {SAMPLE_RATE_HZ[1]:g} Hz: {hint}")
+    ramp = float(np.ptp(speed_kmh)) / duration_s
+    if ramp > MAX_RAMP_KMH_PER_S:
+        raise MeasurementError(f"{path}: the speed changes by {np.ptp(speed_kmh):.4g} km/h in {duration_s:.4g} s "
+                               f"({ramp:.4g} km/h/s, more than a vehicle can): {hint}")
+
+
+def _check_speed(path, name, speed_kmh) -> list[str]:
+    """Notes on the speed column: negative throughout (taken as its magnitude), a
+    standstill's negative jitter, no change (not a run-up); an error where it changes sign."""
+    notes = []
+    low, high = float(speed_kmh.min()), float(speed_kmh.max())
+    if high <= 0.0 and low < 0.0:
+        notes.append(f"speed column {name!r} is negative throughout: taken as its magnitude (a logger's sign "
+                     "convention for the direction of travel)")
+        low, high = -high, -low
+    elif low < -STANDSTILL_JITTER_KMH:
+        raise MeasurementError(f"{path}: speed column {name!r} changes sign ({low:.4g} to {high:.4g} km/h): a run "
+                               "goes one way; give the speed's magnitude")
+    elif low < 0.0:
+        notes.append(f"speed column {name!r}: negative values down to {low:.3g} km/h at standstill taken as their "
+                     "magnitude")
+        low = 0.0
+    if high - low < max(2.0, 0.05 * high):
+        notes.append(f"the speed stays within {low:.4g}-{high:.4g} km/h: not a run-up or coast-down (order and "
+                     "constant-frequency features cannot be told apart, and SEV cannot be seen switching on)")
+    return notes
+
+
 def read_run(
     path: str | Path,
     time_column: str | None = None,
@@ -180,7 +224,11 @@ def read_run(
     Time in s or ms; vehicle speed in km/h, m/s or mph, or wheel speed in rad/s or rpm
     (converted with ``rolling_radius_m``). Channels: the named ones, else every other
     numeric column. Rows with a missing value are dropped; a non-uniform time base is
-    interpolated onto a uniform one (noted).
+    interpolated onto a uniform one; a file whose time runs backwards throughout is
+    reversed, and negative speeds (a logger's sign convention) are taken as their
+    magnitude (each noted). Errors: time that runs backwards in part, a sample rate or
+    speed change that no measurement has (a time unit off by 1000), a speed that
+    changes sign.
     """
     path = Path(path)
     if not path.is_file():
@@ -216,12 +264,21 @@ def read_run(
     data = data[good]
     if len(data) < 64:
         raise MeasurementError(f"{path}: only {len(data)} usable rows")
-    order = np.argsort(data[:, 0], kind="stable")
-    data = data[order]
     dt = np.diff(data[:, 0])
+    if np.all(dt < 0):
+        data = data[::-1]
+        dt = -dt[::-1]
+        notes.append(f"time column {t_name!r} runs backwards throughout: rows taken in reverse order")
+    elif np.any(dt < 0):
+        k = int(np.argmax(dt < 0))
+        raise MeasurementError(f"{path}: time column {t_name!r} runs backwards from {data[k, 0]:g} s to "
+                               f"{data[k + 1, 0]:g} s: sort or split the file (one run a file)")
     if not np.all(dt > 0):
         raise MeasurementError(f"{path}: time column {t_name!r} has repeated values")
     step = float(np.median(dt))
+    _check_time_unit(path, t_name, t_unit, 1.0 / step, data[-1, 0] - data[0, 0], data[:, 1])
+    notes += _check_speed(path, v_name, data[:, 1])
+    data[:, 1] = np.abs(data[:, 1])
     if np.max(np.abs(dt - step)) > 0.01 * step:
         grid = np.arange(data[0, 0], data[-1, 0], step)
         data = np.column_stack([grid] + [np.interp(grid, data[:, 0], data[:, k]) for k in range(1, data.shape[1])])
@@ -290,8 +347,15 @@ def _track(freqs, level_db, peak_db, f_lo, f_hi, speeds) -> list[_Ridge]:
     active: list[_Ridge] = []
     done: list[_Ridge] = []
     for k in range(level_db.shape[1]):
+        if speeds[k] <= 0.0:  # standing still: no wheel order, no speed trend to follow
+            continue
         column = np.where(band, level_db[:, k], -np.inf)
         peaks, props = find_peaks(column, height=peak_db, distance=3)
+        # a peak of the spectrum, not of its cut: the band's edge bins (the flank of a line
+        # just outside the band) count only where they top their neighbours outside it
+        full = level_db[:, k]
+        real = (full[np.maximum(peaks - 1, 0)] < full[peaks]) & (full[np.minimum(peaks + 1, len(full) - 1)] < full[peaks])
+        peaks, props = peaks[real], {"peak_heights": props["peak_heights"][real]}
         fpk = []  # parabolic interpolation of the peak frequency
         for i in peaks:
             a, b, c = level_db[i - 1, k], level_db[i, k], level_db[min(i + 1, len(freqs) - 1), k]
@@ -360,6 +424,28 @@ def _fundamental(strongest, candidates):
     below = [(f, r) for f, r in candidates if np.median(r.freqs) < 0.75 * f0 and span & set(r.segments)
              and abs(f0 / np.median(r.freqs) - round(f0 / np.median(r.freqs))) < 0.03 * f0 / np.median(r.freqs)]
     return min(below, key=lambda fr: np.median(fr[1].freqs)) if below else strongest
+
+
+def _no_evidence(ridge: _Ridge, speeds, envelope: dict | None, sev_db: float, df: float) -> str | None:
+    """Why a constant-frequency feature that starts or ends within the run is not SEV,
+    None if it is: a self-excited line switches on (off) with speed, so the band's
+    envelope must stand ``sev_db`` below the feature's plateau before (after) it, on each
+    side that the run covers, and the feature must span enough speed that a wheel order
+    would have moved by two frequency bins ``df`` [Hz]."""
+    v = speeds[ridge.segments]
+    if np.median(ridge.freqs) * (v.max() / v.min() - 1.0) < 2.0 * df:
+        return (f"spans too little speed ({v.min():.0f}-{v.max():.0f} km/h) to be told from a wheel order, "
+                "which would move by less than two frequency bins")
+    if envelope is None:
+        return "the run holds no stretch beside it to compare its level with"
+    sides = {side: db for side, db in envelope["switch_db"].items() if db is not None}
+    if not sides:
+        return "developed over the whole run (hidden in part): it does not switch on or off"
+    weak = [f"{db:.1f} dB above the band's level {side} it" for side, db in sides.items() if db < sev_db]
+    if weak:
+        return (f"does not switch on or off: its plateau stands only {' and '.join(weak)} (SEV: {sev_db:g} dB), "
+                "a mode or line present all along")
+    return None
 
 
 def _classify(ridge: _Ridge, speeds, radius_m, min_segments) -> dict | None:
@@ -445,6 +531,9 @@ def _onset_offset(t, speed, env, on_index, off_index, floor, rise_db):
 
 
 RAMP_SEEDS = 3
+HOPF_MISMATCH_KMH = 5.0
+"""A model whose Hopf point lies further than this [km/h] from the ramp-corrected onset
+describes another tyre: the correction is flagged and gives no calibration observation."""
 """Simulated ramps (seeds of the kicks) averaged for the delay."""
 ONSET_DB = 30.0
 """The onset is where the band envelope last rises through the floor + 30 dB (or 3/4 of
@@ -454,6 +543,47 @@ point approaches (its damping goes to zero) does not count as onset."""
 FLOOR_WINDOW_KMH = (15.0, 5.0)
 """The floor of the SEV band is the lower quartile of the envelope from 15 to 5 km/h before the SEV is
 developed (the same window in a measurement and in the ramp simulation)."""
+
+
+SWITCH_MAX_DB = 120.0
+"""Cap of :func:`_switch_db` (a band of exact zeros beside the feature)."""
+
+
+BRIDGE_KMH = 5.0
+"""Dips of the envelope below half its plateau over less speed than this [km/h] are
+bridged: where an order line crosses the band, its removal takes a notch out of the SEV."""
+
+
+def _developed(env, speed, plateau, inside) -> tuple[int, int] | None:
+    """First and last index of the developed feature: from where the envelope first reaches
+    half the ``plateau`` within ``inside`` to where it last does, extended outwards over
+    every dip shorter than ``BRIDGE_KMH`` (a line cut by a crossing order is one line)."""
+    high = np.flatnonzero(env >= 0.5 * plateau)  # NaN (the ends) is not
+    within = high[inside[high]]
+    if within.size == 0:
+        return None
+    cut = (np.diff(high) > 1) & (np.abs(np.diff(speed[high])) > BRIDGE_KMH)
+    piece = np.concatenate([[0], np.cumsum(cut)])
+    first_piece, last_piece = piece[np.searchsorted(high, within[0])], piece[np.searchsorted(high, within[-1])]
+    return int(high[np.searchsorted(piece, first_piece)]), int(high[np.searchsorted(piece, last_piece, side="right") - 1])
+
+
+def _switch_db(env, speed, plateau, on_index, off_index, fs, f0) -> dict:
+    """How far [dB] the plateau stands above the band's envelope where the feature is not
+    developed (from ``on_index`` to ``off_index``): within 15 km/h before it and after it,
+    ``{"before": dB, "after": dB}`` (lower quartiles); a side with fewer than 20 periods of
+    ``f0`` left in the run is None (the run does not cover it)."""
+    need = max(16, int(20 * fs / f0))
+    out = {}
+    for side, idx, ref in (("before", np.arange(on_index), speed[on_index]),
+                           ("after", np.arange(off_index + 1, len(env)), speed[off_index])):
+        idx = idx[(np.abs(speed[idx] - ref) <= FLOOR_WINDOW_KMH[0]) & np.isfinite(env[idx])]
+        if idx.size < need:
+            out[side] = None
+            continue
+        level = float(np.percentile(env[idx], 25))
+        out[side] = SWITCH_MAX_DB if level <= plateau * 10 ** (-SWITCH_MAX_DB / 20) else 20.0 * math.log10(plateau / level)
+    return out
 
 
 def _sev_from_envelope(t, speed, x, fs, f0, t_start, t_end):
@@ -469,23 +599,29 @@ def _sev_from_envelope(t, speed, x, fs, f0, t_start, t_end):
     if not np.any(inside) or np.all(inside):
         return None
     plateau = float(np.nanpercentile(env[inside], 90))
-    developed = np.flatnonzero(inside & (env >= 0.5 * plateau))
-    if developed.size == 0:
+    developed = _developed(env, speed, plateau, inside)
+    if developed is None:
         return None
-    on_index, off_index = int(developed[0]), int(developed[-1])
+    on_index, off_index = developed
     before = np.arange(on_index)
     v_dev = speed[on_index]
     direction = math.copysign(1.0, v_dev - speed[0]) if on_index > 0 else 1.0
     distance = direction * (v_dev - speed[before])
     window = before[(distance <= FLOOR_WINDOW_KMH[0]) & (distance >= FLOOR_WINDOW_KMH[1])]
+    window = window[np.isfinite(env[window])]
     if window.size < 16:
-        window = np.flatnonzero(~inside & (t < t_start))
-    if window.size < 16:
+        window = np.flatnonzero(~inside & (t < t_start) & np.isfinite(env))
+    switch = _switch_db(env, speed, plateau, on_index, off_index, fs, f0)
+    if window.size >= 16:
+        floor = float(np.percentile(env[window], 25))  # robust to an order line crossing the band
+    elif switch["after"] is not None:  # developed from the run's start: the floor after it, for the offset
+        floor = plateau * 10.0 ** (-switch["after"] / 20.0)
+    else:
         return None
-    floor = float(np.nanpercentile(env[window], 25))  # robust to an order line crossing the band
     rise_db = min(ONSET_DB, 0.75 * 20.0 * math.log10(plateau / floor)) if plateau > floor else 0.0
     result = _onset_offset(t, speed, env, on_index, off_index, floor, rise_db)
     result["floor"] = floor
+    result["switch_db"] = switch
     # frequency at onset: slope of the unwrapped phase over one second after the onset
     start = np.searchsorted(t, result["onset"]["time_s"]) if result.get("onset") else on_index
     window = slice(start, min(start + int(fs), off_index + 1))
@@ -562,6 +698,8 @@ class CampbellResult(Result):
     prediction: dict
     radius_m: float
     settings: dict
+    no_sev: str | None = None
+    """Why no SEV was found (None when it was)."""
 
     def summary(self) -> dict:
         return {
@@ -571,16 +709,18 @@ class CampbellResult(Result):
             "channels": {n: u for n, (_, u) in self.run.channels.items()},
             "features": self.features,
             "sev": self.sev,
+            **({"no_sev": self.no_sev} if self.sev is None else {}),
             "prediction": self.prediction,
             "notes": self.run.notes,
         }
 
     def observations(self) -> list[dict]:
         """The SEV onset and frequency as calibration observations (``[[observation]]``
-        entries of ``polywear calibrate``): only a ramp-corrected onset is a Hopf speed."""
+        entries of ``polywear calibrate``): only a ramp-corrected onset is a Hopf speed, and
+        only one whose model's Hopf point lies within ``HOPF_MISMATCH_KMH`` of it."""
         onset = (self.sev or {}).get("onset") or {}
         index = onset.get("hopf_index")
-        if onset.get("corrected_speed_kmh") is None or index not in (0, 1):
+        if onset.get("corrected_speed_kmh") is None or index not in (0, 1) or onset.get("warning"):
             return []
         prefix = ("first_hopf", "hopf") if index == 0 else ("second_hopf", "second_hopf")
         source = f"measure campbell {Path(self.run.source).name}"
@@ -728,35 +868,56 @@ def campbell(
     classified = [(f, r) for r in ridges for f in [_classify(r, speeds, radius, 6)] if f is not None]
     for feature, _ in classified:
         feature["sev"] = False
-    # SEV: constant frequency, strong, and switching on or off within the run
-    candidates = [(f, r) for f, r in classified if f["kind"] == "constant_frequency" and f["level_db"] >= sev_db
-                  and (r.segments[0] > 1 or r.segments[-1] < len(times) - 2)]
+    # SEV: constant frequency, strong, switching on or off within the run, with the evidence of it
+    strong = [(f, r) for f, r in classified if f["kind"] == "constant_frequency" and f["level_db"] >= sev_db]
+    candidates = [(f, r) for f, r in strong if r.segments[0] > 1 or r.segments[-1] < len(times) - 2]
+    for f, r in strong:
+        if (f, r) not in candidates:
+            f["not_sev"] = "present over the whole run"
+    orders = [f["order"] for f, _ in classified if f["kind"] == "order"]
+    cleaned: dict[str, np.ndarray] = {}  # channel -> without the order features
+    found = {}  # id(ridge) -> (channel, frequency, envelope analysis) of the candidates with evidence
+    for feature, ridge in candidates:
+        f0 = float(np.median(ridge.freqs))
+        channel = max(run.channels, key=lambda name: float(np.sum(
+            np.array(power[list(run.channels).index(name)])[np.abs(freqs - f0) < 2 * (freqs[1] - freqs[0])])))
+        if channel not in cleaned:
+            x = run.channels[channel][0]
+            cleaned[channel] = _remove_orders(x, run.speed_kmh, fs, orders, radius) if orders else x
+        t_start, t_end = times[ridge.segments[0]] - window_s / 2, times[ridge.segments[-1]] + window_s / 2
+        envelope = _sev_from_envelope(run.t, run.speed_kmh, cleaned[channel], fs, f0, t_start, t_end)
+        reason = _no_evidence(ridge, speeds, envelope, sev_db, freqs[1] - freqs[0])
+        if reason:
+            feature["not_sev"] = reason
+        else:
+            found[id(ridge)] = (channel, f0, envelope)
+    evidenced = [(f, r) for f, r in candidates if id(r) in found]
     sev = None
-    if candidates:
-        feature, ridge = _fundamental(max(candidates, key=lambda fr: fr[0]["level_db"]), candidates)
+    no_sev = None
+    if evidenced:
+        feature, ridge = _fundamental(max(evidenced, key=lambda fr: fr[0]["level_db"]), evidenced)
         feature["sev"] = True
+        feature.pop("not_sev", None)
         for f, r in candidates:
             ratio = np.median(r.freqs) / np.median(ridge.freqs)
             if r is not ridge and round(ratio) >= 2 and abs(ratio - round(ratio)) < 0.03 * ratio:
                 f["harmonic_of_sev"] = int(round(ratio))
-        f0 = float(np.median(ridge.freqs))
-        strongest = max(run.channels, key=lambda name: float(np.sum(
-            np.array(power[list(run.channels).index(name)])[np.abs(freqs - f0) < 2 * (freqs[1] - freqs[0])])))
-        orders = [f["order"] for f, _ in classified if f["kind"] == "order"]
-        x = _remove_orders(run.channels[strongest][0], run.speed_kmh, fs, orders, radius) if orders \
-            else run.channels[strongest][0]
-        t_start, t_end = times[ridge.segments[0]] - window_s / 2, times[ridge.segments[-1]] + window_s / 2
-        sev = _sev_from_envelope(run.t, run.speed_kmh, x, fs, f0, t_start, t_end)
-        if sev is not None and sev.get("onset") and "frequency_hz" in sev:
+        strongest, f0, sev = found[id(ridge)]
+        if sev.get("onset") and "frequency_hz" in sev:
             # the frequency drifts with speed: an uncertain onset speed is an uncertain frequency
             drift = _slope(speeds[ridge.segments], np.array(ridge.freqs))
             sev["frequency_drift_hz_per_kmh"] = drift
             sev["frequency_uncertainty_hz"] = math.hypot(sev["frequency_uncertainty_hz"],
                                                          drift * sev["onset"]["uncertainty_kmh"])
-        if sev is not None:
-            sev.update(channel=strongest, unit=run.channels[strongest][1], ridge_frequency_hz=f0,
-                       orders_removed=orders,
-                       frequency_range_hz=[feature["frequency_from_hz"], feature["frequency_to_hz"]])
+        sev.update(channel=strongest, unit=run.channels[strongest][1], ridge_frequency_hz=f0,
+                   orders_removed=orders,
+                   frequency_range_hz=[feature["frequency_from_hz"], feature["frequency_to_hz"]])
+    elif strong:
+        no_sev = "no constant-frequency feature switches on or off within the run: " + "; ".join(
+            f"{np.median(r.freqs):.1f} Hz ({f['speed_from_kmh']:.0f}-{f['speed_to_kmh']:.0f} km/h) {f['not_sev']}"
+            for f, r in strong)
+    else:
+        no_sev = f"no constant-frequency feature stands {sev_db:g} dB above the floor"
     prediction = _prediction(params, (max(5.0, 0.5 * run.speed_kmh.min()), max(300.0, 1.2 * run.speed_kmh.max())),
                              run.speed_kmh) if predict else {}
     if sev is not None and sev.get("onset") and correct_ramp:
@@ -765,7 +926,7 @@ def campbell(
     return CampbellResult(run, freqs, times, speeds, power_db,
                           (["sum"] if len(power) > 1 else []) + list(run.channels), features, sev, prediction,
                           radius, {"window_s": window_s, "overlap": overlap, "peak_db": peak_db, "sev_db": sev_db,
-                                   "disturbance_m": settings.disturbance_m})
+                                   "disturbance_m": settings.disturbance_m}, no_sev)
 
 
 def _correct_onset(sev: dict, run: Run, params: Params, disturbance_m: float) -> None:
@@ -816,3 +977,10 @@ def _correct_onset(sev: dict, run: Run, params: Params, disturbance_m: float) ->
                     f"+- {scatter:.1f} km/h late ({RAMP_SEEDS} seeds; kicks x0.1 / x10 give "
                     + ", ".join("none" if x is None else f"{x:.1f}" for x in delays[RAMP_SEEDS:]) + " km/h)"),
     )
+    off = abs(onset["corrected_speed_kmh"] - hopf.speed_kmh)
+    if off > HOPF_MISMATCH_KMH:
+        onset["warning"] = (f"the model's Hopf point ({hopf.speed_kmh:.1f} km/h) is {off:.1f} km/h from the "
+                            f"ramp-corrected onset ({onset['corrected_speed_kmh']:.1f} km/h), more than "
+                            f"{HOPF_MISMATCH_KMH:g} km/h: the model describes another tyre, and its delay may not "
+                            "hold for this one; not a calibration observation (calibrate roughly first, e.g. "
+                            "with the detected onset)")
