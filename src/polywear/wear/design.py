@@ -10,9 +10,10 @@ one follows to 0.05 % while rolling is stable) stays below the visible peak-to-v
 depth. The map applies only where steady rolling is stable: an option must also leave
 every cycle speed outside the linear band (where the tread vibrates).
 
-Search. Per parameter and per direction (more and less of it), multiplicative steps
-``p0 * f`` on a geometric grid up to ``max_factor``; the first step that meets the
-criterion is refined by bisection in ``ln f`` to 1 %. Parameter handling (keys,
+Search (:func:`polywear.dynamics.least_change.least_factor`). Per parameter and per
+direction (more and less of it), multiplicative steps ``p0 * f`` on a geometric grid up
+to ``max_factor``; the first step that meets the criterion is refined by bisection in
+``ln f`` to 1 %. Parameter handling (keys,
 ``adhesion_scale``, categories) is that of :mod:`polywear.dynamics.design`.
 
 Verification. Each option found can be checked by the nonlinear evolution over the
@@ -32,6 +33,7 @@ from ..models import get_model
 from ..results import Result
 from ..params import Params
 from ..dynamics.design import DEFAULT_KEYS, ENGINEERING, parameter_category, parameter_label
+from ..dynamics.least_change import least_factor
 from ..dynamics.sensitivity import nominal_value, parameter_direction, perturbed
 from .evolution import EvolutionSettings, evolve
 from .map import wear_map
@@ -197,26 +199,11 @@ def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: fl
         if nominal == 0.0:
             not_found.append(f"{key}: nominal value 0 (no relative change)")
             continue
-        best = None
-        for sign in (1.0, -1.0):
-            factors = np.exp(sign * np.linspace(0.0, math.log(max_factor), grid + 1)[1:])
-            previous = 1.0
-            for f in factors:
-                hit = _meets(params, key, nominal, float(f), cycle, target_km)
-                if hit is not None and hit[0]:
-                    lo, hi = math.log(previous), math.log(float(f))
-                    while abs(hi - lo) > _REFINE:
-                        mid = 0.5 * (lo + hi)
-                        probe = _meets(params, key, nominal, math.exp(mid), cycle, target_km)
-                        if probe is not None and probe[0]:
-                            hi, hit = mid, probe
-                        else:
-                            lo = mid
-                    factor = math.exp(hi)
-                    if best is None or abs(math.log(factor)) < abs(math.log(best[0])):
-                        best = (factor, hit)
-                    break
-                previous = float(f)
+        def meets(factor, key=key, nominal=nominal):
+            hit = _meets(params, key, nominal, factor, cycle, target_km)
+            return hit if hit is not None and hit[0] else None
+
+        best = least_factor(meets, max_factor, grid, _REFINE)
         if best is None:
             not_found.append(f"{key}: no change within x{max_factor:g} meets the criterion")
             continue
