@@ -1,10 +1,10 @@
 """The stepper: Newton corrector and tangent of the cycle continuation on one mesh, and the
-solves built on it alone.
+solves of single cycles that need no branch.
 
 :class:`_Stepper` corrects a pseudo-arclength step (collocation equations, integral phase
 condition, arclength condition) and gives the next unit tangent from the same bordered
 matrix, in a norm weighted by the state, period and speed scales; :func:`_align_to_kinks`
-re-solves a step on a mesh with points at the orbit's kinks. Built on it:
+re-solves a step on a mesh with points at the orbit's kinks. Single cycles:
 :func:`solve_at_speed` (Newton at a fixed speed [m/s]), :func:`solve_at_speed_on_kinks`,
 :func:`cycle_along_branch` (arclength steps to a speed from a Hopf point or a branch
 point), and the Newton guesses :func:`orbit_between` and :func:`orbit_from_hopf`.
