@@ -58,8 +58,9 @@ class KeyInfo:
     """One numeric key: unit ('-' if dimensionless), bounds, description, kind.
 
     ``lower``/``upper`` are the validation bounds in the key's unit (infinite where
-    there is none); ``*_inclusive`` tells whether the bound itself is allowed. A derived
-    key multiplies the stored keys ``scales`` (its value is a factor).
+    there is none); ``*_inclusive`` tells whether the bound itself is allowed. The rules
+    between keys (mu_c <= mu_s, wear.max_order below half of wear.profile_points) come on
+    top. A derived key multiplies the stored keys ``scales`` (its value is a factor).
     """
 
     key: str
@@ -72,15 +73,6 @@ class KeyInfo:
     kind: Literal["stored", "derived"]
     integer: bool = False
     scales: tuple[str, ...] = ()
-
-    def rules(self) -> dict[str, float]:
-        """The bounds as pydantic ``Field`` rules (``gt``/``ge``, ``lt``/``le``)."""
-        out = {}
-        if math.isfinite(self.lower):
-            out["ge" if self.lower_inclusive else "gt"] = self.lower
-        if math.isfinite(self.upper):
-            out["le" if self.upper_inclusive else "lt"] = self.upper
-        return out
 
 
 _SUFFIX_UNITS = {
