@@ -70,17 +70,49 @@ def test_bad_input_is_one_line_and_exit_code_2(args, message):
     assert "Traceback" not in err
 
 
+EVOLUTION_FIELDS = {"label", "distance_km", "cycle", "final_depth_mm", "dominant_order", "visible_depth_mm",
+                    "visible_km", "mean_wear_mm", "energetic_rate_mm3_per_j", "distances_scale_as"}
+
+
 @pytest.mark.slow
 def test_report_writes_everything(tmp_path):
-    code, out, err = run_main(["report", "--out", str(tmp_path), "--json", "-q"])
+    """The defaults, the evolutions by default (wear.report_km, here shortened by the key)."""
+    code, out, err = run_main(["report", "--out", str(tmp_path), "--json", "-q", "--set", "wear.report_km=20000"])
     assert code == 0, err
     s = json.loads(out)
     assert s["operating"]["regime"] == "unstable rolling (soft SEV)"
     assert s["operating"]["sev_amplitude_x_m"] == pytest.approx(0.27e-3, rel=0.05)
     for name in ("report.html", "bifurcation.png", "phase_portraits.png", "sensitivity.png", "summary.json",
-                 "bifurcation.nc", "cycles.csv", "params.toml"):
+                 "bifurcation.nc", "cycles.csv", "params.toml", "wear_map.png", "wear_evolution_cycle.png",
+                 "wear_evolution_cycle_polar.png", "wear_evolution_cycle_waterfall.png",
+                 "wear_evolution_operating.png", "wear_evolution_operating.nc"):
         assert (tmp_path / name).stat().st_size > 0
-    assert "self-excited vibration" in (tmp_path / "report.html").read_text()
+    page = (tmp_path / "report.html").read_text()
+    assert "self-excited vibration" in page
+    operating, cycle = s["wear"]["evolutions"]
+    assert (operating["label"], cycle["label"]) == ("operating speed", "drive cycle")
+    assert EVOLUTION_FIELDS <= set(operating) and EVOLUTION_FIELDS <= set(cycle)
+    assert operating["distance_km"] == cycle["distance_km"] == 20000.0
+    # the default car wears into an 8-sided polygon after about 20 000 km on the default cycle (docs/wear.md)
+    verdict = s["verdict"]
+    assert verdict["vibrates"] and verdict["polygon_visible"] and verdict["sides"] == cycle["dominant_order"] == 8
+    assert "8-sided polygon becomes visible (0.1 mm) after about" in verdict["lines"][1]
+    assert page.index(verdict["lines"][1][:40]) < page.index("<h2>Speed bands</h2>")  # at the top of the page
+
+
+def test_report_wear_km_0_turns_the_evolution_off(tmp_path):
+    """--wear-km 0: the dynamics and the wear map only; the verdict does not call the wear safe.
+    (An operating range below the band keeps the design step short.)"""
+    code, out, err = run_main(["report", "--out", str(tmp_path), "--json", "-q", "--wear-km", "0",
+                               "--operating-range", "20", "30"])
+    assert code == 0, err
+    s = json.loads(out)
+    assert s["wear"]["evolutions"] == [] and s["wear"]["headline"] == [] and s["wear"]["map_rows"]
+    assert s["verdict"]["polygon_visible"] is None and "Wear evolution not run" in s["verdict"]["lines"][1]
+    assert not list(tmp_path.glob("wear_evolution*"))
+    assert "Evolution not run" in (tmp_path / "report.html").read_text()
+    code, _, err = run_main(["report", "--out", str(tmp_path), "--wear-km", "-1"])
+    assert code == 2 and "--wear-km" in err
 
 
 def test_excitation_soft_and_hard_regions_end_on_the_right_attractor():

@@ -87,6 +87,7 @@ WEAR_DEFAULTS = {
     "wear.profile_points": 720,
     "wear.seed": 0,
     "wear.visible_depth_mm": 0.1,
+    "wear.report_km": 100_000.0,
 }
 CHOICES = {"model": ("tread1dof", "axle4dof"), "axle.reference": ("running", "unloaded")}
 NUMERIC_KEYS = [k for k, v in SPEC_DEFAULTS.items() if isinstance(v, float)]

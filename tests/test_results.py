@@ -317,7 +317,7 @@ def test_report_holds_its_results(tmp_path):
     from polywear.wear.map import WearMap
     from polywear.report.main import run_report
 
-    report = run_report(Params(), tmp_path)
+    report = run_report(Params(), tmp_path, wear_evolution_km=2000.0)
     assert isinstance(report.diagram, BifurcationDiagram) and report.stability is report.diagram.stability
     assert isinstance(report.sensitivity, SensitivityResult) and isinstance(report.design, DesignResult)
     assert isinstance(report.disturbances, SimulationSet) and isinstance(report.wear_map, WearMap)
@@ -325,6 +325,7 @@ def test_report_holds_its_results(tmp_path):
     summary = report.summary()
     assert json.loads((tmp_path / "summary.json").read_text()) == json.loads(json.dumps(summary, default=float))
     assert summary["bifurcation"] == report.diagram.summary() and summary["design"] == report.design.summary()
-    assert summary["wear"] == report.wear.summary()
+    assert summary["wear"] == report.wear.summary() and summary["verdict"] == report.overall
+    assert [label for label, _ in report.wear.evolutions] == ["operating speed", "drive cycle"]
     with xr.open_dataset(tmp_path / "bifurcation.nc", engine="h5netcdf") as saved:
         np.testing.assert_array_equal(saved["speed_kmh"].values, report.diagram.to_xarray()["speed_kmh"].values)

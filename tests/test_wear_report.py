@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from polywear.wear.evolution import EvolutionSettings
 from polywear.params import Params, with_updates
-from polywear.report.wear import wear_html, wear_section, wear_sentences
+from polywear.report.wear import _round_km, wear_headline, wear_html, wear_section, wear_sentences
 
 
 def test_sentences_say_sides_distance_and_locking():
@@ -62,3 +64,48 @@ def test_section_with_map_and_a_short_evolution(tmp_path):
     page = wear_html(section)
     assert "<h2>Polygonal wear</h2>" in page and "grows from small roughness" in page
     assert wear_html(None) == ""
+
+
+def _speed(v, share, order=None, locked=False):
+    return {"speed_kmh": v, "share": share, "vibration_order_end": order, "locked_fraction": float(locked),
+            "locked_at_end": locked}
+
+
+def _evolution(label, cycle, visible_km, order, efolds=5.4, distance_km=100_000.0):
+    return {"label": label, "distance_km": distance_km, "visible_km": visible_km, "visible_depth_mm": 0.1,
+            "dominant_order": order, "final_depth_mm": 0.3 if visible_km else 0.04,
+            "growth_efolds": efolds if visible_km else None, "cycle": cycle}
+
+
+def _section(*evolutions):
+    return {"energetic_rate_mm3_per_j": 1e-3, "initial_roughness_um": 1.0, "map_rows": [],
+            "evolutions": list(evolutions)}
+
+
+DEFAULT_CYCLE = [_speed(50.0, 0.3), _speed(80.0, 0.4, 11.1), _speed(120.0, 0.3, 8.0, locked=True)]
+
+
+def test_headline_gives_sides_and_km_on_the_cycle_and_alone_with_the_assumptions():
+    section = _section(_evolution("operating speed", [_speed(110.0, 1.0, 8.52)], 29_600.0, 8),
+                       _evolution("drive cycle", DEFAULT_CYCLE, 20_106.0, 8))
+    lines = wear_headline(section)
+    assert lines[0] == ("On the drive cycle (30 % at 50 km/h, 40 % at 80 km/h, 30 % at 120 km/h), an 8-sided polygon "
+                        "becomes visible (0.1 mm) after about 20,000 km; at 110 km/h alone, after about 30,000 km.")
+    text = " ".join(lines)
+    assert "at 120 km/h the tread vibrates and locks to the tire at order 8" in text
+    assert "At 80 km/h the tread vibrates at order 11.10 without locking to the tire" in text and "wears evenly" in text
+    assert "scales as 1/k_e" in text and "factor of 10 either way" in text
+    # ten times the roughness: ln(10) of the 5.4 e-folds of growth come for free
+    expected = f"takes about {_round_km(20_106.0 * math.log(10.0) / 5.4)} km off"
+    assert expected == "takes about 8,600 km off" and expected in text
+
+
+def test_headline_without_a_visible_polygon_and_without_locking():
+    section = _section(_evolution("operating speed", [_speed(110.0, 1.0, 8.52)], None, 9),
+                       _evolution("drive cycle", [_speed(110.0, 1.0, 8.52)], None, 9))
+    lines = wear_headline(section)
+    assert lines[0].startswith("On the drive cycle (100 % at 110 km/h), no visible polygon within 100,000 km")
+    assert "order 8.52 without locking" in lines[1] and "wears evenly" in lines[1]
+    assert lines[1].endswith("the order that grows is the profile's own, 9.")
+    assert "1 um" not in lines[-1]  # nothing grew to visible: no roughness statement
+    assert wear_headline(_section()) == []

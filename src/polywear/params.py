@@ -238,6 +238,10 @@ class Wear(_Table):
     visible_depth_mm: float = _f(
         0.1, "peak-to-valley depth at which the polygon counts as visible [mm]", gt=0.0
     )
+    report_km: float = _f(
+        100_000.0, "distance of the wear evolutions in the main job, polywear report [km] (0: not run)",
+        ge=0.0, le=1.0e6,
+    )
     cycle: tuple[WearCycleEntry, ...] = Field(
         default_factory=_default_cycle,
         description="drive cycle ([[wear.cycle]]): speeds and shares of the distance",

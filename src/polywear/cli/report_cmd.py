@@ -32,22 +32,24 @@ def report(
     operating_range: OperatingRangeOpt = None,
     wear_km: Annotated[
         Optional[float],
-        typer.Option("--wear-km", help="Also evolve the worn profile over this distance [km] at the operating speed "
-                     "and on the drive cycle (minutes); the wear map is always included."),
+        typer.Option("--wear-km", help="Distance [km] of the wear evolutions at the operating speed and on the "
+                     "drive cycle (default: wear.report_km, 100000; 0: not run); the wear map is always included."),
     ] = None,
     json_: JsonOpt = False,
     quiet: QuietOpt = False,
 ) -> None:
     """The main job: full analysis with figures, data and report.html in --out.
 
-    Stability, bifurcation diagram, verdict at the operating speed with wear indicators,
-    phase portraits, sensitivities and design options."""
+    One verdict on vibration and wear (how many sides, after how many km, what to change),
+    stability, bifurcation diagram, verdict at the operating speed with wear indicators,
+    phase portraits, sensitivities, design options judged by the band and the wear, the
+    wear map and the wear evolutions."""
     output_folder(out, "--out", "report.html")
     speed_range = check_speed_range(speed_range)
     if operating_range is not None:
         operating_range = check_speed_range(operating_range, "--operating-range")
-    if wear_km is not None and not (wear_km > 0.0 and wear_km <= 1e6):
-        raise UserError(f"--wear-km {wear_km:g}: must be in (0, 1e6]")
+    if wear_km is not None and not (0.0 <= wear_km <= 1e6):
+        raise UserError(f"--wear-km {wear_km:g}: must be in [0, 1e6] (0: no evolution)")
     params = load(config, set_)
     from ..io import fresh_directory
     from ..report.main import run_report, text_summary

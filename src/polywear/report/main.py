@@ -2,8 +2,10 @@
 
 Steps: linear stability, bifurcation diagram (continuation), the verdict at the
 operating speed with wear indicators, phase portraits there from small and large
-disturbances, exact sensitivities of the bifurcation speeds (Fig. 9), and design
-options that move the SEV band out of the operating range (Figs. 10-12).
+disturbances, exact sensitivities of the bifurcation speeds (Fig. 9), design options
+that move the SEV band out of the operating range (Figs. 10-12), the wear map and the
+wear evolutions (``wear.report_km``), and one verdict on vibration and wear together
+(:mod:`.verdict`).
 """
 
 from __future__ import annotations
@@ -52,6 +54,8 @@ class Report:
     portraits: list[ExcitationPortrait] = field(default_factory=list)
     """Soft and hard self-excitation at a soft and a hard speed (empty if there is none)."""
     files: dict = field(default_factory=dict)
+    overall: dict = field(default_factory=dict)
+    """The one verdict on vibration and wear together (:func:`.verdict.verdict`)."""
 
     @property
     def stability(self) -> StabilityResult:
@@ -72,6 +76,7 @@ class Report:
             "sensitivity": self.sensitivity.summary(),
             "design": self.design.summary(),
             "wear": self.wear.summary(),
+            "verdict": self.overall,
         }
 
 
@@ -178,7 +183,7 @@ def text_summary(summary: dict) -> list[str]:
     """The report's result as lines of text: the verdict, the SEV band (``open`` at an open
     edge), and the bifurcations besides Hopf points and folds (PD, NS, static divergence)."""
     b = summary["bifurcation"]
-    lines = [_sentence(summary["operating"])]
+    lines = list(summary["verdict"]["lines"][:-1]) if summary.get("verdict") else [_sentence(summary["operating"])]
     if b["sev_band_kmh"]:
         first, second = b["first_bifurcation_speed_kmh"], b["second_bifurcation_speed_kmh"]
         lo, hi = b["speed_range_kmh"]
@@ -196,6 +201,8 @@ def text_summary(summary: dict) -> list[str]:
     first = next((o for o in design["options"] if o["achieved"]), None)
     lines.append(f"design for {lo:g}-{hi:g} km/h: "
                  + (first["text"] if first else design["reason"] or "no option clears the range (see report.html)"))
+    if summary.get("verdict"):
+        lines.append(summary["verdict"]["lines"][-1])
     return lines
 
 
@@ -238,8 +245,8 @@ def run_report(
     progress : callable, optional
         Progress callback (:mod:`polywear.progress`); the message names the stage.
     wear_evolution_km : float, optional
-        Also run the wear evolution over this distance [km] at the operating speed and
-        on the drive cycle (minutes); the wear map is always in the report.
+        Distance [km] of the wear evolutions at the operating speed and on the drive cycle
+        (default ``wear.report_km``; 0: not run); the wear map is always in the report.
 
     Returns
     -------
@@ -324,23 +331,28 @@ def run_report(
     from .wear import wear_section
 
     sev = diagram.sev_band_kmh
-    wear = wear_section(params, speed_range_kmh, save, out_dir, wear_evolution_km,
+    km = params.wear.report_km if wear_evolution_km is None else wear_evolution_km
+    wear = wear_section(params, speed_range_kmh, save, out_dir, km,
                         sev_band_kmh=(sev[0][0], sev[-1][1]) if sev and None not in (sev[0][0], sev[-1][1]) else None,
                         progress=stage.detail(""))
 
+    say("one verdict: vibration and wear together, design options judged by the wear")
+    from .verdict import verdict as overall_verdict
+
     report = Report(params, diagram, verdict, runs, sens, options, wear, portraits, files)
+    report.overall = overall_verdict(report.summary(), params, _sentence(verdict))
     summary = report.summary()
     write_text(out_dir / "summary.json", json.dumps(summary, indent=2, default=float))
     write_text(out_dir / "params.toml", to_toml(params))
     files["summary.json"] = "everything above as JSON"
     files["params.toml"] = "the parameter set used"
-    write_text(out_dir / "report.html", _html(params, summary, verdict, files))
+    write_text(out_dir / "report.html", _html(params, summary, files))
     stage()
     files["report.html"] = "this report"
     return report
 
 
-def _html(params: Params, summary: dict, verdict: dict, files: dict) -> str:
+def _html(params: Params, summary: dict, files: dict) -> str:
     from .wear import wear_html
 
     b = summary["bifurcation"]
@@ -371,7 +383,6 @@ def _html(params: Params, summary: dict, verdict: dict, files: dict) -> str:
     )
     notes = "".join(f"<li>{e(n)}</li>" for n in [*b.get("range_notes", []), *b.get("continuation_notes", []), *b.get("warnings", [])])
     sens_notes = "".join(f"<li>{e(n)}</li>" for n in summary["sensitivity"].get("notes", []))
-    design_html = _design_html(summary["design"])
     figures = "".join(
         f"<figure><img src='{e(name)}' alt='{e(caption)}'><figcaption>{e(caption)}</figcaption></figure>"
         for name, caption in files.items()
@@ -385,7 +396,7 @@ table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px;te
 figure{{margin:1.5em 0}}img{{max-width:100%}}.verdict{{background:#fff4e0;padding:1em;border-left:4px solid #e69500}}</style>
 </head><body>
 <h1>polywear report: {e(params.model)}</h1>
-<p class="verdict">{e(_sentence(verdict))}</p>
+<div class="verdict">{"".join(f"<p>{e(line)}</p>" for line in summary["verdict"]["lines"])}</div>
 <h2>Speed bands</h2>
 <ul><li>steady rolling unstable (linear band): {band(b['linear_band_kmh'])}</li>
 <li>SEV after a large disturbance (first to second bifurcation speed): {band(b['sev_band_kmh'])}</li>
@@ -395,7 +406,7 @@ figure{{margin:1.5em 0}}img{{max-width:100%}}.verdict{{background:#fff4e0;paddin
 <table><tr><th>point</th><th>speed [km/h]</th><th>frequency [Hz]</th><th></th></tr>{rows or "<tr><td colspan='4'>no Hopf point, fold or other bifurcation in the analysed range</td></tr>"}</table>
 <h2>Sensitivities</h2><ul>{sens_notes or "<li>see sensitivity.png and sensitivity.csv</li>"}</ul>
 <h2>Design options for {summary['design']['operating_range_kmh'][0]:.0f}-{summary['design']['operating_range_kmh'][1]:.0f} km/h</h2>
-{design_html}
+{_design_html(summary["design"], summary["verdict"].get("design_options", []))}
 {wear_html(summary.get("wear"))}
 {figures}
 <h2>Files</h2><ul>{file_list}</ul>
@@ -405,9 +416,10 @@ figure{{margin:1.5em 0}}img{{max-width:100%}}.verdict{{background:#fff4e0;paddin
 """
 
 
-def _design_html(design: dict) -> str:
+def _design_html(design: dict, wear: list) -> str:
     """The design section: the ranked options as a table (signed changes with units, the
-    bound flag, what each does to the band), or why there are none."""
+    bound flag, what each does to the band and, from ``wear`` (the verdict's judgements,
+    in the same order), to the wear), or why there are none."""
     e = html.escape
     lo, hi = design["operating_range_kmh"]
     if not design["options"]:
@@ -417,7 +429,7 @@ def _design_html(design: dict) -> str:
     groups = {"alignment": "you control", "axle bushing": "you control", "tread": "you control",
               "road/compound": "road/compound (friction, not a vehicle setting)", "other": "other"}
     rows = []
-    for o in design["options"]:
+    for o, judged in zip(design["options"], wear or [None] * len(design["options"])):
         if o["relative_change"] == 0.0:  # nothing computed (see the note)
             change, relative = e(" + ".join(o["labels"])), "&mdash;"
         else:
@@ -429,12 +441,15 @@ def _design_html(design: dict) -> str:
             status = f"no: {e(o['note'])}"
         bands = ("&mdash;" if o["relative_change"] == 0.0
                  else ", ".join(f"{a:.1f}-{b:.1f} km/h" for a, b in o["sev_band_kmh"]) or "none")
+        worn = "&mdash;" if judged is None else (f"<b>{e(judged['text'])}</b>" if judged["sooner"] else e(judged["text"]))
         rows.append(f"<tr><td>{e(groups[o['category']])}</td><td>{change}</td><td>{relative}</td><td>{status}</td>"
-                    f"<td>{bands}</td></tr>")
+                    f"<td>{bands}</td><td>{worn}</td></tr>")
     return (f"<p>Least change of each parameter that keeps the SEV band {design['margin_kmh']:g} km/h clear of "
             f"{lo:g}-{hi:g} km/h, both directions searched, each verified by a full bifurcation diagram. "
             f"Parameters you control come first; adhesion (tread-road friction) is a road or compound option. "
-            f"Changes beyond &plusmn;{bound * 100:g} % are flagged.</p>"
+            f"Changes beyond &plusmn;{bound * 100:g} % are flagged. Each option is judged by the wear too: the "
+            "linear wear map with the option's parameters at the operating speed and on the drive cycle; an "
+            "option that brings the polygon sooner is in bold.</p>"
             "<table><tr><th>option</th><th>change</th><th>relative change</th><th>range cleared</th>"
-            f"<th>SEV band after</th></tr>{''.join(rows)}</table>")
+            f"<th>SEV band after</th><th>wear</th></tr>{''.join(rows)}</table>")
 

@@ -1,5 +1,6 @@
-"""The wear section of the report: the linear wear map, optionally the evolution at the
-operating speed and on the drive cycle, and the verdict in words (``docs/wear.md``)."""
+"""The wear section of the report: the linear wear map, the evolutions at the operating
+speed and on the drive cycle (``wear.report_km``, by default), and the answer in words
+(``docs/wear.md``, ``docs/wear_and_design.md``)."""
 
 from __future__ import annotations
 
@@ -10,14 +11,21 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..wear.evolution import EvolutionResult, EvolutionSettings, evolve
 from ..params import Params
+from ..units import wheel_rotation_frequency_hz, kmh_to_ms
+from ..wear.evolution import EvolutionResult, EvolutionSettings, evolve
 
 if TYPE_CHECKING:
     from ..wear.map import WearMap
 from ..progress import Progress, StepCounter
 
-__all__ = ["WearSection", "wear_section", "wear_html", "wear_sentences"]
+__all__ = ["WearSection", "wear_section", "wear_html", "wear_sentences", "wear_headline", "evolution_entry"]
+
+ROUGHNESS_FACTOR = 10.0
+"""The headline says how much sooner the polygon is visible from this many times the
+initial roughness [-]."""
+K_E_UNCERTAINTY = 10.0
+"""Factor by which the energetic wear rate k_e is uncertain either way [-] (docs/wear.md)."""
 
 
 @dataclass
@@ -30,25 +38,52 @@ class WearSection:
     evolutions: list[tuple[str, EvolutionResult]] = field(default_factory=list)
 
     def summary(self) -> dict:
-        """The JSON-ready wear section of ``summary.json``, with the verdict in words."""
+        """The JSON-ready wear section of ``summary.json``, with the verdict in words
+        (``headline``: the answer at the top of the report; ``sentences``: the details)."""
+        params = self.wear_map.params
         out = {"map_rows": self.points.summary()["rows"],
                "linear_band_kmh": [list(b) for b in self.wear_map.linear_band_kmh],
-               "energetic_rate_mm3_per_j": self.wear_map.params.wear.energetic_rate_mm3_per_j,
-               "evolutions": [{"label": label, **result.summary()} for label, result in self.evolutions]}
+               "energetic_rate_mm3_per_j": params.wear.energetic_rate_mm3_per_j,
+               "initial_roughness_um": params.wear.initial_roughness_um,
+               "operating_speed_kmh": params.operating.speed_kmh,
+               "rotation_hz_per_order": wheel_rotation_frequency_hz(kmh_to_ms(params.operating.speed_kmh),
+                                                                    params.operating.rolling_radius_m),
+               "evolutions": [evolution_entry(label, result) for label, result in self.evolutions]}
         out["sentences"] = wear_sentences(out)
+        out["headline"] = wear_headline(out)
         return out
 
 
+def evolution_entry(label: str, result: EvolutionResult) -> dict:
+    """One evolution in ``summary.json``: ``label`` and the fields of
+    :meth:`EvolutionResult.summary` (``visible_km``, ``dominant_order``, ``final_depth_mm``, ...),
+    with per cycle speed ``locked_at_end`` (the vibration locked in the last step) and
+    ``growth_efolds``: e-folds [-] the dominant harmonic grew by from the initial roughness to
+    the visible depth (None if not visible)."""
+    entry = {"label": label, **result.summary()}
+    for j, c in enumerate(entry["cycle"]):
+        c["locked_at_end"] = bool(result.locked[-1, j]) if result.locked.size else False
+    visible = entry["visible_km"]
+    entry["growth_efolds"] = None
+    if visible is not None and visible > 0.0:
+        n = entry["dominant_order"] - 1
+        amp = np.abs(result.harmonics[:, n])
+        at = float(np.interp(visible, result.distance_km, np.log(np.maximum(amp, 1e-300))))
+        entry["growth_efolds"] = at - math.log(max(float(amp[0]), 1e-300))
+    return entry
+
+
 def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: float | None = None,
-                 evolution: EvolutionSettings = EvolutionSettings(step_km=2000.0), sev_band_kmh=None,
-                 progress: Progress | None = None) -> dict:
+                 evolution: EvolutionSettings = EvolutionSettings(), sev_band_kmh=None,
+                 progress: Progress | None = None) -> WearSection:
     """Compute the wear section; figures through ``save(fig, name, caption)``.
 
     The map over ``speed_range_kmh`` [km/h] (300 speeds) is always computed (about a second);
-    with ``evolution_km`` [km] the evolution at the operating speed and on the drive cycle too
-    (minutes), with ``evolution`` (:class:`~polywear.wear.evolution.EvolutionSettings`, here
-    2000 km steps). ``progress`` (:mod:`polywear.progress`) counts these stages. Returns the
-    wear results (:class:`WearSection`).
+    with ``evolution_km`` [km] (None or 0: not run) the evolutions at the operating speed and
+    on the drive cycle too, with ``evolution``
+    (:class:`~polywear.wear.evolution.EvolutionSettings`). ``progress``
+    (:mod:`polywear.progress`) gets a message per stage and every tenth of an evolution's
+    distance. Returns the wear results (:class:`WearSection`).
     """
     import matplotlib.pyplot as plt
 
@@ -59,54 +94,148 @@ def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: f
             result.save(tmp)
     from ..wear.map import wear_map
 
-    say = StepCounter(progress).begin
+    stage = StepCounter(progress)
+    say = stage.begin
     say("polygonal wear: linear map")
     lo, hi = speed_range_kmh
     speeds = np.linspace(lo, hi, 300)
     m = wear_map(params, speeds)
     save_result(m, "wear_map.nc")
+    op = params.operating.speed_kmh
     fig, ax = plt.subplots(figsize=(9, 5.5))
     m.plot(ax, sev_band_kmh=sev_band_kmh)
-    save(fig, "wear_map.png", "Wear-stability map: growth of every polygon order over speed (Campbell form); "
-                              "distances scale as 1/k_e")
-    op = params.operating.speed_kmh
+    ax.axvline(op, color="tab:green", lw=1.4, ls="-.", label=f"operating speed {op:g} km/h")
+    handles, labels = ax.get_legend_handles_labels()
+    unique = dict(zip(labels, handles))
+    ax.legend(unique.values(), unique.keys(), fontsize=7, loc="upper right")
+    save(fig, "wear_map.png", "Wear-stability map: growth of every polygon order over speed (Campbell form), "
+                              f"the operating speed {op:g} km/h dash-dotted; distances scale as 1/k_e")
     at = sorted({op, *(v for v, _ in params.wear.cycle_shares())})
     section = WearSection(m, wear_map(params, at))
     if evolution_km:
         runs = [("operating speed", ((op, 1.0),)), ("drive cycle", params.wear.cycle_shares())]
         for label, cycle in runs:
-            say(f"polygonal wear: evolution over {evolution_km:,.0f} km, {label}")
-            result = evolve(params, evolution_km, cycle, evolution)
+            if section.evolutions and tuple(cycle) == runs[0][1]:  # the cycle is the operating speed alone
+                result = section.evolutions[0][1]
+            else:
+                say(f"polygonal wear: evolution over {evolution_km:,.0f} km, {label}")
+                result = evolve(params, evolution_km, cycle, evolution,
+                                progress=_tenths(stage.detail(f"evolution, {label}: ")))
             stem = "wear_evolution_operating" if label == "operating speed" else "wear_evolution_cycle"
             save_result(result, f"{stem}.nc")
             fig, ax = plt.subplots(figsize=(8, 4.5))
             result.plot(ax)
-            save(fig, f"{stem}.png", f"Worn depth and dominant order against distance, {label}")
+            save(fig, f"{stem}.png", f"Worn depth (log) and dominant order against distance, {label}, with the "
+                                     f"visibility threshold {params.wear.visible_depth_mm:g} mm")
             fig = plt.figure(figsize=(5.5, 5.5))
             result.plot_polar(fig.add_subplot(projection="polar"))
-            save(fig, f"{stem}_polar.png", f"The worn tire at four distances, {label}")
+            save(fig, f"{stem}_polar.png", f"The worn tire at four distances, {label} (depth exaggerated)")
+            fig, ax = plt.subplots(figsize=(8, 4.5))
+            result.plot_waterfall(ax)
+            save(fig, f"{stem}_waterfall.png", f"Amplitude of every polygon order against distance, {label}")
             section.evolutions.append((label, result))
     return section
 
 
+def _tenths(progress: Progress) -> Progress:
+    """Forward an evolution's progress (km done, km in all) as a message at every tenth."""
+    reached = [0]
+
+    def forward(done: float, total: float | None, message: str = "") -> None:
+        tenth = int(10.0 * done / total) if total else 0
+        if tenth > reached[0]:
+            reached[0] = tenth
+            progress(done, total, f"{done:,.0f} of {total:,.0f} km")
+
+    return forward
+
+
+def _where(ev: dict) -> str:
+    """'on the drive cycle (30 % at 50 km/h, ...)' or 'at 110 km/h alone'."""
+    if ev["label"] == "drive cycle":
+        return "on the drive cycle (" + ", ".join(f"{c['share'] * 100:.0f} % at {c['speed_kmh']:g} km/h"
+                                                  for c in ev["cycle"]) + ")"
+    return f"at {ev['cycle'][0]['speed_kmh']:g} km/h alone"
+
+
+def _outcome(ev: dict) -> str:
+    """'an 8-sided polygon becomes visible (0.1 mm) after about 20,000 km' or 'no visible polygon
+    within 100,000 km (0.031 mm peak to valley at the end, largest order 10)'."""
+    if ev["visible_km"] is not None:
+        sides = ev["dominant_order"]
+        article = "an" if str(sides).startswith("8") or sides in (11, 18) else "a"  # an eight, an eleven
+        return (f"{article} {sides}-sided polygon becomes visible ({ev['visible_depth_mm']:g} mm) "
+                f"after about {_round_km(ev['visible_km'])} km")
+    return (f"no visible polygon within {ev['distance_km']:,.0f} km ({ev['final_depth_mm']:.3f} mm peak to valley "
+            f"at the end, largest order {ev['dominant_order']})")
+
+
+def wear_headline(section: dict) -> list[str]:
+    """The answer at the top of the report, in a fleet engineer's words: how many sides,
+    after how many km, on the drive cycle and at the operating speed alone; whether the
+    vibration locks to the tire; and what the distances assume (k_e, initial roughness).
+    Empty if no evolution was run."""
+    evs = {ev["label"]: ev for ev in section["evolutions"]}
+    if not evs:
+        return []
+    first, *rest = [evs[k] for k in ("drive cycle", "operating speed") if k in evs]
+    text = f"{_where(first)[0].upper()}{_where(first)[1:]}, {_outcome(first)}"
+    for ev in rest:
+        text += f"; {_where(ev)}, " + (f"after about {_round_km(ev['visible_km'])} km"
+                                       if ev["visible_km"] is not None and ev["dominant_order"] == first["dominant_order"]
+                                       and first["visible_km"] is not None else _outcome(ev))
+    lines = [text + "."]
+    locking = []
+    for ev in [first, *rest]:
+        for c in ev["cycle"]:
+            nu = c["vibration_order_end"]
+            if nu is None or any(c["speed_kmh"] == v for v, _ in locking):
+                continue
+            locking.append((c["speed_kmh"], f"at {c['speed_kmh']:g} km/h the tread vibrates and locks to the tire at "
+                                            f"order {round(nu)}" if c.get("locked_at_end") else
+                            f"at {c['speed_kmh']:g} km/h the tread vibrates at order {nu:.2f} without locking to the "
+                            f"tire: its own pattern drifts round the tread and wears evenly"))
+    if locking:
+        sentence = "; ".join(t for _, t in locking)
+        if not any(c.get("locked_at_end") for ev in [first, *rest] for c in ev["cycle"]):
+            sentence += f"; the order that grows is the profile's own, {first['dominant_order']}"
+        lines.append(sentence[0].upper() + sentence[1:] + ".")
+    lines.append(_assumptions(section, [first, *rest]))
+    return lines
+
+
+def _assumptions(section: dict, evs: list[dict]) -> str:
+    """What the distances assume: k_e (every distance scales as 1/k_e) and the initial
+    roughness (the visible distance is the e-folds of growth from it)."""
+    k_e = section["energetic_rate_mm3_per_j"]
+    text = (f"These distances assume the energetic wear rate k_e = {k_e:g} mm^3/J, known to about a factor of "
+            f"{K_E_UNCERTAINTY:g} either way: every distance scales as 1/k_e ({K_E_UNCERTAINTY:g} times k_e, "
+            f"{K_E_UNCERTAINTY:g} times sooner)")
+    grown = [ev for ev in evs if ev.get("growth_efolds")]
+    if grown:
+        ev = grown[0]
+        n, km = ev["growth_efolds"], ev["visible_km"]
+        sooner = km * math.log(ROUGHNESS_FACTOR) / n
+        text += (f"; and an initial roughness of {section['initial_roughness_um']:g} um RMS: {_where(ev)} the "
+                 f"{ev['dominant_order']}-sided pattern grows by {n:.1f} e-folds (a factor {math.exp(n):,.0f}) "
+                 f"until it is visible, so {ROUGHNESS_FACTOR:g} times the roughness takes about "
+                 f"{_round_km(sooner)} km off")
+    return text + "."
+
+
 def wear_sentences(section: dict) -> list[str]:
-    """The verdict in words, from the map rows and the evolutions."""
+    """The details in words, from the map rows and the evolutions."""
     lines = []
     for ev in section["evolutions"]:
         where = ", ".join(f"{c['speed_kmh']:g} km/h" for c in ev["cycle"])
-        if ev["visible_km"] is not None:
-            lines.append(f"{ev['label']} ({where}): a {ev['dominant_order']}-sided polygon becomes visible "
-                         f"({ev['visible_depth_mm']:g} mm) after about {_round_km(ev['visible_km'])} km.")
-        else:
-            lines.append(f"{ev['label']} ({where}): no visible polygon within {ev['distance_km']:,.0f} km "
-                         f"(depth {ev['final_depth_mm']:.3f} mm, dominant order {ev['dominant_order']}).")
+        lines.append(f"{ev['label']} ({where}): {_outcome(ev)}.")
         for c in ev["cycle"]:
             if c["vibration_order_end"] is None:
                 continue
-            state = "locked to" if c["locked_fraction"] else "not locked to"
+            locked = c.get("locked_at_end", bool(c["locked_fraction"]))
             lines.append(f"at {c['speed_kmh']:g} km/h the tread vibrates at order {c['vibration_order_end']:.3f}, "
-                         f"{state} an integer order" + ("" if c["locked_fraction"] else
-                                                        ": its own pattern drifts and wears evenly") + ".")
+                         + ("locked to an integer order." if locked else
+                            "not locked to an integer order: its own pattern drifts and wears evenly."))
     for row in section["map_rows"]:
         if not row["rolling_stable"]:
             lines.append(f"at {row['speed_kmh']:g} km/h steady rolling is unstable: vibrating, see the evolution.")
@@ -142,8 +271,10 @@ def wear_html(section: dict | None) -> str:
         for ev in section["evolutions"])
     table = ("<table><tr><th>evolution</th><th>distance [km]</th><th>depth [mm]</th><th>dominant order</th>"
              f"<th>visible after [km]</th></tr>{evolutions}</table>") if evolutions else \
-        "<p>Evolution not run (<code>polywear report --wear-km 60000</code>, or <code>polywear wear evolve</code>).</p>"
+        ("<p>Evolution not run: turned off (<code>--wear-km 0</code> or <code>wear.report_km = 0</code>); "
+         "<code>polywear report --wear-km 100000</code> or <code>polywear wear evolve</code> runs it.</p>")
     sentences = "".join(f"<li>{e(s)}</li>" for s in section["sentences"])
-    return (f"<h2>Polygonal wear</h2><ul>{sentences}</ul>"
+    headline = "".join(f"<p>{e(s)}</p>" for s in section.get("headline", []))
+    return (f"<h2>Polygonal wear</h2>{headline}<ul>{sentences}</ul>"
             "<table><tr><th>speed [km/h]</th><th>most unstable order</th><th>frequency [Hz]</th>"
             f"<th>e-folding distance [km]</th><th>drift [deg/rev]</th></tr>{rows}</table>{table}")

@@ -1,0 +1,237 @@
+"""The one verdict at the top of the report: does the tread vibrate, does the tire wear
+into a polygon (from the vibration or from a forced resonance at stable rolling), when,
+and what to change so that neither happens (``docs/wear_and_design.md``).
+
+Every design option (which moves the SEV band) is judged by the wear too: the linear
+wear map with the option's parameters at the operating speed and on the drive cycle
+(:func:`wear_outlook`). The paper's point contact slides under the whole load, so its
+steady lateral force (about mu N) can far exceed what a real tire carries at the same slip
+angle, ``C_alpha * alpha``; where it does by more than :data:`OVERSTATED_FACTOR`, the wear
+judgement says that its growth is overstated (:func:`point_contact`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..models import get_model
+from ..params import Params
+from ..units import kmh_to_ms, wheel_rotation_frequency_hz
+
+__all__ = ["C_ALPHA_N_PER_RAD", "OVERSTATED_FACTOR", "point_contact", "wear_outlook", "judge_options", "verdict"]
+
+C_ALPHA_N_PER_RAD = 50.0e3
+"""Cornering stiffness of a passenger tire [N/rad] (no key gives it yet)."""
+OVERSTATED_FACTOR = 2.0
+"""The point contact's wear growth is flagged as overstated where its steady lateral force
+exceeds ``C_alpha * alpha`` by more than this factor [-]."""
+
+
+def point_contact(params: Params, speed_kmh: float) -> dict:
+    """The point contact's steady lateral force at ``speed_kmh`` [km/h] against a tire's
+    ``C_alpha * alpha``, alpha [rad] the steady slip angle ``asin(v_r / V)`` of the model:
+    ``{"lateral_force_n", "slip_angle_deg", "c_alpha_n_per_rad", "c_alpha_alpha_n", "ratio",
+    "overstated"}`` (``overstated``: the ratio exceeds :data:`OVERSTATED_FACTOR`)."""
+    model = get_model(params.model)
+    V = float(kmh_to_ms(speed_kmh))
+    q = model.prepared(V, model.pack(params))
+    aux = dict(zip(model.aux_names, model.diagnostics(model.equilibrium(V, q), V, q)))
+    force = abs(float(aux["friction_force"]))
+    alpha = math.asin(min(abs(float(aux["sliding_velocity"])) / V, 1.0))
+    linear = C_ALPHA_N_PER_RAD * alpha
+    ratio = force / linear if linear > 0.0 else math.inf
+    return {"lateral_force_n": force, "slip_angle_deg": math.degrees(alpha), "c_alpha_n_per_rad": C_ALPHA_N_PER_RAD,
+            "c_alpha_alpha_n": linear, "ratio": ratio if math.isfinite(ratio) else None,
+            "overstated": bool(ratio > OVERSTATED_FACTOR)}
+
+
+def _linear_visible_km(params: Params, rates: np.ndarray, distance_km: float) -> float | None:
+    """First distance [km] within ``distance_km`` at which the seeded roughness grown at the
+    complex ``rates`` per km (``W_n exp(rate_n D)``) reaches the visible depth; None if it does
+    not (grid of 200 steps, then bisection to 1 km)."""
+    from ..wear.evolution import initial_roughness, peak_to_valley
+
+    W0 = initial_roughness(params)
+    limit = params.wear.visible_depth_mm * 1e-3
+    pts = params.wear.profile_points
+
+    def visible(D: float) -> bool:
+        return peak_to_valley(W0 * np.exp(rates * D), pts) >= limit
+
+    grid = np.linspace(0.0, distance_km, 201)
+    hit = next((i for i, D in enumerate(grid) if visible(float(D))), None)
+    if hit is None:
+        return None
+    if hit == 0:
+        return 0.0
+    lo, hi = float(grid[hit - 1]), float(grid[hit])
+    while hi - lo > 1.0:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if visible(mid) else (mid, hi)
+    return hi
+
+
+def wear_outlook(params: Params, distance_km: float) -> dict:
+    """What the linear wear map says for ``params``: at the operating speed, the fastest
+    growing order and its e-folding distance [km] (``rolling_stable`` False: the tread
+    vibrates there, the map does not apply); on the drive cycle, the speeds where steady
+    rolling is unstable, else the distance [km] within ``distance_km`` at which the seeded
+    roughness grown at the cycle's share-weighted rates becomes visible (None: not within it)
+    and its order; and the :func:`point_contact` check at the operating speed."""
+    from ..wear.design import cycle_rates
+    from ..wear.map import wear_map
+
+    op = params.operating.speed_kmh
+    row = wear_map(params, [op]).rows()[0]
+    cycle = params.wear.cycle_shares()
+    out = {"operating": {k: row[k] for k in ("speed_kmh", "rolling_stable", "order", "frequency_hz", "efold_km")},
+           "cycle": {"basis": "linear wear map", "distance_km": distance_km}, "point_contact": point_contact(params, op)}
+    rates = cycle_rates(params, cycle)
+    if rates is None:
+        stable = wear_map(params, [v for v, _ in cycle]).rolling_stable
+        out["cycle"].update(rolling_stable=False, visible_km=None, order=None,
+                            vibrating_speeds_kmh=[v for (v, _), ok in zip(cycle, stable) if not ok])
+        return out
+    visible = _linear_visible_km(params, rates, distance_km)
+    out["cycle"].update(rolling_stable=True, visible_km=visible, order=int(np.argmax(rates.real)) + 1,
+                        vibrating_speeds_kmh=[])
+    return out
+
+
+def judge_options(params: Params, design: dict, distance_km: float, nominal_visible_km: float | None) -> list[dict]:
+    """The wear judgement of every computed design option (``design``: the report's design
+    summary), in its order: :func:`wear_outlook` with the option's values, ``sooner``
+    (the polygon on the drive cycle becomes visible before ``nominal_visible_km``, the
+    nominal car's visible distance [km] or None; None where the option leaves a cycle speed
+    vibrating) and ``text``. Options not computed (no values) get None."""
+    from ..dynamics.sensitivity import perturbed
+
+    out = []
+    for o in design["options"]:
+        if o["values"] == o["nominal"]:
+            out.append(None)
+            continue
+        changed = params
+        for key, value in zip(o["params"], o["values"]):
+            changed = perturbed(changed, key, value)
+        look = wear_outlook(changed, distance_km)
+        c = look["cycle"]
+        sooner = None if not c["rolling_stable"] else (
+            c["visible_km"] is not None and (nominal_visible_km is None or c["visible_km"] < nominal_visible_km))
+        look["sooner"] = sooner
+        look["text"] = _option_text(look, nominal_visible_km, distance_km)
+        out.append(look)
+    return out
+
+
+def _km(km: float) -> str:
+    """A distance to two significant figures, '20,000'."""
+    digits = max(0, int(math.floor(math.log10(max(km, 1.0)))) - 1)
+    return f"{round(km, -digits):,.0f}"
+
+
+def _option_text(look: dict, nominal_visible_km: float | None, distance_km: float) -> str:
+    """The wear judgement of one option in words."""
+    c, op = look["cycle"], look["operating"]
+    if not c["rolling_stable"]:
+        text = ("the tread still vibrates on the drive cycle at "
+                + ", ".join(f"{v:g}" for v in c["vibrating_speeds_kmh"]) + " km/h (the wear map does not apply there)")
+    elif c["visible_km"] is None:
+        text = f"no visible polygon within {distance_km:,.0f} km on the drive cycle (linear wear map)"
+    else:
+        text = (f"{c['order']}-sided polygon visible after about {_km(c['visible_km'])} km on the drive cycle "
+                "(linear wear map)")
+        if look["sooner"]:
+            text = "brings the polygon sooner: " + text + (
+                f", against {_km(nominal_visible_km)} km now" if nominal_visible_km is not None
+                else f", against none within {distance_km:,.0f} km now")
+    if op["rolling_stable"] and op["efold_km"] is not None:
+        text += (f"; at {op['speed_kmh']:g} km/h order {op['order']} grows by e every {_km(op['efold_km'])} km")
+    if look["point_contact"]["overstated"]:
+        text += "; " + _overstated(look["point_contact"])
+    return text
+
+
+def _overstated(pc: dict) -> str:
+    return (f"the point contact's lateral force {pc['lateral_force_n']:,.0f} N is {pc['ratio']:.0f} times a "
+            f"tire's C_alpha*alpha = {pc['c_alpha_alpha_n']:,.0f} N ({pc['c_alpha_n_per_rad'] / 1e3:g} kN/rad at "
+            f"{pc['slip_angle_deg']:.2f} deg): it slides under the whole load, so its wear growth is overstated")
+
+
+def verdict(summary: dict, params: Params, vibration: str) -> dict:
+    """The one verdict from the report's summary (``operating``, ``wear``, ``design``):
+    ``lines`` (vibration, polygon, what the distances assume, what to change),
+    ``vibrates``, ``polygon_visible`` (None: no evolution run), ``sides``, ``visible_km``
+    per evolution, ``source`` of the polygon, the :func:`point_contact` check and the
+    wear judgement of every design option (:func:`judge_options`). ``vibration`` is the
+    sentence on the vibration at the operating speed."""
+    v, wear, design = summary["operating"], summary["wear"], summary["design"]
+    evs = {ev["label"]: ev for ev in wear["evolutions"]}
+    distance = max((ev["distance_km"] for ev in evs.values()), default=params.wear.report_km)
+    vibrates = "sev_amplitude_x_m" in v
+    visible = [ev for ev in evs.values() if ev["visible_km"] is not None]
+    first = min(visible, key=lambda ev: ev["visible_km"]) if visible else None
+    pc = point_contact(params, params.operating.speed_kmh)
+    out = {"vibrates": vibrates, "polygon_visible": bool(visible) if evs else None,
+           "sides": first["dominant_order"] if first else None,
+           "visible_km": {label: ev["visible_km"] for label, ev in evs.items()},
+           "source": None, "point_contact": pc}
+    lines = [vibration]
+    if first is not None:
+        shaking = sorted({c["speed_kmh"] for ev in visible for c in ev["cycle"] if c["vibration_order_end"] is not None})
+        if shaking:
+            out["source"] = "vibration"
+            cause = "from the vibration of the tread at " + ", ".join(f"{s:g}" for s in shaking) + " km/h"
+        else:
+            out["source"] = "forced resonance"
+            n, alone = first["dominant_order"], evs.get("operating speed")
+            if alone is not None and alone["visible_km"] is not None:
+                speed = alone["cycle"][0]["speed_kmh"]
+                f = n * wheel_rotation_frequency_hz(kmh_to_ms(speed), params.operating.rolling_radius_m)
+                where = f" ({f:.0f} Hz at {speed:g} km/h)"
+            else:
+                where = " on the drive cycle"
+            cause = f"from a forced resonance of the tread at order {n}{where}, while steady rolling is stable"
+        lines.append(f"The tire wears into a polygon, {cause}. " + " ".join(wear["headline"]))
+    elif evs:
+        lines.append("The tire does not wear into a visible polygon. " + " ".join(wear["headline"]))
+    else:
+        lines.append("Wear evolution not run (--wear-km 0 or wear.report_km = 0): the wear map alone, "
+                     + " ".join(wear["sentences"]))
+    if pc["overstated"]:
+        lines.append("Beside the wear judgement: " + _overstated(pc) + " (until the patch contact replaces it).")
+    nominal_visible = evs["drive cycle"]["visible_km"] if "drive cycle" in evs else None
+    judged = judge_options(params, design, distance, nominal_visible) if (vibrates or visible) else []
+    out["design_options"] = judged
+    lines.append(_what_to_change(vibrates, bool(visible), bool(evs), design, judged, distance))
+    out["lines"] = lines
+    return out
+
+
+def _what_to_change(vibrates: bool, visible: bool, evolved: bool, design: dict, judged: list,
+                    distance_km: float) -> str:
+    """The last line of the verdict: nothing, or the first design option that clears the
+    band without bringing the polygon sooner (else the first that clears it, marked)."""
+    if not vibrates and not visible:
+        if not evolved:
+            return "Nothing to change for the vibration; the wear was not evolved, so it is not judged here."
+        return (f"Nothing to change: the tread does not vibrate and no polygon becomes visible within "
+                f"{distance_km:,.0f} km.")
+    lo, hi = design["operating_range_kmh"]
+    cleared = [(o, j) for o, j in zip(design["options"], judged) if o["achieved"] and j is not None]
+    if not cleared:
+        if not design["options"] and visible:
+            return (f"What to change: there is no SEV band to move out of {lo:g}-{hi:g} km/h, but the tire still "
+                    f"wears into a polygon: the wear itself must change (polywear wear design --target-km "
+                    f"{distance_km:g}).")
+        if not design["options"]:
+            return f"What to change: no design option for {lo:g}-{hi:g} km/h: {design['reason']}"
+        return f"What to change: no design option clears the SEV band from {lo:g}-{hi:g} km/h (see the design section)."
+    good = [(o, j) for o, j in cleared if j["cycle"]["rolling_stable"] and not j["sooner"]]
+    o, j = (good or cleared)[0]
+    text = f"What to change: {o['change']} clears the SEV band from {lo:g}-{hi:g} km/h; wear: {j['text']}."
+    if not good:
+        text += " No option that clears the band keeps the polygon from coming sooner."
+    return text
