@@ -371,3 +371,106 @@ def test_a_motion_decayed_to_rounding_noise_is_no_sev(cascade_axle):
     assert [a.regime for a in found] == ["no SEV"]
     verdict = operating_verdict(diagram, params, 57.0)
     assert verdict["regime"] == "no SEV" and verdict["other_attractors"] == []
+
+
+# -- one verdict: vibration and wear together (report/verdict.py) ---------------------------
+def _wear_summary(*evolutions):
+    from polywear.report.wear import wear_headline
+
+    section = {"energetic_rate_mm3_per_j": 1e-3, "initial_roughness_um": 1.0, "map_rows": [], "sentences": [],
+               "evolutions": list(evolutions)}
+    section["headline"] = wear_headline(section)
+    return section
+
+
+def _alone(speed_kmh, visible_km, order, vibration_order=None, locked=False):
+    """An evolution at one speed as summary.json holds it."""
+    return {"label": "operating speed", "distance_km": 100_000.0, "visible_km": visible_km, "visible_depth_mm": 0.1,
+            "dominant_order": order, "final_depth_mm": 0.4 if visible_km else 0.02,
+            "growth_efolds": 5.0 if visible_km else None,
+            "cycle": [{"speed_kmh": speed_kmh, "share": 1.0, "vibration_order_end": vibration_order,
+                       "locked_fraction": float(locked), "locked_at_end": locked}]}
+
+
+NO_BAND = {"operating_range_kmh": [80.0, 130.0], "options": [],
+           "reason": "No SEV band in 20-300 km/h: steady rolling is stable and no stable cycle exists, so there is "
+                     "nothing to move."}
+STABLE_ROLLING = {"speed_kmh": 110.0, "steady_rolling_stable": True, "in_sev_band": False, "regime": "no SEV"}
+
+
+def test_stable_rolling_car_with_a_visible_polygon_gets_a_wear_warning_not_safe():
+    """The issue's toe 0.05 deg car: no SEV, but a 10-sided polygon from a forced resonance of
+    the tread at 110 km/h. The verdict names it, with its frequency (10 f_rot, closed form)."""
+    from polywear.report.verdict import verdict
+
+    params = _toe(0.05)
+    ev = _alone(110.0, 26_000.0, 10)
+    summary = {"operating": STABLE_ROLLING, "wear": _wear_summary(ev, {**ev, "label": "drive cycle"}),
+               "design": NO_BAND}
+    v = verdict(summary, params, _sentence(STABLE_ROLLING))
+    text = " ".join(v["lines"])
+    assert v["polygon_visible"] and v["sides"] == 10 and v["source"] == "forced resonance" and not v["vibrates"]
+    f_rot = 110.0 / 3.6 / (2.0 * math.pi * params.operating.rolling_radius_m)
+    assert f"forced resonance of the tread at order 10 ({10 * f_rot:.0f} Hz at 110 km/h)" in text
+    assert "a 10-sided polygon becomes visible (0.1 mm) after about 26,000 km" in text
+    assert "Nothing to change" not in text and "nothing to move" not in text.replace(NO_BAND["reason"], "")
+    assert "the wear itself must change" in v["lines"][-1]
+    # the same car without a visible polygon: safe
+    quiet = _alone(110.0, None, 10)
+    v = verdict({**summary, "wear": _wear_summary(quiet, {**quiet, "label": "drive cycle"})}, params,
+                _sentence(STABLE_ROLLING))
+    assert v["polygon_visible"] is False and v["lines"][-1].startswith("Nothing to change")
+
+
+def test_wear_not_evolved_is_not_called_safe():
+    from polywear.report.verdict import verdict
+
+    summary = {"operating": STABLE_ROLLING, "wear": _wear_summary(), "design": NO_BAND}
+    v = verdict(summary, _toe(0.05), _sentence(STABLE_ROLLING))
+    assert v["polygon_visible"] is None and "not evolved" in v["lines"][-1] and "Nothing to change:" not in v["lines"][-1]
+
+
+def test_point_contact_force_against_c_alpha_alpha():
+    """tread1dof: at steady rolling the tread does not move, so the slip angle is the toe angle
+    (closed form); the LuGre force lies between mu_c N and mu_s N plus the viscous sigma2 v_r."""
+    from polywear.report.verdict import C_ALPHA_N_PER_RAD, point_contact
+
+    for toe in (0.05, 0.5, 5.0):
+        params = _toe(toe)
+        pc = point_contact(params, 110.0)
+        f = params.friction
+        N = params.operating.vertical_load_n
+        v_r = 110.0 / 3.6 * math.sin(math.radians(toe))
+        assert pc["slip_angle_deg"] == pytest.approx(toe, rel=1e-9)
+        assert f.mu_coulomb * N <= pc["lateral_force_n"] <= f.mu_static * N + f.sigma2_s_per_m * N * v_r + 1e-9
+        assert pc["c_alpha_alpha_n"] == pytest.approx(C_ALPHA_N_PER_RAD * math.radians(toe), rel=1e-9)
+        assert pc["overstated"] == (pc["lateral_force_n"] > 2.0 * pc["c_alpha_alpha_n"])
+    assert point_contact(_toe(0.05), 110.0)["overstated"] and not point_contact(_toe(5.0), 110.0)["overstated"]
+
+
+def test_option_that_clears_the_band_but_brings_the_polygon_sooner_is_shown_as_such():
+    """Toe 0.5 -> 0.05 deg clears the band; against a car with no visible polygon within
+    100 000 km it brings one. Its distance (linear map) checked against the linear depth of
+    wear.design, computed independently: visible at that distance, not 2 km before."""
+    from polywear.report.verdict import verdict
+    from polywear.wear.design import linear_depth_mm
+
+    params = Params()
+    option = {"params": ["operating.toe_deg"], "nominal": [0.5], "values": [0.05], "achieved": True,
+              "change": "toe angle 0.5° → 0.05° (−90.0 %)"}
+    design = {"operating_range_kmh": [80.0, 130.0], "options": [option], "reason": ""}
+    vibrating = {"speed_kmh": 110.0, "steady_rolling_stable": False, "regime": "unstable rolling (soft SEV)",
+                 "sev_amplitude_x_m": 2.7e-4}
+    quiet = _alone(110.0, None, 9, vibration_order=8.52)
+    summary = {"operating": vibrating, "wear": _wear_summary(quiet, {**quiet, "label": "drive cycle"}),
+               "design": design}
+    v = verdict(summary, params, "At 110 km/h: self-excited vibration.")
+    (judged,) = v["design_options"]
+    km = judged["cycle"]["visible_km"]
+    assert judged["sooner"] and judged["text"].startswith("brings the polygon sooner")
+    assert "against none within 100,000 km now" in judged["text"]
+    changed = _toe(0.05)
+    visible = changed.wear.visible_depth_mm
+    assert linear_depth_mm(changed, km) >= visible > linear_depth_mm(changed, km - 2.0)
+    assert "clears the SEV band" in v["lines"][-1] and "brings the polygon sooner" in v["lines"][-1]
+    assert "No option that clears the band keeps the polygon from coming sooner" in v["lines"][-1]
