@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pytest
 
-from polywear.dynamics.attractor import PERIOD_MULTIPLIED, QUASI_PERIODIC, reached_attractors
+from polywear.dynamics.attractor import Regime, reached_attractors
 from polywear.dynamics.bifurcation import SPEED_CEILING_KMH, bifurcation, statically_divergent
 from polywear.dynamics.design import design
 from polywear.dynamics.sensitivity import sensitivity
@@ -137,7 +137,7 @@ def test_stick_slip_past_period_doubling_is_named_with_amplitude_and_frequency()
     assert diagram.hopf_points == [] and diagram.linear_band_kmh == [(100.0, 120.0)]
     (found,) = reached_attractors(diagram, 110.0)
     st = found.run.steady
-    assert found.regime == PERIOD_MULTIPLIED and st.maxima_per_period >= 2
+    assert found.regime == Regime.PERIOD_MULTIPLIED and st.maxima_per_period >= 2
     ratio = found.dominant_frequency_hz * st.period
     assert ratio == pytest.approx(round(ratio), abs=0.02) and round(ratio) >= 1
     again = simulate(params, 110.0, 1.0, initial=found.run.u[-1])
@@ -145,9 +145,9 @@ def test_stick_slip_past_period_doubling_is_named_with_amplitude_and_frequency()
     assert again.steady.amplitude[0] == pytest.approx(found.amplitude[0], rel=1e-3)
     assert again.steady.period == pytest.approx(st.period, rel=1e-4)
     verdict = operating_verdict(diagram, params, 110.0)
-    assert verdict["regime"] == PERIOD_MULTIPLIED and verdict["sev_amplitude_x_m"] == found.amplitude[0]
+    assert verdict["regime"] == Regime.PERIOD_MULTIPLIED and verdict["sev_amplitude_x_m"] == found.amplitude[0]
     assert verdict["frequency_hz"] == found.dominant_frequency_hz
-    assert PERIOD_MULTIPLIED in _sentence(verdict)
+    assert Regime.PERIOD_MULTIPLIED in _sentence(verdict)
 
 
 @pytest.fixture(scope="module")
@@ -298,13 +298,13 @@ def test_sustained_irregular_oscillation_is_quasi_periodic_or_chaotic():
     params = with_updates(Params(), {"friction.mu_coulomb": 0.3})
     diagram = bifurcation(params, (85.0, 95.0), extend=False)  # unstable rolling, no continuation
     (found,) = reached_attractors(diagram, 90.0)
-    assert found.regime == QUASI_PERIODIC and found.run.steady.outcome == "transient"
+    assert found.regime == Regime.QUASI_PERIODIC and found.run.steady.outcome == "transient"
     assert 100.0 < found.dominant_frequency_hz < 160.0
     other = simulate(params, 90.0, 5.0, disturbance=1e-3)
     last = other.t >= 4.0
     assert 2.0 * found.amplitude[0] == pytest.approx(np.ptp(other.u[last, 0]), rel=0.02)
     verdict = operating_verdict(diagram, params, 90.0)
-    assert verdict["regime"] == QUASI_PERIODIC and verdict["sev_amplitude_x_m"] == found.amplitude[0]
+    assert verdict["regime"] == Regime.QUASI_PERIODIC and verdict["sev_amplitude_x_m"] == found.amplitude[0]
 
 
 # an axle4dof car with four Hopf points (+-10 % around the defaults): its period-1 cycles
@@ -340,7 +340,7 @@ def test_gap_of_the_band_after_a_period_doubling_is_decided_by_simulation(cascad
     assert np.linalg.eigvals(model.jacobian(model.equilibrium(V, p), V, p)).real.max() < 0.0
     verdict = operating_verdict(diagram, params, 58.0)
     assert verdict["steady_rolling_stable"] and not verdict["in_sev_band"] and verdict["in_band_gap_after_pd_ns"]
-    assert verdict["regime"] == QUASI_PERIODIC and 0.4e-3 < verdict["sev_amplitude_x_m"] < 0.8e-3
+    assert verdict["regime"] == Regime.QUASI_PERIODIC and 0.4e-3 < verdict["sev_amplitude_x_m"] < 0.8e-3
     assert [a["regime"] for a in verdict["other_attractors"]] == ["no SEV"]
     x = model.index("x")
     start = np.array(min((c for c in diagram.cycles if c.stable), key=lambda c: abs(c.speed_kmh - 58.0)).orbit.nodes[0])

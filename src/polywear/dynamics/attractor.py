@@ -33,27 +33,32 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from enum import StrEnum
 
 import numpy as np
 
 from ..units import ms_to_kmh
 from ..results import Result
-from .simulation import SimulationResult, _finite, simulate
+from .simulation import SimulationResult, SteadyOutcome, _finite, simulate
 
-__all__ = ["Attractor", "reached_attractors", "dominant_frequency"]
+__all__ = ["Attractor", "Regime", "reached_attractors", "dominant_frequency"]
 
-PERIOD_MULTIPLIED = "period-multiplied SEV (stick-slip)"
-OFF_BRANCH_CYCLE = "SEV on a cycle off the continued branches"
-QUASI_PERIODIC = "quasi-periodic or chaotic SEV"
-DIVERGENCE = "static divergence"
-NO_SEV = "no SEV"
+
+class Regime(StrEnum):
+    """The motion a simulation settled on (the value is the text of reports and JSON; the module says when)."""
+
+    PERIOD_MULTIPLIED = "period-multiplied SEV (stick-slip)"
+    OFF_BRANCH_CYCLE = "SEV on a cycle off the continued branches"
+    QUASI_PERIODIC = "quasi-periodic or chaotic SEV"
+    DIVERGENCE = "static divergence"
+    NO_SEV = "no SEV"
 
 
 @dataclass(frozen=True)
 class Attractor(Result):
     """The motion a simulation settled on at one speed."""
 
-    regime: str
+    regime: Regime
     speed_kmh: float
     amplitude: np.ndarray
     """Half peak-to-peak per state over the analysed window [state units]."""
@@ -67,7 +72,7 @@ class Attractor(Result):
 
     @property
     def oscillating(self) -> bool:
-        return self.regime not in (DIVERGENCE, NO_SEV)
+        return self.regime not in (Regime.DIVERGENCE, Regime.NO_SEV)
 
     @property
     def params(self):
@@ -82,7 +87,7 @@ class Attractor(Result):
     def _dataset(self):
         """The classified piece's data (a :class:`SimulationResult`) with the regime in attrs."""
         ds = self.run._dataset()
-        ds.attrs.update(regime=self.regime, start=self.start, simulated_s=self.simulated_s,
+        ds.attrs.update(regime=self.regime.value, start=self.start, simulated_s=self.simulated_s,
                         dominant_frequency_hz=self.dominant_frequency_hz)
         return ds
 
@@ -156,7 +161,7 @@ def _same(a: Attractor, b: Attractor) -> bool:
     x = a.run.model.index("x")
     if a.regime != b.regime:
         return False
-    if a.regime == NO_SEV:  # both back on steady rolling (their offsets are rounding noise)
+    if a.regime is Regime.NO_SEV:  # both back on steady rolling (their offsets are rounding noise)
         return True
     if not a.oscillating:  # at rest or drifting: the same if it ends at the same offset (1 %)
         oa, ob = (float(r.run.steady.mean[x] - r.run.equilibrium[x]) for r in (a, b))
@@ -202,15 +207,15 @@ def _attractor(params, speed_kmh, duration_s, initial, start, max_runs: int = 4)
     frequency = dominant_frequency(t, s)
     # an oscillation shows at least min_cycles periods of its dominant frequency in the window
     oscillating = frequency * (t[-1] - t[0]) >= run.settings.min_cycles
-    if st.outcome == "equilibrium" or decayed:
-        regime = NO_SEV
-    elif st.outcome == "cycle":
-        regime = PERIOD_MULTIPLIED if st.maxima_per_period > 1 else OFF_BRANCH_CYCLE
+    if st.outcome is SteadyOutcome.EQUILIBRIUM or decayed:
+        regime = Regime.NO_SEV
+    elif st.outcome is SteadyOutcome.CYCLE:
+        regime = Regime.PERIOD_MULTIPLIED if st.maxima_per_period > 1 else Regime.OFF_BRANCH_CYCLE
     elif not oscillating:
-        regime = DIVERGENCE  # at rest or drifting, away from steady rolling
+        regime = Regime.DIVERGENCE  # at rest or drifting, away from steady rolling
     else:
-        regime = QUASI_PERIODIC
-    amplitude = st.amplitude if st.outcome == "cycle" else 0.5 * np.ptp(run.u[window], axis=0)
-    if regime in (NO_SEV, DIVERGENCE):
+        regime = Regime.QUASI_PERIODIC
+    amplitude = st.amplitude if st.outcome is SteadyOutcome.CYCLE else 0.5 * np.ptp(run.u[window], axis=0)
+    if regime in (Regime.NO_SEV, Regime.DIVERGENCE):
         frequency = math.nan
     return Attractor(regime, float(speed_kmh), np.asarray(amplitude), frequency, run, start, total)

@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from enum import StrEnum
 
 import numpy as np
 
@@ -50,6 +51,7 @@ from .sensitivity import (
 __all__ = [
     "DEFAULT_KEYS",
     "DesignOption",
+    "DesignOutcome",
     "DesignResult",
     "DesignSettings",
     "design",
@@ -117,6 +119,17 @@ def _percent(r: float) -> str:
     return f"{'+' if r >= 0 else '−'}{abs(r) * 100:.1f} %"
 
 
+class DesignOutcome(StrEnum):
+    """Where an option that clears the operating range puts the SEV band (the value is its text)."""
+
+    NOT_CLEARED = ""
+    """The option does not clear the range (its ``note`` says why)."""
+    VANISHES = "the band vanishes"
+    ABOVE = "the band moves above the range"
+    BELOW = "the band moves below the range"
+    BOTH_SIDES = "bands remain on both sides of the range"
+
+
 @dataclass
 class DesignOption:
     """One way to clear the operating range: parameter values and the resulting band.
@@ -131,7 +144,7 @@ class DesignOption:
     achieved: bool
     sev_band_kmh: list
     within_bound: bool = True
-    outcome: str = ""
+    outcome: DesignOutcome = DesignOutcome.NOT_CLEARED
     diagram: BifurcationDiagram | None = field(default=None, repr=False)
     note: str = ""
 
@@ -345,14 +358,14 @@ def _gap(band, low: float, high: float) -> float | None:
     return -min(above + below)
 
 
-def _outcome(band, low: float, high: float) -> str:
+def _outcome(band, low: float, high: float) -> DesignOutcome:
     if not band:
-        return "the band vanishes"
+        return DesignOutcome.VANISHES
     if all(a >= high for a, _ in band):
-        return "the band moves above the range"
+        return DesignOutcome.ABOVE
     if all(b <= low for _, b in band):
-        return "the band moves below the range"
-    return "bands remain on both sides of the range"
+        return DesignOutcome.BELOW
+    return DesignOutcome.BOTH_SIDES
 
 
 @dataclass
@@ -409,7 +422,7 @@ class _Search:
                            "so a clear range cannot be confirmed")
         option.sev_band_kmh = band
         option.diagram = diagram
-        option.outcome = _outcome(band, self.low, self.high) if option.achieved else ""
+        option.outcome = _outcome(band, self.low, self.high) if option.achieved else DesignOutcome.NOT_CLEARED
         option.within_bound = option.relative_change <= self.max_relative_change * (1 + 1e-9)
         return option, g
 

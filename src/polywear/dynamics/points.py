@@ -13,7 +13,7 @@ from enum import StrEnum
 
 import numpy as np
 
-__all__ = ["PointKind", "SpecialPoint"]
+__all__ = ["Criticality", "PointKind", "SpecialPoint"]
 
 
 class PointKind(StrEnum):
@@ -37,6 +37,15 @@ class PointKind(StrEnum):
     """Turning point of a Hopf curve in the map's parameter: the two Hopf speeds of a band merge, the linear band closes."""
 
 
+class Criticality(StrEnum):
+    """How steady rolling loses stability at a Hopf point (the sign of the first Lyapunov coefficient l1)."""
+
+    SOFT = "soft"
+    """Supercritical (l1 < 0): a small stable cycle grows out of steady rolling (soft self-excitation)."""
+    HARD = "hard"
+    """Subcritical (l1 > 0): an unstable cycle ends there; a large disturbance starts SEV before it (hard)."""
+
+
 @dataclass(frozen=True)
 class SpecialPoint:
     """One special point: its kind, speed [km/h] and what is known there.
@@ -45,7 +54,7 @@ class SpecialPoint:
     [state units: m, rad] (None where there is no cycle or it is not known); ``branch``
     the index of the cycle branch it lies on; ``value`` the parameter value of a
     stability map [key units] (None on a one-parameter diagram); ``criticality``
-    ``"soft"`` or ``"hard"`` at a Hopf point; ``orbit`` the periodic orbit, where the
+    :class:`Criticality` at a Hopf point; ``orbit`` the periodic orbit, where the
     point was located on one by continuation.
     """
 
@@ -56,7 +65,7 @@ class SpecialPoint:
     amplitude: np.ndarray | None = field(default=None, compare=False)
     branch: int | None = None
     value: float | None = None
-    criticality: str | None = None
+    criticality: Criticality | None = None
     orbit: object = field(default=None, repr=False, compare=False)
 
     @property

@@ -34,6 +34,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import asdict, dataclass, field
+from enum import StrEnum
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -49,6 +50,7 @@ from ..solvers.integrate import METHODS, StepStats, integrate
 
 __all__ = [
     "SimulationSettings",
+    "SteadyOutcome",
     "SteadyState",
     "SimulationResult",
     "SimulationSet",
@@ -89,12 +91,22 @@ class SimulationSettings:
         check_count(self, "min_cycles", minimum=2)
 
 
+class SteadyOutcome(StrEnum):
+    """What the end of a run settled on (the value is the text of summaries and files)."""
+
+    EQUILIBRIUM = "equilibrium"
+    """Back at rest: steady rolling, or another equilibrium."""
+    CYCLE = "cycle"
+    """On a cycle: period and amplitude settled within ``cycle_rtol``."""
+    TRANSIENT = "transient"
+    """Neither yet (still growing or decaying, or not periodic)."""
+
+
 @dataclass(frozen=True)
 class SteadyState:
     """What the end of a run settled on, with amplitudes per state."""
 
-    outcome: str
-    """``"equilibrium"``, ``"cycle"`` or ``"transient"``."""
+    outcome: SteadyOutcome
     amplitude: np.ndarray
     """Half peak-to-peak per state over the analysed periods [state units]."""
     mean: np.ndarray
@@ -116,7 +128,7 @@ class SteadyState:
     @property
     def steady(self) -> bool:
         """True if the run ended on the equilibrium or on a cycle."""
-        return self.outcome != "transient"
+        return self.outcome is not SteadyOutcome.TRANSIENT
 
     @property
     def frequency(self) -> float:
@@ -229,7 +241,7 @@ def classify_window(model, V, p, t, u, dense, u_eq, deviation_scale, settings: S
         (last <= previous) | (last <= resolved)
     ):
         return SteadyState(
-            outcome="equilibrium", amplitude=0.5 * np.ptp(u[half:], axis=0), mean=u[half:].mean(axis=0),
+            outcome=SteadyOutcome.EQUILIBRIUM, amplitude=0.5 * np.ptp(u[half:], axis=0), mean=u[half:].mean(axis=0),
             maximum=u[half:].max(axis=0), minimum=u[half:].min(axis=0), period=math.nan,
             n_cycles=0, maxima_per_period=0, period_change=math.nan, amplitude_change=math.nan,
         )
@@ -239,7 +251,7 @@ def classify_window(model, V, p, t, u, dense, u_eq, deviation_scale, settings: S
     m = _maxima_per_period(t_max, v_max, span, settings.cycle_rtol) if len(t_max) > 2 else 1
     n_cycles = max(len(t_max) - 1, 0) // m
     if n_cycles < 1:
-        return SteadyState("transient", nan, u.mean(axis=0), u.max(axis=0), u.min(axis=0),
+        return SteadyState(SteadyOutcome.TRANSIENT, nan, u.mean(axis=0), u.max(axis=0), u.min(axis=0),
                            math.nan, 0, m, math.nan, math.nan)
     first = len(t_max) - 1 - n_cycles * m  # whole periods ending at the last maximum
     t_max, v_max = t_max[first:], v_max[first:]
@@ -263,7 +275,7 @@ def classify_window(model, V, p, t, u, dense, u_eq, deviation_scale, settings: S
     tw = t[inside]
     mean = np.trapezoid(u[inside], tw, axis=0) / (tw[-1] - tw[0]) if tw[-1] > tw[0] else u[inside].mean(axis=0)
     return SteadyState(
-        outcome="cycle" if steady_cycle else "transient",
+        outcome=SteadyOutcome.CYCLE if steady_cycle else SteadyOutcome.TRANSIENT,
         amplitude=0.5 * (maximum - minimum), mean=mean, maximum=maximum, minimum=minimum,
         period=float((t_max[-1] - t_max[0]) / n_cycles), n_cycles=n_cycles, maxima_per_period=m,
         period_change=float(period_change), amplitude_change=float(amplitude_change),
@@ -348,7 +360,7 @@ class SimulationResult(Result):
                 "speed_kmh": self.speed_kmh,
                 "duration_s": self.duration_s,
                 "label": self.label,
-                "outcome": st.outcome,
+                "outcome": st.outcome.value,
                 "steady_state": int(st.steady),
                 "frequency_hz": st.frequency,
                 "period_s": st.period,

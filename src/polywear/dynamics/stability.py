@@ -25,7 +25,7 @@ from ..params import Params
 from ..settings import check_count, check_positive
 from ..units import DEFAULT_SPEED_RANGE_KMH, STABILITY_SPEED_RANGE_KMH, kmh_to_ms, ms_to_kmh
 from .derivatives import bilinear, jac_directional, rhs_directional, trilinear
-from .points import PointKind, SpecialPoint
+from .points import Criticality, PointKind, SpecialPoint
 
 __all__ = [
     "HopfPoint",
@@ -85,9 +85,9 @@ class HopfPoint:
         return self.omega / (2.0 * np.pi)
 
     @property
-    def criticality(self) -> str:
-        """``"soft"`` (supercritical) or ``"hard"`` (subcritical)."""
-        return "soft" if self.l1 < 0.0 else "hard"
+    def criticality(self) -> Criticality:
+        """Soft (supercritical, l1 < 0) or hard (subcritical)."""
+        return Criticality.SOFT if self.l1 < 0.0 else Criticality.HARD
 
     def special_point(self) -> SpecialPoint:
         """This Hopf point as a :class:`~polywear.dynamics.points.SpecialPoint` (kind HB)."""
