@@ -9,14 +9,13 @@ from typing import Annotated, Optional
 import typer
 
 from ..units import DEFAULT_SPEED_RANGE_KMH
-from .common import ConfigOpt, Outputs, SetOpt, SpeedRangeOpt
+from .common import Inputs, Outputs, SpeedRangeOpt
 from .common import (
     MAX_GRID_POINTS,
     NETCDF_OUTPUTS,
     UserError,
     check_count,
     check_speed_range,
-    load,
     one_axes,
     output_file,
     write_output,
@@ -34,8 +33,7 @@ class Method(str, Enum):
 
 
 def bifurcation(
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
+    inputs: Inputs = Inputs(),
     speed_range: SpeedRangeOpt = DEFAULT_SPEED_RANGE_KMH,
     method: Annotated[
         Method, typer.Option("--method", help="continuation (default) or the paper's brute-force sweep.")
@@ -55,13 +53,14 @@ def bifurcation(
     lo, hi = check_speed_range(speed_range)
     check_count(n_intervals, "--ntst", 4, MAX_INTERVALS)
     check_count(n_speeds, "--n-speeds", 3, MAX_SWEEP_SPEEDS if method is Method.sweep else MAX_GRID_POINTS)
-    params = load(config, set_)
+    params = inputs.load()
     if method is Method.sweep:
         from ..dynamics.bifurcation import OPERATING_MARGIN
         from ..dynamics.sweep import sweep_bands
 
         op = params.operating.speed_kmh  # the grid holds the operating speed, as the continuation's range does
-        result = _sweep(params, (min(lo, op / OPERATING_MARGIN), max(hi, op * OPERATING_MARGIN)), n_speeds or 30, outputs)
+        sweep_range = (min(lo, op / OPERATING_MARGIN), max(hi, op * OPERATING_MARGIN))
+        result = _sweep(params, sweep_range, n_speeds or 30, outputs)
         summary = {**sweep_bands(result), **result.summary()}
     else:
         from ..dynamics.bifurcation import bifurcation

@@ -8,8 +8,8 @@ from typing import Annotated, Optional
 import typer
 
 from ..units import STABILITY_SPEED_RANGE_KMH
-from .common import ConfigOpt, JsonOpt, Outputs, PlotOpt, QuietOpt, SetOpt, SpeedRangeOpt
-from .common import check_speed_range, load, one_axes, out_option, output_file, save_text, write_output
+from .common import Inputs, JsonOpt, Outputs, PlotOpt, QuietOpt, SpeedRangeOpt
+from .common import check_speed_range, one_axes, out_option, output_file, save_text, write_output
 
 JsonOutOpt = out_option("Write the result (JSON).")
 
@@ -17,8 +17,7 @@ JsonOutOpt = out_option("Write the result (JSON).")
 def calibrate(
     observed: Annotated[Path, typer.Option("--observed", help="TOML file of [[observation]] tables.")],
     vary: Annotated[list[str], typer.Option("--vary", help="Parameter key to fit, table.key (repeatable).")],
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
+    inputs: Inputs = Inputs(),
     speed_range: SpeedRangeOpt = STABILITY_SPEED_RANGE_KMH,
     profile: Annotated[
         bool, typer.Option("--profile/--no-profile", help="Profile-likelihood intervals (a refit per point).")
@@ -38,7 +37,7 @@ def calibrate(
     output_file(fitted, "--fitted", (".toml",))
     outputs.check()
     lo, hi = check_speed_range(speed_range)
-    params = load(config, set_)
+    params = inputs.load()
     from ..measured.calibration import calibrate as fit, read_observations
     from ..params import to_toml
 

@@ -136,11 +136,42 @@ def with_tir_option(command: Callable) -> Callable:
     return wrapper
 
 
+class OptionGroup:
+    """Options that travel together. A command declares them as one parameter whose default
+    is the group (a frozen dataclass, its fields named like the options);
+    :func:`with_option_groups` puts the options in that place of its --help and hands the
+    command their values as one such object."""
+
+    def options(self) -> list[tuple[str, Any, Any]]:
+        """(parameter name, typer annotation, default) of each option, in --help order."""
+        raise NotImplementedError
+
+
 @dataclass(frozen=True)
-class Outputs:
-    """The output options of a command, declared as one parameter ``outputs: Outputs =
-    Outputs(...)`` whose default says which it takes (:func:`with_output_options` puts them
-    in its place: ``--json``, ``--plot FILE``, ``--out FILE``, ``--quiet``); when the command
+class Inputs(OptionGroup):
+    """Where a command's parameters come from, ``inputs: Inputs = Inputs()``: ``--config
+    FILE`` and ``--set table.key=value`` (``--tir FILE``, last in --help, is added by
+    :func:`with_tir_option`)."""
+
+    config: Path | None = None
+    set_: list[str] | None = None
+
+    def options(self) -> list[tuple[str, Any, Any]]:
+        return [("config", ConfigOpt, None), ("set_", SetOpt, None)]
+
+    def load(self):
+        """The resolved, validated parameters (:func:`load`)."""
+        return load(self.config, self.set_)
+
+    def load_with_study(self):
+        """(parameters, study specification) (:func:`load_with_study`)."""
+        return load_with_study(self.config, self.set_)
+
+
+@dataclass(frozen=True)
+class Outputs(OptionGroup):
+    """How a command answers, ``outputs: Outputs = Outputs(...)``: ``--json``, ``--plot FILE``,
+    ``--out FILE`` and ``--quiet``, the default saying which it takes; when the command
     runs, their values and what it does with them."""
 
     out_help: str | None = None
@@ -155,7 +186,6 @@ class Outputs:
     quiet: bool = False
 
     def options(self) -> list[tuple[str, Any, Any]]:
-        """(parameter name, typer annotation, default) of each option, in --help order."""
         return [
             ("json_", JsonOpt, False),
             *([("plot", PlotOpt, None)] if self.takes_plot else []),
@@ -186,35 +216,41 @@ class Outputs:
             write_figure(self.plot, make_figure, self.quiet)
 
     def show(self, summary: Any, print_text: Callable[[Any], None]) -> None:
-        """``summary`` as JSON with ``--json``, else as text (:func:`show_summary`)."""
-        show_summary(summary, self.json_, print_text)
+        """``summary`` as JSON on stdout with ``--json`` (:func:`emit_json`), else as text by
+        ``print_text(summary)``."""
+        if self.json_:
+            emit_json(summary)
+        else:
+            print_text(summary)
 
 
 NETCDF_OUTPUTS = Outputs("Write the result (netCDF .nc).", (".nc",))
 """``--json``, ``--plot`` and ``--out`` of a result written as netCDF, ``--quiet``."""
 
 
-def with_output_options(command: Callable) -> Callable:
-    """``command`` with its ``outputs`` parameter replaced by the options its default
-    (an :class:`Outputs`) declares; the command receives their values as one Outputs."""
+def with_option_groups(command: Callable) -> Callable:
+    """``command`` with each parameter whose default is an :class:`OptionGroup` replaced, in
+    place, by the group's options; the command receives their values as one group object."""
     import dataclasses
     import functools
     import inspect
 
     sig = inspect.signature(command, eval_str=True)
-    declared = sig.parameters.get("outputs")
-    if declared is None or not isinstance(declared.default, Outputs):
+    groups = {p.name: p.default for p in sig.parameters.values() if isinstance(p.default, OptionGroup)}
+    if not groups:
         return command
-    options = declared.default.options()
 
     @functools.wraps(command)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
-        values = {name: kwargs.pop(name) for name, _, _ in options}
-        return command(*args, **kwargs, outputs=dataclasses.replace(declared.default, **values))
+        for name, group in groups.items():
+            values = {option: kwargs.pop(option) for option, _, _ in group.options()}
+            kwargs[name] = dataclasses.replace(group, **values)
+        return command(*args, **kwargs)
 
     parameters = []
     for p in sig.parameters.values():
-        if p is declared:
+        if p.name in groups:
+            options = groups[p.name].options()
             parameters += [inspect.Parameter(n, p.kind, default=d, annotation=a) for n, a, d in options]
         else:
             parameters.append(p)
@@ -224,10 +260,10 @@ def with_output_options(command: Callable) -> Callable:
 
 
 def add_shared_options(app: typer.Typer) -> None:
-    """Expand the ``outputs`` parameter (:func:`with_output_options`) and add ``--tir``
+    """Expand the option groups (:func:`with_option_groups`) and add ``--tir``
     (:func:`with_tir_option`) in every command of ``app`` and its sub-applications."""
     for command in app.registered_commands:
-        command.callback = with_tir_option(with_output_options(command.callback))
+        command.callback = with_tir_option(with_option_groups(command.callback))
     for group in app.registered_groups:
         add_shared_options(group.typer_instance)
 
@@ -355,15 +391,6 @@ def save_text(text: str) -> Callable[[Path], Any]:
 def emit_json(payload: Any) -> None:
     """Write a JSON summary to stdout (numpy scalars and arrays converted)."""
     typer.echo(json.dumps(payload, indent=2, default=_jsonable, allow_nan=False))
-
-
-def show_summary(summary: Any, json_: bool, print_text: Callable[[Any], None]) -> None:
-    """``summary`` as JSON on stdout with ``--json`` (:func:`emit_json`), else as text by
-    ``print_text(summary)``."""
-    if json_:
-        emit_json(summary)
-    else:
-        print_text(summary)
 
 
 @contextmanager

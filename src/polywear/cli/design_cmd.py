@@ -8,13 +8,12 @@ from typing import Annotated, Optional
 import typer
 
 from ..units import DEFAULT_SPEED_RANGE_KMH
-from .common import ConfigOpt, OperatingRangeOpt, Outputs, SetOpt, SpeedRangeOpt
-from .common import UserError, check_param_keys, check_speed_range, load, one_axes, user_errors
+from .common import Inputs, OperatingRangeOpt, Outputs, SpeedRangeOpt
+from .common import UserError, check_param_keys, check_speed_range, one_axes, user_errors
 
 
 def design(
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
+    inputs: Inputs = Inputs(),
     operating_range: OperatingRangeOpt = None,
     param: Annotated[
         Optional[list[str]],
@@ -52,7 +51,7 @@ def design(
         raise UserError(f"--search-factor {search_factor:g}: must be in (1, 10]")
     if not (math.isfinite(margin) and 0.0 <= margin <= 100.0):
         raise UserError(f"--margin {margin:g}: must be in [0, 100] km/h")
-    params = load(config, set_)
+    params = inputs.load()
     from ..dynamics.design import DEFAULT_KEYS, DesignSettings, default_operating_range, design
 
     operating_range = operating_range or default_operating_range(params.operating.speed_kmh)

@@ -6,13 +6,12 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import MAX_SPEED_KMH, ConfigOpt, Outputs, SetOpt, UserError, load
+from .common import MAX_SPEED_KMH, Inputs, Outputs, UserError
 from .simulate_cmd import MAX_DURATION_S
 
 
 def excitation(
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
+    inputs: Inputs = Inputs(),
     speed: Annotated[
         Optional[list[float]],
         typer.Option("--speed", help="Speed [km/h] (repeatable; default: the operating speed or the middle of "
@@ -36,7 +35,7 @@ def excitation(
         raise UserError(f"--speed: {len(speed)} speeds given, at most 10 (one portrait each)")
     if duration is not None and not duration <= MAX_DURATION_S:
         raise UserError(f"--duration {duration}: must be at most {MAX_DURATION_S:g} [s]")
-    params = load(config, set_)
+    params = inputs.load()
     from ..dynamics.bifurcation import bifurcation
     from ..dynamics.excitation import ExcitationSettings, default_speeds, excitation, portraits_figure
 

@@ -8,8 +8,8 @@ from typing import Annotated, Any, Optional
 
 import typer
 
-from .common import ConfigOpt, Outputs, SetOpt
-from .common import NETCDF_OUTPUTS, UserError, check_count, load, one_axes, save_text, user_errors
+from .common import Inputs, Outputs
+from .common import NETCDF_OUTPUTS, UserError, check_count, one_axes, save_text, user_errors
 
 MAX_POINTS = 100_000
 """Most samples of a curve or per loop."""
@@ -51,8 +51,7 @@ def _velocity(value: float, option: str) -> float:
 
 @app.command("curve")
 def curve(
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
+    inputs: Inputs = Inputs(),
     v_max: Annotated[float, typer.Option("--v-max", min=1e-9, help="Velocity range -v_max..v_max [m/s].")] = 1.5,
     points: Annotated[int, typer.Option("--points", min=3, help="Points of the curve.")] = 601,
     outputs: Outputs = NETCDF_OUTPUTS,
@@ -66,7 +65,7 @@ def curve(
     outputs.check()
     _velocity(v_max, "--v-max")
     check_count(points, "--points", 3, MAX_POINTS)
-    params = load(config, set_)
+    params = inputs.load()
     f = params.friction
     result = steady_curve(f, np.linspace(-v_max, v_max, points))
     v_op = _operating_sliding_velocity(params)
@@ -114,8 +113,7 @@ def _parse_frequencies(text: str) -> list[float]:
 
 @app.command("loops")
 def loops(
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
+    inputs: Inputs = Inputs(),
     frequencies: Annotated[
         str, typer.Option("--frequencies", help="Excitation frequencies [Hz], comma-separated.")
     ] = "0.5,5,50",
@@ -139,7 +137,7 @@ def loops(
     check_count(points, "--points", 8, MAX_POINTS)
     if v_mean is not None:
         _velocity(v_mean, "--v-mean")
-    params = load(config, set_)
+    params = inputs.load()
     if v_mean is None:
         v_mean = _operating_sliding_velocity(params)
     with outputs.progress("loops") as update:
@@ -165,8 +163,7 @@ ConfidenceOpt = Annotated[
 FIT_OUTPUTS = Outputs("Write the parameter set with the fitted values (.toml) or the fit (.nc).", (".toml", ".nc"))
 
 
-def _fit_inputs(file: Path | None, sample: bool, kind: str, outputs: Outputs, config: Path | None,
-                sets: list[str] | None) -> tuple[Path, Any]:
+def _fit_inputs(file: Path | None, sample: bool, kind: str, inputs: Inputs, outputs: Outputs) -> tuple[Path, Any]:
     """(data file: FILE or the shipped sample of ``kind``, parameters) of a fit; the output
     files are checked after the choice of data and before the parameters are loaded."""
     from ..friction import sample_path
@@ -174,7 +171,7 @@ def _fit_inputs(file: Path | None, sample: bool, kind: str, outputs: Outputs, co
     if sample == (file is not None):
         raise UserError("give either a CSV FILE or --sample")
     outputs.check()
-    return (sample_path(kind) if sample else file), load(config, sets)
+    return (sample_path(kind) if sample else file), inputs.load()
 
 
 def _report_fit(result, params, path: Path, outputs: Outputs) -> None:
@@ -215,8 +212,7 @@ def fit(
                        show_default=False),
     ] = None,
     sample: SampleOpt = False,
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
+    inputs: Inputs = Inputs(),
     fix: Annotated[
         Optional[list[str]],
         typer.Option("--fix", help="Keep a [friction] key at its configured value instead of fitting it "
@@ -229,7 +225,7 @@ def fit(
     """Fit mu_s, mu_c, v_s, delta, sigma2 of the static curve to measured steady mu(v) points."""
     from ..friction import STEADY_PARAMETERS, FrictionDataError, fit_steady_curve, read_steady_csv
 
-    path, params = _fit_inputs(file, sample, "steady", outputs, config, set_)
+    path, params = _fit_inputs(file, sample, "steady", inputs, outputs)
     unknown = sorted(set(fix or ()) - set(STEADY_PARAMETERS))
     if unknown:
         raise UserError(f"--fix {', '.join(unknown)}: not a fitted key (choose from {', '.join(STEADY_PARAMETERS)})")
@@ -250,8 +246,7 @@ def fit_loops(
                        "friction_coefficient.", show_default=False),
     ] = None,
     sample: SampleOpt = False,
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
+    inputs: Inputs = Inputs(),
     harmonics: Annotated[
         int, typer.Option("--harmonics", min=1, max=20, help="Fourier harmonics kept of the measured velocity.")
     ] = 3,
@@ -262,7 +257,7 @@ def fit_loops(
     from ..friction import FrictionDataError, LoopFitSettings, read_loops_csv
     from ..friction import fit_loops as fit_measured_loops
 
-    path, params = _fit_inputs(file, sample, "loops", outputs, config, set_)
+    path, params = _fit_inputs(file, sample, "loops", inputs, outputs)
     with user_errors(FrictionDataError):
         data = read_loops_csv(path)
         with outputs.progress("fitting loops: model evaluations") as update:

@@ -8,13 +8,12 @@ from typing import Annotated, Optional
 import typer
 
 from ..units import DEFAULT_SPEED_RANGE_KMH
-from .common import ConfigOpt, Outputs, SetOpt, SpeedRangeOpt
-from .common import UserError, check_param_keys, check_speed_range, load, one_axes
+from .common import Inputs, Outputs, SpeedRangeOpt
+from .common import UserError, check_param_keys, check_speed_range, one_axes
 
 
 def map_(
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
+    inputs: Inputs = Inputs(),
     param: Annotated[str, typer.Option("--param", "-p", help="Parameter key, e.g. operating.toe_deg or adhesion_scale.")]
     = "operating.toe_deg",
     range_: Annotated[
@@ -33,7 +32,7 @@ def map_(
     outputs.check()
     speed_range = check_speed_range(speed_range)
     operating_range = check_speed_range(operating_range, "--operating-range")
-    params = load(config, set_)
+    params = inputs.load()
     from ..dynamics.sensitivity import nominal_value
     from ..dynamics.stability_map import stability_map
 

@@ -7,8 +7,8 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import ConfigOpt, Outputs, SetOpt
-from .common import NETCDF_OUTPUTS, UserError, load, one_axes, output_file, save_text, write_output
+from .common import Inputs, Outputs
+from .common import NETCDF_OUTPUTS, UserError, one_axes, output_file, save_text, write_output
 
 app = typer.Typer(help="Measured data: Campbell maps of run-ups and coast-downs; worn tire profiles.", no_args_is_help=True,
                   rich_markup_mode=None)
@@ -31,8 +31,7 @@ def campbell(
                                                  "20 ms [m] (x0.1 and x10 enter the uncertainty).")] = 1e-6,
     observations: Annotated[Optional[Path], typer.Option("--observations", help="Write the ramp-corrected onset "
                                                         "and the frequency as calibrate observations (TOML).")] = None,
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
+    inputs: Inputs = Inputs(),
     outputs: Outputs = NETCDF_OUTPUTS,
 ) -> None:
     """Campbell map (frequency against speed), order rays, predicted SEV band and Hopf points;
@@ -45,14 +44,14 @@ def campbell(
         raise UserError(f"--window {window_s}: must be between 0.01 and 60 s")
     if not (math.isfinite(disturbance_m) and 0.0 < disturbance_m < 1e-2):
         raise UserError(f"--disturbance {disturbance_m}: must be between 0 and 0.01 m")
-    params = load(config, set_)
+    params = inputs.load()
     from ..measured.campbell import CampbellSettings, campbell as analyze, read_run
 
     run = read_run(run_file, time_column, speed_column, channel or (), params.operating.rolling_radius_m)
     for note in run.notes:
         outputs.note(f"note: {note}")
-    outputs.note(f"measure campbell: {len(run.t)} samples at {run.sample_rate_hz:g} Hz, {len(run.channels)} "
-                 "channel(s)" + (", model prediction and ramp simulation ..." if predict or ramp_correction else " ..."))
+    outputs.note(f"measure campbell: {len(run.t)} samples at {run.sample_rate_hz:g} Hz, {len(run.channels)} channel(s)"
+                 + (", model prediction and ramp simulation ..." if predict or ramp_correction else " ..."))
     result = analyze(run, params, CampbellSettings(window_s=window_s, disturbance_m=disturbance_m), predict=predict,
                      correct_ramp=ramp_correction)
     if outputs.out:  # save() is atomic itself and writes the summary next to the map (.json)

@@ -7,19 +7,18 @@ from typing import Annotated
 
 import typer
 
-from .common import ConfigOpt, JsonOpt, Outputs, QuietOpt, SetOpt
-from .common import info, load_with_study, out_option, output_file, save_text, show_summary, write_output
+from .common import Inputs, Outputs, QuietOpt, info, out_option, output_file, save_text, write_output
 
 app = typer.Typer(help="Show or write parameter sets (TOML).", no_args_is_help=True, rich_markup_mode=None)
 TomlOutOpt = out_option("Write the resolved parameter set (TOML).")
 
 
 @app.command("show")
-def show(config: ConfigOpt = None, set_: SetOpt = None, outputs: Outputs = Outputs(takes_plot=False)) -> None:
+def show(inputs: Inputs = Inputs(), outputs: Outputs = Outputs(takes_plot=False)) -> None:
     """Print the resolved parameter set and study table (defaults, file, --set) as TOML."""
     from ..params import STUDY_TABLE, to_toml
 
-    params, study = load_with_study(config, set_)
+    params, study = inputs.load_with_study()
     outputs.show({**params.model_dump(), STUDY_TABLE: study.model_dump()},
                  lambda _: typer.echo(to_toml(params, study=study), nl=False))
 
@@ -48,10 +47,8 @@ def from_tir(
         bool,
         typer.Option("--belt-mode", help="Also map the belt's lateral mode (BELT_MASS, FREQ_LAT, DAMP_LAT) onto tread.*."),
     ] = False,
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
-    json_: JsonOpt = False,
-    quiet: QuietOpt = False,
+    inputs: Inputs = Inputs(),
+    outputs: Outputs = Outputs(takes_plot=False),
 ) -> None:
     """Read a .tir file and say, for every key, whether it came from the file (which tir
     keys, which formula), from --config/--set, or stays a default."""
@@ -59,9 +56,9 @@ def from_tir(
     from ..measured.tir import load_with_tir, user_keys
 
     output_file(out, "--out", (".toml",))
-    params, mapping = load_with_tir(tir, config, set_ or (), belt_mode=belt_mode)
-    in_sets = user_keys(None, set_ or ())
-    in_file = user_keys(config)
+    params, mapping = load_with_tir(tir, inputs.config, inputs.set_ or (), belt_mode=belt_mode)
+    in_sets = user_keys(None, inputs.set_ or ())
+    in_file = user_keys(inputs.config)
     rows = []
     for key, value, _ in flat_items(params):
         if isinstance(value, tuple):
@@ -84,9 +81,9 @@ def from_tir(
     if out is not None:
         header = [f"# polywear parameters from {tir} ({mapping.tir.family}); sources:"]
         header += [f"#   {r['key']} <- {r['source']}" for r in rows if r["source"] != "default"]
-        text = "\n".join(header) + "\n" + to_toml(params, study=load_study(config))  # --config's [study] kept
-        write_output(out, save_text(text), quiet)
-    show_summary(summary, json_, lambda _: _print_sources(tir, mapping, rows, quiet))
+        text = "\n".join(header) + "\n" + to_toml(params, study=load_study(inputs.config))  # --config's [study] kept
+        write_output(out, save_text(text), outputs.quiet)
+    outputs.show(summary, lambda _: _print_sources(tir, mapping, rows, outputs.quiet))
 
 
 def _print_sources(tir: Path, mapping, rows: list[dict], quiet: bool) -> None:

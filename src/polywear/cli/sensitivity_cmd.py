@@ -8,8 +8,8 @@ from typing import Annotated, Optional
 import typer
 
 from ..units import DEFAULT_SPEED_RANGE_KMH
-from .common import ConfigOpt, Outputs, SetOpt, SpeedRangeOpt
-from .common import UserError, check_param_keys, check_speed_range, load, user_errors
+from .common import Inputs, Outputs, SpeedRangeOpt
+from .common import UserError, check_param_keys, check_speed_range, user_errors
 
 MAX_STEP = 0.5
 """Largest finite-difference step [relative]: beyond it a difference is no derivative."""
@@ -22,8 +22,7 @@ class Method(str, Enum):
 
 
 def sensitivity(
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
+    inputs: Inputs = Inputs(),
     method: Annotated[
         Method, typer.Option("--method", help="exact (implicit-function theorem), central, or forward (paper eq. 3).")
     ] = Method.exact,
@@ -43,7 +42,7 @@ def sensitivity(
     lo, hi = check_speed_range(speed_range)
     if not 0.0 < step <= MAX_STEP:
         raise UserError(f"--step {step}: must be in (0, {MAX_STEP:g}]")
-    params = load(config, set_)
+    params = inputs.load()
     from ..dynamics.sensitivity import PAPER_PARAMETERS, SensitivitySettings, parameter_direction, sensitivity
     from ..models import get_model
 

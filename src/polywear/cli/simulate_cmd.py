@@ -7,7 +7,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import MAX_SPEED_KMH, NETCDF_OUTPUTS, ConfigOpt, Outputs, SetOpt, UserError, load, user_errors
+from .common import MAX_SPEED_KMH, NETCDF_OUTPUTS, Inputs, Outputs, UserError, user_errors
 
 MAX_DURATION_S = 60.0
 """Longest simulated time per run [s] (50 000 stored samples per second and run)."""
@@ -54,8 +54,7 @@ def _status(run) -> str:
 
 
 def simulate(
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
+    inputs: Inputs = Inputs(),
     speed: Annotated[
         Optional[float], typer.Option("--speed", help="Speed [km/h] (default: operating.speed_kmh).")
     ] = None,
@@ -87,7 +86,7 @@ def simulate(
         raise UserError(f"--duration {duration!r}: must be a time in (0, {MAX_DURATION_S:g}] [s]")
     if not RTOL_RANGE[0] <= rtol <= RTOL_RANGE[1]:
         raise UserError(f"--rtol {rtol!r}: must be between {RTOL_RANGE[0]:g} and {RTOL_RANGE[1]:g}")
-    params = load(config, set_)
+    params = inputs.load()
     from ..dynamics.simulation import SimulationSettings, simulate_disturbances, simulate_values
 
     with user_errors(ValueError):

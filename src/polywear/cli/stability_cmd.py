@@ -7,13 +7,12 @@ from typing import Annotated
 import typer
 
 from ..units import STABILITY_SPEED_RANGE_KMH
-from .common import ConfigOpt, Outputs, SetOpt, SpeedRangeOpt
-from .common import MAX_GRID_POINTS, NETCDF_OUTPUTS, check_count, check_speed_range, load, one_axes, user_errors
+from .common import Inputs, Outputs, SpeedRangeOpt
+from .common import MAX_GRID_POINTS, NETCDF_OUTPUTS, check_count, check_speed_range, one_axes, user_errors
 
 
 def stability(
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
+    inputs: Inputs = Inputs(),
     speed_range: SpeedRangeOpt = STABILITY_SPEED_RANGE_KMH,
     n_speeds: Annotated[int, typer.Option("--n-speeds", help="Speed grid points for bracketing.")] = 400,
     outputs: Outputs = NETCDF_OUTPUTS,
@@ -22,7 +21,7 @@ def stability(
     outputs.check()
     lo, hi = check_speed_range(speed_range)
     check_count(n_speeds, "--n-speeds", 3, MAX_GRID_POINTS)
-    params = load(config, set_)
+    params = inputs.load()
     from ..dynamics.stability import StabilitySettings, stability
 
     outputs.note(f"stability: eigenvalues at {n_speeds} speeds ...")

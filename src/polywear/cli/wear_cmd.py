@@ -9,7 +9,7 @@ from typing import Annotated, Optional
 import typer
 
 from ..units import DEFAULT_SPEED_RANGE_KMH
-from .common import ConfigOpt, JsonOpt, Outputs, PlotOpt, QuietOpt, SetOpt, SpeedRangeOpt
+from .common import Inputs, JsonOpt, Outputs, PlotOpt, QuietOpt, SpeedRangeOpt
 from .common import (
     MAX_GRID_POINTS,
     MAX_SPEED_KMH,
@@ -19,7 +19,6 @@ from .common import (
     check_param_keys,
     check_speed_range,
     info,
-    load,
     one_axes,
     output_file,
     user_errors,
@@ -55,8 +54,7 @@ def parse_speeds(text: str, option: str = "--speeds") -> list[float]:
 
 @app.command("map")
 def map_(
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
+    inputs: Inputs = Inputs(),
     speeds: Annotated[
         Optional[str], typer.Option("--speeds", help="Comma-separated speeds [km/h], e.g. 40,55,210 (else the range).")
     ] = None,
@@ -80,7 +78,7 @@ def map_(
         lo, hi = check_speed_range(speed_range)
         check_count(n_speeds, "--n-speeds", 2, MAX_GRID_POINTS)
         grid = [lo + (hi - lo) * i / (n_speeds - 1) for i in range(n_speeds)]
-    params = load(config, set_)
+    params = inputs.load()
     from ..wear.map import wear_map
 
     outputs.note(f"wear map: {len(grid)} speeds x {max_order or params.wear.max_order} orders ...")
@@ -169,8 +167,7 @@ def parse_cycle(text: str) -> tuple[tuple[float, float], ...]:
 
 @app.command("evolve")
 def evolve_(
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
+    inputs: Inputs = Inputs(),
     distance_km: Annotated[float, typer.Option("--distance-km", help="Distance to drive [km].")] = 60000.0,
     cycle: CycleOpt = None,
     speed: Annotated[
@@ -216,7 +213,7 @@ def evolve_(
             raise UserError(f"--polar-km {polar_km!r}: expected comma-separated distances in km") from None
         if not chosen or not all(math.isfinite(v) and 0.0 <= v <= distance_km for v in chosen):
             raise UserError(f"--polar-km {polar_km!r}: distances must lie in [0, --distance-km]")
-    params = load(config, set_)
+    params = inputs.load()
     pairs = ((float(speed), 1.0),) if speed is not None else (parse_cycle(cycle) if cycle else None)
     from ..wear.evolution import EvolutionSettings, evolve
 
@@ -259,8 +256,7 @@ def _polar_figure(result, distances_km=None):
 
 @app.command("design")
 def design_(
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
+    inputs: Inputs = Inputs(),
     target_km: Annotated[
         Optional[float],
         typer.Option("--target-km", help="Push the visible-polygon distance beyond this [km] (default: every order stable)."),
@@ -282,7 +278,7 @@ def design_(
         raise UserError(f"--max-factor {max_factor:g}: must be in (1, 100]")
     if verify_km is not None and not (math.isfinite(verify_km) and 0 < verify_km <= 1e6):
         raise UserError(f"--verify-km {verify_km:g}: must be in (0, 1e6]")
-    params = load(config, set_)
+    params = inputs.load()
     pairs = parse_cycle(cycle) if cycle else None
     from ..wear.design import verify_option, wear_design
 
