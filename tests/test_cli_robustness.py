@@ -98,7 +98,7 @@ WRITERS = [
     (["wear", "evolve"], "--out", ".nc"),
     (["wear", "evolve"], "--plot", ".png"),
 ]
-NEEDS_INPUT = {"fleet", "calibrate", "params from-tir", "measure campbell"}
+NEEDS_INPUT = {"fleet", "calibrate", "params from-tir", "measure campbell", "measure profile"}
 """Commands that need an input file before their options mean anything (not in WRITERS)."""
 
 
