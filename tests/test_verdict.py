@@ -414,7 +414,8 @@ def test_stable_rolling_car_with_a_visible_polygon_gets_a_wear_warning_not_safe(
     assert f"forced resonance of the tread at order 10 ({10 * f_rot:.0f} Hz at 110 km/h)" in text
     assert "a 10-sided polygon becomes visible (0.1 mm) after about 26,000 km" in text
     assert "Nothing to change" not in text and "nothing to move" not in text.replace(NO_BAND["reason"], "")
-    assert "the wear itself must change" in v["lines"][-1]
+    assert "the wear itself must change" in v["lines"][-1] and "keeps the polygon invisible for 100,000 km" in v["lines"][-1]
+    assert v["wear_design_option"]["key"] in v["lines"][-1] or v["wear_design_option"]["label"] in v["lines"][-1]
     # the same car without a visible polygon: safe
     quiet = _alone(110.0, None, 10)
     v = verdict({**summary, "wear": _wear_summary(quiet, {**quiet, "label": "drive cycle"})}, params,
@@ -474,3 +475,16 @@ def test_option_that_clears_the_band_but_brings_the_polygon_sooner_is_shown_as_s
     assert linear_depth_mm(changed, km) >= visible > linear_depth_mm(changed, km - 2.0)
     assert "clears the SEV band" in v["lines"][-1] and "brings the polygon sooner" in v["lines"][-1]
     assert "No option that clears the band keeps the polygon from coming sooner" in v["lines"][-1]
+
+
+def test_hard_region_says_the_evolution_starts_from_steady_rolling_and_names_the_cycle():
+    from polywear.report.verdict import verdict
+
+    hard = {"speed_kmh": 230.0, "steady_rolling_stable": True, "regime": "hard SEV region",
+            "sev_amplitude_x_m": 4e-4, "trigger_amplitude_x_m": 2e-4, "wear": {"polygon_order": 4.31, "frequency_hz": 153.0}}
+    ev = _alone(230.0, None, 5)
+    summary = {"operating": hard, "wear": _wear_summary(ev, {**ev, "label": "drive cycle"}), "design": NO_BAND}
+    v = verdict(summary, with_updates(Params(), {"operating.speed_kmh": 230.0}), "At 230 km/h: hard excitation.")
+    assert v["vibrates"]
+    (line,) = [x for x in v["lines"] if x.startswith("Steady rolling is stable at 230 km/h")]
+    assert "above 0.200 mm" in line and "order 4.31 (153 Hz)" in line

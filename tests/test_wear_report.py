@@ -109,3 +109,30 @@ def test_headline_without_a_visible_polygon_and_without_locking():
     assert lines[1].endswith("the order that grows is the profile's own, 9.")
     assert "1 um" not in lines[-1]  # nothing grew to visible: no roughness statement
     assert wear_headline(_section()) == []
+
+
+@pytest.mark.slow
+def test_reported_distance_scales_as_one_over_k_e(tmp_path):
+    """Independent of the evolution's own bookkeeping: the same car with k_e doubled, the
+    same distance steps, reports the visible distance halved (to the step tolerance, 2 %), the
+    same sides, and says so in the headline. (At 120 km/h alone the vibration locks at order 8.)"""
+    sections = []
+    for k_e in (1e-2, 2e-2):
+        params = with_updates(Params(), {"operating.speed_kmh": 120.0, "wear.energetic_rate_mm3_per_j": k_e,
+                                         "wear.max_order": 20, "wear.cycle": [{"speed_kmh": 120.0, "share": 1.0}]})
+        sections.append(wear_section(params, (100.0, 140.0), lambda fig, name, caption: None, tmp_path, 1000.0,
+                                     EvolutionSettings(step_km=100.0)).summary())
+    (one, _), (two, _) = (s["evolutions"] for s in sections)
+    assert one["visible_km"] is not None and two["visible_km"] == pytest.approx(one["visible_km"] / 2.0, rel=0.02)
+    assert one["dominant_order"] == two["dominant_order"] == 8
+    for s, ev in zip(sections, (one, two)):
+        assert f"an 8-sided polygon becomes visible (0.1 mm) after about {_round_km(ev['visible_km'])} km" in s["headline"][0]
+
+
+def test_headline_calls_a_locked_response_at_stable_rolling_forced():
+    section = _section(_evolution("operating speed", [_speed(110.0, 1.0, 10.0, locked=True)], 28_000.0, 10),
+                       _evolution("drive cycle", DEFAULT_CYCLE[:1], None, 9))
+    section["map_rows"] = [{"speed_kmh": 50.0, "rolling_stable": True}, {"speed_kmh": 110.0, "rolling_stable": True}]
+    lines = wear_headline(section)
+    assert lines[0].endswith("at 110 km/h alone, a 10-sided polygon becomes visible (0.1 mm) after about 28,000 km.")
+    assert lines[1] == "At 110 km/h the tread's forced response to the growing pattern locks to the tire at order 10."

@@ -25,7 +25,7 @@ from ..units import DEFAULT_SPEED_RANGE_KMH
 if TYPE_CHECKING:
     from ..dynamics.bifurcation import BifurcationDiagram
     from ..dynamics.design import DesignResult
-    from ..dynamics.excitation import ExcitationPortrait
+    from ..dynamics.excitation import ExcitationResult
     from ..dynamics.sensitivity import SensitivityResult
     from ..dynamics.simulation import SimulationSet
     from ..dynamics.stability import StabilityResult
@@ -51,7 +51,7 @@ class Report:
     design: DesignResult
     wear: WearSection
     """The linear wear map, the map at the drive-cycle speeds and the evolutions if run."""
-    portraits: list[ExcitationPortrait] = field(default_factory=list)
+    portraits: ExcitationResult | None = None
     """Soft and hard self-excitation at a soft and a hard speed (empty if there is none)."""
     files: dict = field(default_factory=dict)
     overall: dict = field(default_factory=dict)
@@ -199,8 +199,9 @@ def text_summary(summary: dict) -> list[str]:
     design = summary["design"]
     lo, hi = design["operating_range_kmh"]
     first = next((o for o in design["options"] if o["achieved"]), None)
-    lines.append(f"design for {lo:g}-{hi:g} km/h: "
-                 + (first["text"] if first else design["reason"] or "no option clears the range (see report.html)"))
+    if first or not summary.get("verdict", {}).get("polygon_visible"):  # else "nothing to move" misleads
+        lines.append(f"design for {lo:g}-{hi:g} km/h: "
+                     + (first["text"] if first else design["reason"] or "no option clears the range (see report.html)"))
     if summary.get("verdict"):
         lines.append(summary["verdict"]["lines"][-1])
     return lines
@@ -302,12 +303,12 @@ def run_report(
 
     say("phase portraits at the operating speed")
     runs = simulate_disturbances(params, [1e-5, 1e-4, 1e-3], speed_kmh=speed, duration_s=1.0)
-    from ..dynamics.excitation import default_speeds, excitation, portraits_figure
+    from ..dynamics.excitation import default_speeds, excitation
 
     speeds = default_speeds(diagram, speed)
-    portraits = excitation(diagram, speeds) if speeds else []
+    portraits = excitation(diagram, speeds)
     if portraits:
-        save(portraits_figure(portraits), "excitation.png",
+        save(portraits.figure(), "excitation.png",
              "Soft and hard self-excitation: cycles from the continuation and trajectories from inside and "
              "outside them (paper Fig. 2)")
     save(runs.plot()[0].figure, "phase_portraits.png", f"Phase portraits at {speed:g} km/h from small and large disturbances (paper Fig. 5)")
@@ -406,7 +407,7 @@ figure{{margin:1.5em 0}}img{{max-width:100%}}.verdict{{background:#fff4e0;paddin
 <table><tr><th>point</th><th>speed [km/h]</th><th>frequency [Hz]</th><th></th></tr>{rows or "<tr><td colspan='4'>no Hopf point, fold or other bifurcation in the analysed range</td></tr>"}</table>
 <h2>Sensitivities</h2><ul>{sens_notes or "<li>see sensitivity.png and sensitivity.csv</li>"}</ul>
 <h2>Design options for {summary['design']['operating_range_kmh'][0]:.0f}-{summary['design']['operating_range_kmh'][1]:.0f} km/h</h2>
-{_design_html(summary["design"], summary["verdict"].get("design_options", []))}
+{_design_html(summary["design"], summary["verdict"])}
 {wear_html(summary.get("wear"))}
 {figures}
 <h2>Files</h2><ul>{file_list}</ul>
@@ -416,15 +417,18 @@ figure{{margin:1.5em 0}}img{{max-width:100%}}.verdict{{background:#fff4e0;paddin
 """
 
 
-def _design_html(design: dict, wear: list) -> str:
+def _design_html(design: dict, verdict: dict) -> str:
     """The design section: the ranked options as a table (signed changes with units, the
-    bound flag, what each does to the band and, from ``wear`` (the verdict's judgements,
-    in the same order), to the wear), or why there are none."""
+    bound flag, what each does to the band and, from the ``verdict``'s judgements in the
+    same order, to the wear), or why there are none."""
     e = html.escape
     lo, hi = design["operating_range_kmh"]
+    wear = verdict.get("design_options") or []
     if not design["options"]:
         reason = design.get("reason") or f"the SEV band does not reach the operating range {lo:g}-{hi:g} km/h"
-        return f"<p>No design option: {e(reason)}</p>"
+        worn = (" That is the vibration only: the tire still wears into a polygon (see the verdict at the top)."
+                if verdict.get("polygon_visible") else "")
+        return f"<p>No design option for the SEV band: {e(reason)}{worn}</p>"
     bound = design["max_relative_change"]
     groups = {"alignment": "you control", "axle bushing": "you control", "tread": "you control",
               "road/compound": "road/compound (friction, not a vehicle setting)", "other": "other"}

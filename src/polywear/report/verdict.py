@@ -19,6 +19,7 @@ import numpy as np
 from ..models import get_model
 from ..params import Params
 from ..units import kmh_to_ms, wheel_rotation_frequency_hz
+from .wear import _where
 
 __all__ = ["C_ALPHA_N_PER_RAD", "OVERSTATED_FACTOR", "point_contact", "wear_outlook", "judge_options", "verdict"]
 
@@ -180,8 +181,10 @@ def verdict(summary: dict, params: Params, vibration: str) -> dict:
            "source": None, "point_contact": pc}
     lines = [vibration]
     if first is not None:
-        shaking = sorted({c["speed_kmh"] for ev in visible for c in ev["cycle"] if c["vibration_order_end"] is not None})
-        if shaking:
+        unstable = {r["speed_kmh"] for r in wear["map_rows"] if not r["rolling_stable"]}
+        shaking = sorted({c["speed_kmh"] for ev in visible for c in ev["cycle"]
+                          if c["vibration_order_end"] is not None and c["speed_kmh"] in unstable})
+        if shaking:  # self-excited; a vibration in the evolution where rolling is stable is the forced response
             out["source"] = "vibration"
             cause = "from the vibration of the tread at " + ", ".join(f"{s:g}" for s in shaking) + " km/h"
         else:
@@ -200,20 +203,41 @@ def verdict(summary: dict, params: Params, vibration: str) -> dict:
     else:
         lines.append("Wear evolution not run (--wear-km 0 or wear.report_km = 0): the wear map alone, "
                      + " ".join(wear["sentences"]))
+    if v.get("regime") == "hard SEV region" and evs:
+        w = v["wear"]
+        lines.append(f"Steady rolling is stable at {v['speed_kmh']:g} km/h, so the evolutions start from it, as a car "
+                     f"drives; after a disturbance above {v['trigger_amplitude_x_m'] * 1e3:.3f} mm (a pothole) the "
+                     f"tread vibrates at order {w['polygon_order']:.2f} ({w['frequency_hz']:.0f} Hz) instead, and the "
+                     "wear from that vibration is not evolved here.")
     if pc["overstated"]:
         lines.append("Beside the wear judgement: " + _overstated(pc) + " (until the patch contact replaces it).")
+    nominal = wear_outlook(params, distance)
+    out["wear_outlook"] = nominal
     nominal_visible = evs["drive cycle"]["visible_km"] if "drive cycle" in evs else None
     judged = judge_options(params, design, distance, nominal_visible) if (vibrates or visible) else []
     out["design_options"] = judged
-    lines.append(_what_to_change(vibrates, bool(visible), bool(evs), design, judged, distance))
+    wear_option = None
+    if first is not None and not design["options"]:
+        from ..wear.design import wear_design
+
+        cycle = tuple((c["speed_kmh"], c["share"]) for c in first["cycle"])
+        found = wear_design(params, target_km=distance, cycle=cycle)
+        wear_option = (_where(first), found.options[0] if found.options else None,
+                       found.nominal_rolling_stable and not found.options and found.nominal_depth_at_target_mm
+                       < params.wear.visible_depth_mm)
+    out["wear_design_option"] = wear_option[1].summary() if wear_option and wear_option[1] else None
+    lines.append(_what_to_change(vibrates, bool(visible), bool(evs), design, judged, distance, wear_option))
     out["lines"] = lines
     return out
 
 
 def _what_to_change(vibrates: bool, visible: bool, evolved: bool, design: dict, judged: list,
-                    distance_km: float) -> str:
+                    distance_km: float, wear_option=None) -> str:
     """The last line of the verdict: nothing, or the first design option that clears the
-    band without bringing the polygon sooner (else the first that clears it, marked)."""
+    band without bringing the polygon sooner (else the first that clears it, marked); with
+    no band to move, ``wear_option``: (where the polygon came soonest, the first option of
+    :func:`~polywear.wear.design.wear_design` there or None, whether the linear map sees no
+    polygon there at all)."""
     if not vibrates and not visible:
         if not evolved:
             return "Nothing to change for the vibration; the wear was not evolved, so it is not judged here."
@@ -223,9 +247,23 @@ def _what_to_change(vibrates: bool, visible: bool, evolved: bool, design: dict, 
     cleared = [(o, j) for o, j in zip(design["options"], judged) if o["achieved"] and j is not None]
     if not cleared:
         if not design["options"] and visible:
-            return (f"What to change: there is no SEV band to move out of {lo:g}-{hi:g} km/h, but the tire still "
-                    f"wears into a polygon: the wear itself must change (polywear wear design --target-km "
-                    f"{distance_km:g}).")
+            text = (f"What to change: there is no SEV band to move out of {lo:g}-{hi:g} km/h, but the tire still "
+                    "wears into a polygon: the wear itself must change")
+            where, o, linear_clear = wear_option
+            if o is not None:
+                from ..dynamics.design import parameter_unit
+
+                unit = parameter_unit(o.key)
+                return (text + f": {o.label} {o.nominal:.4g} → {o.value:.4g} {unit} ({o.relative_change * 100:+.1f} %) keeps "
+                        f"the polygon invisible for {distance_km:,.0f} km {where} by the linear wear map, the least "
+                        f"such change (polywear wear design --target-km {distance_km:g} lists all; the nonlinear "
+                        "evolution can lock and grow faster: check with --verify-km).")
+            if linear_clear:
+                return (text + f"; the linear wear map sees no visible polygon within {distance_km:,.0f} km {where}, "
+                        "the nonlinear evolution does (the tread's response locks to the growing pattern), so the "
+                        "map-based wear design has no option to offer: judge changes by the evolution "
+                        f"(polywear wear design --target-km {distance_km:g} --verify-km {distance_km:g}).")
+            return text + f" (polywear wear design --target-km {distance_km:g} finds no option {where})."
         if not design["options"]:
             return f"What to change: no design option for {lo:g}-{hi:g} km/h: {design['reason']}"
         return f"What to change: no design option clears the SEV band from {lo:g}-{hi:g} km/h (see the design section)."

@@ -186,12 +186,15 @@ def wear_headline(section: dict) -> list[str]:
                                        and first["visible_km"] is not None else _outcome(ev))
     lines = [text + "."]
     locking = []
+    steady = {r["speed_kmh"] for r in section["map_rows"] if r["rolling_stable"]}
     for ev in [first, *rest]:
         for c in ev["cycle"]:
             nu = c["vibration_order_end"]
             if nu is None or any(c["speed_kmh"] == v for v, _ in locking):
                 continue
-            locking.append((c["speed_kmh"], f"at {c['speed_kmh']:g} km/h the tread vibrates and locks to the tire at "
+            what = ("the tread's forced response to the growing pattern" if c["speed_kmh"] in steady
+                    else "the tread vibrates and")
+            locking.append((c["speed_kmh"], f"at {c['speed_kmh']:g} km/h {what} locks to the tire at "
                                             f"order {round(nu)}" if c.get("locked_at_end") else
                             f"at {c['speed_kmh']:g} km/h the tread vibrates at order {nu:.2f} without locking to the "
                             f"tire: its own pattern drifts round the tread and wears evenly"))
