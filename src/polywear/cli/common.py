@@ -83,7 +83,7 @@ class UserError(Exception):
 
 
 _TIR_PATH: ContextVar[Path | None] = ContextVar("tir_path", default=None)
-"""The ``--tir`` file of the running command (set by :func:`with_tir_option`)."""
+"""The ``--tir`` file of the running command (set by :func:`with_shared_options`)."""
 
 
 def load(config: Path | None, sets: list[str] | None):
@@ -109,37 +109,10 @@ def load_with_study(config: Path | None, sets: list[str] | None):
     return params, load_study(config, study_sets)
 
 
-def with_tir_option(command: Callable) -> Callable:
-    """``command`` with a ``--tir FILE`` option that :func:`load` applies.
-
-    Added to every command that takes ``--config`` (and has no ``tir`` parameter of its
-    own), so the option is defined once, here, not in each command.
-    """
-    import functools
-    import inspect
-
-    sig = inspect.signature(command, eval_str=True)
-    if "config" not in sig.parameters or "tir" in sig.parameters:
-        return command
-
-    @functools.wraps(command)
-    def wrapper(*args: Any, tir: Path | None = None, **kwargs: Any) -> Any:
-        token = _TIR_PATH.set(tir)
-        try:
-            return command(*args, **kwargs)
-        finally:
-            _TIR_PATH.reset(token)
-
-    extra = inspect.Parameter("tir", inspect.Parameter.KEYWORD_ONLY, default=None, annotation=TirOpt)
-    wrapper.__signature__ = sig.replace(parameters=[*sig.parameters.values(), extra])  # type: ignore[attr-defined]
-    wrapper.__annotations__ = {**{n: q.annotation for n, q in sig.parameters.items()}, "tir": TirOpt}
-    return wrapper
-
-
 class OptionGroup:
     """Options that travel together. A command declares them as one parameter whose default
     is the group (a frozen dataclass, its fields named like the options);
-    :func:`with_option_groups` puts the options in that place of its --help and hands the
+    :func:`with_shared_options` puts the options in that place of its --help and hands the
     command their values as one such object."""
 
     def options(self) -> list[tuple[str, Any, Any]]:
@@ -151,7 +124,7 @@ class OptionGroup:
 class Inputs(OptionGroup):
     """Where a command's parameters come from, ``inputs: Inputs = Inputs()``: ``--config
     FILE`` and ``--set table.key=value`` (``--tir FILE``, last in --help, is added by
-    :func:`with_tir_option`)."""
+    :func:`with_shared_options`)."""
 
     config: Path | None = None
     set_: list[str] | None = None
@@ -228,25 +201,18 @@ NETCDF_OUTPUTS = Outputs("Write the result (netCDF .nc).", (".nc",))
 """``--json``, ``--plot`` and ``--out`` of a result written as netCDF, ``--quiet``."""
 
 
-def with_option_groups(command: Callable) -> Callable:
-    """``command`` with each parameter whose default is an :class:`OptionGroup` replaced, in
-    place, by the group's options; the command receives their values as one group object."""
+def with_shared_options(command: Callable) -> Callable:
+    """``command`` with the options shared by several commands in its signature, so that
+    each is defined once, here: every parameter whose default is an :class:`OptionGroup`
+    replaced, in place, by the group's options (the command receives their values as one
+    group object), and, last, ``--tir FILE`` (applied by :func:`load`) if it takes
+    ``--config`` and has no ``tir`` parameter of its own."""
     import dataclasses
     import functools
     import inspect
 
-    sig = inspect.signature(command, eval_str=True)
+    sig = inspect.signature(command, eval_str=True)  # once per command: most of the start-up cost here
     groups = {p.name: p.default for p in sig.parameters.values() if isinstance(p.default, OptionGroup)}
-    if not groups:
-        return command
-
-    @functools.wraps(command)
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
-        for name, group in groups.items():
-            values = {option: kwargs.pop(option) for option, _, _ in group.options()}
-            kwargs[name] = dataclasses.replace(group, **values)
-        return command(*args, **kwargs)
-
     parameters = []
     for p in sig.parameters.values():
         if p.name in groups:
@@ -254,16 +220,35 @@ def with_option_groups(command: Callable) -> Callable:
             parameters += [inspect.Parameter(n, p.kind, default=d, annotation=a) for n, a, d in options]
         else:
             parameters.append(p)
+    names = {p.name for p in parameters}
+    takes_tir = "config" in names and "tir" not in names
+    if not groups and not takes_tir:
+        return command
+    if takes_tir:
+        parameters.append(inspect.Parameter("tir", inspect.Parameter.KEYWORD_ONLY, default=None, annotation=TirOpt))
+
+    @functools.wraps(command)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        for name, group in groups.items():
+            values = {option: kwargs.pop(option) for option, _, _ in group.options()}
+            kwargs[name] = dataclasses.replace(group, **values)
+        if not takes_tir:
+            return command(*args, **kwargs)
+        token = _TIR_PATH.set(kwargs.pop("tir", None))
+        try:
+            return command(*args, **kwargs)
+        finally:
+            _TIR_PATH.reset(token)
+
     wrapper.__signature__ = sig.replace(parameters=parameters)  # type: ignore[attr-defined]
     wrapper.__annotations__ = {p.name: p.annotation for p in parameters}
     return wrapper
 
 
 def add_shared_options(app: typer.Typer) -> None:
-    """Expand the option groups (:func:`with_option_groups`) and add ``--tir``
-    (:func:`with_tir_option`) in every command of ``app`` and its sub-applications."""
+    """:func:`with_shared_options` for every command of ``app`` and its sub-applications."""
     for command in app.registered_commands:
-        command.callback = with_tir_option(with_option_groups(command.callback))
+        command.callback = with_shared_options(command.callback)
     for group in app.registered_groups:
         add_shared_options(group.typer_instance)
 
