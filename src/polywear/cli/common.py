@@ -1,5 +1,13 @@
 """Shared pieces of the command-line interface: options, parameter loading, output.
 
+An option that several commands take is defined once, here: as an ``Annotated`` alias
+(``SpeedRangeOpt``, ``BackendOpt``, ...) or, for the options nearly every command takes,
+as an option group declared by one parameter, ``inputs: Inputs = Inputs()`` (``--config``,
+``--set``) and ``outputs: Outputs = Outputs("what --out writes", suffixes)`` (``--json``,
+``--plot``, ``--out``, ``--quiet``); :func:`add_shared_options` expands the groups in place
+and adds ``--tir``. The groups also carry the shared command bodies: ``inputs.load()``,
+``outputs.check()``, ``outputs.progress(...)``, ``outputs.write(...)``, ``outputs.show(...)``.
+
 Heavy libraries are imported inside the commands, never at module level, so that
 ``polywear --help`` stays fast.
 """
