@@ -106,6 +106,22 @@ class Friction(_Table):
     stribeck_exponent: float = _f(
         2.0, "Stribeck exponent delta [-] (>= 1 keeps G smooth at v = 0)", ge=1.0, le=10.0
     )
+    contact: Literal["point", "patch"] = Field(
+        "point",
+        description='"point": one tread element under the whole load (the paper); "patch": '
+        "patch_elements tread elements travelling through the contact patch (tread1dof)",
+    )
+    patch_elements: int = Field(
+        40, description="tread elements M along the contact patch (contact = patch) [-]", ge=2, le=400
+    )
+    patch_pressure: Literal["parabolic", "uniform"] = Field(
+        "parabolic", description="normal pressure distribution along the patch (contact = patch)"
+    )
+
+    @field_validator("patch_elements", mode="before")
+    @classmethod
+    def _to_int(cls, value: Any) -> Any:
+        return _integral(value)
 
     @model_validator(mode="after")
     def _coulomb_below_static(self) -> Friction:
@@ -410,6 +426,14 @@ class Params(_Table):
     axle: Axle = Axle()
     tire: Tire = Tire()
     wear: Wear = Wear()
+
+    @model_validator(mode="after")
+    def _patch_on_tread1dof(self) -> Params:
+        if self.friction.contact == "patch" and self.model != "tread1dof":
+            raise ParameterError(
+                f"friction.contact = 'patch': implemented for model = 'tread1dof' only, not {self.model!r}"
+            )
+        return self
 
     def with_updates(self, updates: dict[str, Any]) -> Params:
         """A new parameter set with ``{"table.key": value}`` updates, validated again.

@@ -1,6 +1,7 @@
 """Models: state layout, parameter layout and compiled kernels.
 
-``get_model(name)`` returns the :class:`~polywear.models.base.Model` for a name; the
+``get_model(name)`` returns the :class:`~polywear.models.base.Model` for a name and
+``model_for(params)`` the one a parameter set asks for (the analyses use it); the
 kernel modules are imported only when asked for, also as attributes
 (``pw.models.tread1dof``, ``pw.models.base``).
 """
@@ -19,7 +20,19 @@ def get_model(name: str):
     return import_module(f"polywear.models.{name}").MODEL
 
 
-_SUBMODULES = ("base", "tread1dof", "axle4dof", "axle4dof_kernels", "axle4dof_derivation", "kernels", "profile", "pure")
+def model_for(params):
+    """The model a parameter set asks for: ``params.model`` with its contact
+    (``friction.contact``: "point", the paper's, is ``get_model(params.model)`` itself;
+    "patch" is the distributed contact of :mod:`polywear.models.patch`, tread1dof only)."""
+    friction = params.friction
+    if friction.contact == "point":
+        return get_model(params.model)
+    from .patch import patch_model
+
+    return patch_model(friction.patch_elements, friction.patch_pressure)
+
+
+_SUBMODULES = ("base", "patch", "tread1dof", "axle4dof", "axle4dof_kernels", "axle4dof_derivation", "kernels", "profile", "pure")
 
 
 def __getattr__(name: str) -> object:
