@@ -22,10 +22,10 @@ app = typer.Typer(help="LuGre friction: static curve, hysteresis loops, fits to 
 
 def _operating_sliding_velocity(params) -> float:
     """Sliding velocity v_r of steady rolling at the operating point [m/s]."""
-    from ..models import get_model
+    from ..models import model_for
     from ..units import kmh_to_ms
 
-    model = get_model(params.model)
+    model = model_for(params)
     p = model.pack(params)
     speed = kmh_to_ms(params.operating.speed_kmh)
     aux = model.diagnostics(model.equilibrium(speed, p), speed, p)

@@ -44,11 +44,11 @@ def sensitivity(
         raise UserError(f"--step {step}: must be in (0, {MAX_STEP:g}]")
     params = inputs.load()
     from ..dynamics.sensitivity import PAPER_PARAMETERS, SensitivitySettings, parameter_direction, sensitivity
-    from ..models import get_model
+    from ..models import model_for
 
     keys = tuple(dict.fromkeys(param)) if param else PAPER_PARAMETERS
     check_param_keys(keys, example="tread.mass_kg")
-    model = get_model(params.model)
+    model = model_for(params)
     for key in keys:
         if not parameter_direction(model, params, key).any():
             outputs.note(f"note: {key} does not enter model {params.model}; its sensitivity is 0")

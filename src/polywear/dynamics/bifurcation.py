@@ -21,7 +21,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ..models import get_model
+from ..models import model_for
 from ..results import Result
 from ..params import Params
 from ..progress import Progress, StepCounter
@@ -171,7 +171,7 @@ class BifurcationDiagram(Result):
         from it). Part of the linear band, but not SEV by itself."""
         if not self.stability.real_crossings_kmh:
             return []
-        model = get_model(self.params.model)
+        model = model_for(self.params)
         p = model.pack(self.params)
         edges = sorted([h.speed_kmh for h in self.hopf_points] + list(self.stability.real_crossings_kmh))
         points = [float(self.stability.speeds_kmh[0]), *edges, float(self.stability.speeds_kmh[-1])]
@@ -251,7 +251,7 @@ class BifurcationDiagram(Result):
         sorted by amplitude of x."""
         from ..solvers.continuation import orbit_between, orbit_from_hopf, solve_at_speed
 
-        model = get_model(self.params.model)
+        model = model_for(self.params)
         p = model.pack(self.params)
         V = kmh_to_ms(speed_kmh)
         found = []
@@ -425,7 +425,7 @@ class BifurcationDiagram(Result):
             _, ax = plt.subplots(figsize=(8, 4.5))
         i = self.state_names.index(state)
         if scale is None:
-            scale, unit = plot_scale(get_model(self.params.model).state_units[i])
+            scale, unit = plot_scale(model_for(self.params).state_units[i])
         artists = []
         # equilibrium line (amplitude zero), stable solid, unstable dotted red
         V = self.stability.speeds_kmh
@@ -616,7 +616,7 @@ def bifurcation(
         return _extended_diagram(params, speed_range_kmh, settings, stability_settings, progress)
     lo, hi = (float(v) for v in speed_range_kmh)
     stab = stability(params, (lo, hi), settings=stability_settings)
-    model = get_model(params.model)
+    model = model_for(params)
     p = model.pack(params)
     bounds = (kmh_to_ms(lo), kmh_to_ms(hi))
     runs: list[tuple[int, Branch, int | None]] = []  # (start, branch, end): indices of Hopf points

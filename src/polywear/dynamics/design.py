@@ -32,7 +32,7 @@ from enum import StrEnum
 
 import numpy as np
 
-from ..models import get_model
+from ..models import model_for
 from ..results import Result
 from ..keys import ADHESION_SCALE, key_info
 from ..params import Params
@@ -583,7 +583,7 @@ def design(
         diagram = bifurcation(params, speed_range_kmh)
         step()
     original = diagram
-    model = get_model(params.model)
+    model = model_for(params)
     keys, combine = tuple(dict.fromkeys(keys)), tuple(dict.fromkeys(combine))
     skipped = [k for k in dict.fromkeys((*keys, *combine)) if not parameter_direction(model, params, k).any()]
     keys = tuple(k for k in keys if k not in skipped)

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from ..models import get_model
+from ..models import model_for
 from ..results import Result
 from .. import keys as _keys
 from ..keys import ADHESION_SCALE, PAPER_KEYS
@@ -321,7 +321,7 @@ def sensitivity(
         unit] and normalized ``S = (p/V) dV/dp`` [-].
     """
     method, step = settings.method, settings.step
-    model = get_model(params.model)
+    model = model_for(params)
     p = model.pack(params)
     if progress is not None:
         diagram_options = {**diagram_options, "progress": StepCounter(progress).relay}

@@ -41,7 +41,7 @@ from numpy.typing import ArrayLike
 
 from .. import __version__, units
 from ..units import plot_scale, kmh_to_ms
-from ..models import get_model
+from ..models import model_for
 from ..results import Result
 from ..params import Params, get_value, to_toml, with_updates
 from ..progress import Progress, StepCounter
@@ -303,7 +303,7 @@ class SimulationResult(Result):
 
     @property
     def model(self):
-        return get_model(self.params.model)
+        return model_for(self.params)
 
     @property
     def polygon_order(self) -> float:
@@ -494,7 +494,7 @@ def _phase_portraits(runs, ax, pairs, tail_s, **line_kw):
 
 # -- running -----------------------------------------------------------------------------
 def _run(params: Params, speed_kmh, duration_s, disturbance, initial, settings, label):
-    model = get_model(params.model)
+    model = model_for(params)
     p = model.pack(params)
     speed_kmh = float(params.operating.speed_kmh if speed_kmh is None else speed_kmh)
     if not (math.isfinite(duration_s) and duration_s > 0.0):

@@ -19,7 +19,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from ..errors import NumericalError
-from ..models import get_model
+from ..models import model_for
 from ..results import Result
 from ..params import Params
 from ..settings import check_count, check_positive
@@ -318,7 +318,7 @@ def stability(
     lo, hi = (float(v) for v in speed_range_kmh)
     if not (0.0 < lo < hi):
         raise ValueError(f"speed range {lo} {hi}: need 0 < low < high [km/h]")
-    model = get_model(params.model)
+    model = model_for(params)
     p = model.pack(params)
     speeds_kmh, states, eig = _refined_grid(model, p, np.linspace(lo, hi, settings.n_speeds))
     speeds = kmh_to_ms(speeds_kmh)
@@ -492,7 +492,7 @@ def fast_linear_band(
     """
     from scipy.optimize import brentq, minimize_scalar
 
-    model = get_model(params.model)
+    model = model_for(params)
     p = model.pack(params)
     lo, hi = (kmh_to_ms(v) for v in speed_range_kmh)
     speeds = np.linspace(lo, hi, n_grid)

@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..models import get_model
+from ..models import model_for
 from ..results import Result
 from ..params import Params, ParameterError
 from ..progress import Progress, StepCounter
@@ -467,7 +467,7 @@ def stability_map(
     s_lo, s_hi = (float(v) for v in speed_range_kmh)
     if not 0.0 < s_lo < s_hi:
         raise ValueError(f"speed range {s_lo} {s_hi}: need 0 < low < high [km/h]")
-    model = get_model(params.model)
+    model = model_for(params)
     direction = parameter_direction(model, params, key)
     if not direction.any():
         raise ParameterError(f"{key} does not enter model {params.model}: nothing to map")

@@ -28,7 +28,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from .. import __version__
-from ..models import get_model
+from ..models import model_for
 from ..results import Result
 from ..parallel import Executor
 from ..params import Params, to_toml
@@ -108,7 +108,7 @@ def settle(
     its disturbances are not used here)."""
     chunk_s, max_duration_s = settings.chunk_s, settings.max_duration_s
     simulation = settings.simulation
-    model = get_model(params.model)
+    model = model_for(params)
     p = model.pack(params)
     V = float(kmh_to_ms(speed_kmh))
     u_eq = model.equilibrium(V, p)
@@ -135,7 +135,7 @@ def settle(
 def _settle_job(job) -> SteadyRun:
     """``settle`` for one (params, speed, start, disturbance, settings) tuple."""
     params, speed_kmh, start, disturbance, settings = job
-    model = get_model(params.model)
+    model = model_for(params)
     p = model.pack(params)
     u0 = initial_state(model, p, float(kmh_to_ms(speed_kmh)), disturbance)
     return settle(params, speed_kmh, u0, start=start, settings=settings)
@@ -158,7 +158,7 @@ class SweepResult(Result):
 
     @property
     def state_names(self) -> tuple[str, ...]:
-        return get_model(self.params.model).state_names
+        return model_for(self.params).state_names
 
     def _field(self, name):
         return np.array([[getattr(r, name) for r in self.runs[s]] for s in START_TYPES])
@@ -189,7 +189,7 @@ class SweepResult(Result):
         """xarray Dataset over (start, speed_kmh, state)."""
         import xarray as xr
 
-        model = get_model(self.params.model)
+        model = model_for(self.params)
         units = " ".join(model.state_units)
         data = {
             name: (("start", "speed_kmh", "state"), self._field(name), {"units": units})
@@ -220,7 +220,7 @@ class SweepResult(Result):
         settled). Returns the artists."""
         import matplotlib.pyplot as plt
 
-        model = get_model(self.params.model)
+        model = model_for(self.params)
         q = model.index(state)
         factor, unit = plot_scale(model.state_units[q])
         if ax is None:

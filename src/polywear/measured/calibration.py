@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..models import get_model
+from ..models import model_for
 from ..results import Result
 from ..keys import KEYS, study_keys
 from ..params import ParameterError, Params, get_value, with_updates
@@ -207,7 +207,7 @@ def _hopf_rows(params: Params, obs: list[Observation], keys: list[str], speed_ra
     from ..dynamics.sensitivity import hopf_speed_derivative, parameter_direction
     from ..dynamics.stability import StabilitySettings, critical_eigenvalue_derivative, stability
 
-    model = get_model(params.model)
+    model = model_for(params)
     p = model.pack(params)
     hopfs = stability(params, speed_range_kmh, StabilitySettings(n_speeds=n_speeds)).hopf_points
     directions = [parameter_direction(model, params, key) for key in keys]
@@ -296,7 +296,7 @@ def _cycle_derivatives(model, p, orbit, directions) -> list[tuple[float, float]]
 def _cycle_rows(params: Params, obs: list[Observation], keys: list[str], diagram):
     from ..dynamics.sensitivity import parameter_direction
 
-    model = get_model(params.model)
+    model = model_for(params)
     p = model.pack(params)
     directions = [parameter_direction(model, params, key) for key in keys]
     x = model.index("x")

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..models import get_model
+from ..models import model_for
 from ..units import kmh_to_ms
 from ..params import Params
 from ..solvers.integrate import integrate
@@ -71,7 +71,7 @@ def simulate_ramp(
     """
     if not rate_kmh_per_s > 0.0 or not sample_rate_hz > 0.0:
         raise ValueError("rate_kmh_per_s and sample_rate_hz must be positive")
-    model = get_model(params.model)
+    model = model_for(params)
     p = model.pack(params)
     duration = abs(speed_end_kmh - speed_start_kmh) / rate_kmh_per_s
     direction = 1.0 if speed_end_kmh >= speed_start_kmh else -1.0

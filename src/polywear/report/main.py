@@ -99,10 +99,10 @@ def operating_verdict(diagram, params: Params, speed_kmh: float) -> dict:
     from ..dynamics.attractor import reached_attractors
     from ..dynamics.bifurcation import statically_divergent
     from ..wear.indicators import wear_indicators
-    from ..models import get_model
+    from ..models import model_for
     from ..units import kmh_to_ms
 
-    model = get_model(params.model)
+    model = model_for(params)
     p = model.pack(params)
     x = diagram.state_names.index("x")
     V = kmh_to_ms(speed_kmh)

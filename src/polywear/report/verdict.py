@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ..models import get_model
+from ..models import model_for
 from ..params import Params
 from ..units import kmh_to_ms, wheel_rotation_frequency_hz
 from .wear import _where
@@ -35,7 +35,7 @@ def point_contact(params: Params, speed_kmh: float) -> dict:
     ``C_alpha * alpha``, alpha [rad] the steady slip angle ``asin(v_r / V)`` of the model:
     ``{"lateral_force_n", "slip_angle_deg", "c_alpha_n_per_rad", "c_alpha_alpha_n", "ratio",
     "overstated"}`` (``overstated``: the ratio exceeds :data:`OVERSTATED_FACTOR`)."""
-    model = get_model(params.model)
+    model = model_for(params)
     V = float(kmh_to_ms(speed_kmh))
     q = model.prepared(V, model.pack(params))
     aux = dict(zip(model.aux_names, model.diagnostics(model.equilibrium(V, q), V, q)))

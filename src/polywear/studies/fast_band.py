@@ -62,7 +62,7 @@ from enum import Enum
 
 import numpy as np
 
-from ..models import get_model
+from ..models import model_for
 from ..parallel import Executor
 from ..params import Params
 from ..progress import Progress
@@ -311,7 +311,7 @@ def _labelled(intervals, hopf, folds, speed_range) -> tuple | None:
 
 def band_reference(diagram, amplitude_speeds_kmh=()) -> BandReference:
     """The :class:`BandReference` of a full diagram (its folds, labels and cycles)."""
-    model = get_model(diagram.params.model)
+    model = model_for(diagram.params)
     band = band_from_diagram(diagram, amplitude_speeds_kmh)
     folds, scales = [], []
     for branch in diagram.branches:
@@ -512,7 +512,7 @@ def _crosses_between(params, a_kmh: float, b_kmh: float, peak: bool) -> bool:
 
     from ..dynamics.stability import equilibrium_eigenvalues
 
-    model = get_model(params.model)
+    model = model_for(params)
     p = model.pack(params)
 
     def rate(V):
@@ -568,7 +568,7 @@ class FastBand:
 
     def try_fast(self, params: Params) -> Band | Fallback:
         """The fast path's band, or why it does not apply (then nothing else is computed)."""
-        model = get_model(params.model)
+        model = model_for(params)
         p = model.pack(params)
         try:
             stab, ref = self._hopf(params, p)
@@ -584,7 +584,7 @@ class FastBand:
         order of Hopf and fold speeds (the fast path requires that order). A usage speed is
         decided when it lies inside an interval whatever the fold speeds, or outside every
         interval whatever they are."""
-        model = get_model(params.model)
+        model = model_for(params)
         try:
             stab, ref = self._hopf(params, model.pack(params))
         except _Fallback:

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..models import get_model
+from ..models import model_for
 from ..results import Result
 from ..params import Params
 from ..dynamics.design import DEFAULT_KEYS, ENGINEERING, parameter_category, parameter_label
@@ -183,7 +183,7 @@ def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: fl
     cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
     g0, order0, stable0 = cycle_growth(params, cycle)
     options, not_found = [], []
-    model = get_model(params.model)
+    model = model_for(params)
     depth0 = None if target_km is None else linear_depth_mm(params, target_km, cycle)
     nominal_ok = stable0 and (g0 <= 0.0 if target_km is None else depth0 < params.wear.visible_depth_mm)
     if nominal_ok:

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..models import get_model
+from ..models import model_for
 from ..results import Result
 from ..models.profile import patch_sinc
 from ..params import Params
@@ -277,7 +277,7 @@ def wear_map(params: Params, speeds_kmh: ArrayLike, max_order: int | None = None
     (default ``wear.max_order``)."""
     speeds_kmh = np.atleast_1d(np.asarray(speeds_kmh, dtype=float))
     K = params.wear.max_order if max_order is None else int(max_order)
-    model = get_model(params.model)
+    model = model_for(params)
     p = model.pack(params)
     orders = np.arange(1, K + 1)
     R = params.operating.rolling_radius_m
