@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..models import get_model
+from ..models import model_for
 from ..units import kmh_to_ms
 from ..results import Result
 from ..progress import Progress, StepCounter
@@ -150,7 +150,7 @@ def settling_time(diagram: BifurcationDiagram, speed_kmh: float, cycles,
     bounds = (settings.settling_min_s, settings.settling_max_s)
     factor = settings.settling_efoldings
     rates = []
-    model = get_model(diagram.params.model)
+    model = model_for(diagram.params)
     p = model.pack(diagram.params)
     V = kmh_to_ms(speed_kmh)
     growth = np.linalg.eigvals(model.jacobian(model.equilibrium(V, p), V, p)).real.max()
@@ -173,7 +173,7 @@ def excitation(diagram: BifurcationDiagram, speeds_kmh: Iterable[float],
     there to settle (:func:`settling_time`). ``progress(runs done, None, "speed, start")`` is
     called after each simulation (:mod:`polywear.progress`)."""
     params = diagram.params
-    model = get_model(params.model)
+    model = model_for(params)
     p = model.pack(params)
     x = diagram.state_names.index("x")
     out = []

@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..models import get_model
+from ..models import model_for
 from ..models.base import kmh_to_ms
 from ..models.profile import coupled_model, patch_sinc, profile_vector
 from ..params import Params, to_toml
@@ -193,7 +193,7 @@ def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float,
     With ``max_revolutions``, a window too short to separate the vibration from its nearest
     integer order (``eps * revolutions < SEPARATED_BEATS``) is run again from the same state,
     ``ceil(SEPARATED_BEATS / eps)`` revolutions long (at most ``max_revolutions``)."""
-    base = base or get_model(params.model)
+    base = base or model_for(params)
     coupled = coupled_model(base)
     R = params.operating.rolling_radius_m
     K = W.size
@@ -613,7 +613,7 @@ def _windows(pool, jobs, base, longest: int) -> list[WindowWear]:
 def _evolve(params: Params, distance_km: float, cycle, step_km: float, revolutions: int, progress, pool
             ) -> EvolutionResult:
     """:func:`evolve` on a given cycle, the windows of each step run by :func:`_windows`."""
-    base = get_model(params.model)
+    base = model_for(params)
     coupled = coupled_model(base)
     R = params.operating.rolling_radius_m
     k_e = energetic_rate(params)
