@@ -296,6 +296,12 @@ def coupled_model(base: Model) -> Model:
 
     Build its parameter vector with :func:`profile_vector` (``Model.pack`` does not apply).
     """
+    if base.name not in _FLAGS:
+        from ..params import ParameterError
+
+        raise ParameterError(
+            f"{base.name}: the worn profile is coupled to the point contact only (friction.contact = 'point')"
+        )
     if base.name not in _COUPLED:
         kernels = SimpleNamespace(
             rhs=rhs, jac=jac, dfdv=dfdv, rhs_jac_dfdv=rhs_jac_dfdv, aux=aux,
