@@ -246,6 +246,8 @@ def test_dask_study_survives_a_killed_worker(cluster, reference):
 
 def test_unreachable_scheduler_is_a_one_line_user_error():
     import dask
+    import distributed  # noqa: F401 - its config defaults must exist before dask.config.set below,
+    # or leaving the block drops them and a later xarray save fails (KeyError 'distributed')
 
     from .cli_runner import run_main
 
