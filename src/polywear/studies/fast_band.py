@@ -638,7 +638,8 @@ class FastBand:
             raise _Fallback(FallbackReason.NO_REFERENCE, "no reference for this model")
         same = [r for r in same if r.band.hopf_criticality == criticality]
         if not same:
-            raise _Fallback(FallbackReason.HOPF_SIGNATURE, f"no reference with the Hopf points {criticality}")
+            names = tuple(str(c) for c in criticality)  # ('soft', 'hard'), plain strings or enum members
+            raise _Fallback(FallbackReason.HOPF_SIGNATURE, f"no reference with the Hopf points {names}")
         usable = [r for r in same if not r.unusable]
         if not usable:
             raise _Fallback(FallbackReason.REFERENCE_UNUSABLE, same[0].unusable)
