@@ -5,10 +5,11 @@ cells. Cell j (j = 0 at the leading edge, M - 1 at the trailing edge) holds one 
 element: the paper's element spread along the patch (mass m/M, lateral stiffness k/M,
 damping c/M on the rigid rim) with a LuGre bristle under its share ``s_j`` of the normal
 load (the integral of the pressure distribution over the cell). The tread material moves
-rearward through the patch at the rolling speed V, entering undeflected; in the frame of
-the patch every field q(x, t) of the tread (deflection y, its material rate w = Dy/Dt,
-bristle deflection z) obeys ``dq/dt + V dq/dx = (material rate of q)``. Method of lines,
-first-order upwind in x (lambda = V/h = V M / L, inflow value 0 at the leading edge):
+rearward through the patch at the rolling speed V cos(toe) (the speed along the wheel
+plane), entering undeflected; in the frame of the patch every field q(x, t) of the tread
+(deflection y, its material rate w = Dy/Dt, bristle deflection z) obeys
+``dq/dt + V cos(toe) dq/dx = (material rate of q)``. Method of lines, first-order upwind
+in x (lambda = V cos(toe) M / L, inflow value 0 at the leading edge):
 
     y_j' = w_j - lambda (y_j - y_{j-1})
     w_j' = (M N s_j f_j - c w_j - k y_j)/m - lambda (w_j - w_{j-1})
@@ -34,7 +35,7 @@ from ..physics.lugre import bristle_rate, bristle_rate_partials, real_abs, strib
 from .base import Model, ParamSlot
 from .tread1dof import SLOTS as POINT_SLOTS
 
-__all__ = ["patch_model", "load_shares", "PRESSURES", "brush_force", "M_MIN", "M_MAX"]
+__all__ = ["patch_model", "load_shares", "PRESSURES", "brush_force", "steady_lateral_force", "M_MIN", "M_MAX"]
 
 PRESSURES = ("parabolic", "uniform")
 M_MIN, M_MAX = 2, 400
@@ -78,8 +79,8 @@ def _element(u, p, j, vt):
 def rhs_jac_dfdv(u, V, p, f, J, fv):
     """du/dt into f, df/du into J, df/dV into fv (all three at once)."""
     n_el = u.size // 3
-    lam = V * n_el / p[LEN]
-    dlam = n_el / p[LEN]
+    lam = V * np.cos(p[TOE]) * n_el / p[LEN]
+    dlam = np.cos(p[TOE]) * n_el / p[LEN]
     s = np.sin(p[TOE])
     vt = V * s
     for r in range(J.shape[0]):
@@ -117,7 +118,7 @@ def rhs_jac_dfdv(u, V, p, f, J, fv):
 def rhs(u, V, p, out):
     """du/dt [m/s, m/s^2, m/s per element]."""
     n_el = u.size // 3
-    lam = V * n_el / p[LEN]
+    lam = V * np.cos(p[TOE]) * n_el / p[LEN]
     vt = V * np.sin(p[TOE])
     for j in range(n_el):
         i = 3 * j
@@ -142,7 +143,7 @@ def jac(u, V, p, out):
 
 @njit(cache=True, error_model="numpy")
 def dfdv(u, V, p, out):
-    """df/dV [per m/s]: through v_j = V sin(toe) - w_j and the transport rate lambda = V M/L."""
+    """df/dV [per m/s]: through v_j = V sin(toe) - w_j and the transport rate lambda = V cos(toe) M/L."""
     f = np.empty(u.size, dtype=out.dtype)
     J = np.empty((u.size, u.size), dtype=out.dtype)
     rhs_jac_dfdv(u, V, p, f, J, out)
@@ -187,7 +188,7 @@ def _march(V, p, n_el, out):
     each element solves its three steady equations given the one ahead of it (an implicit
     Euler step in x). z and y are explicit in w; the scalar equation in w is solved by
     Newton's method kept inside a bracket by bisection. Returns False if one fails."""
-    lam = V * n_el / p[LEN]
+    lam = V * math.cos(p[TOE]) * n_el / p[LEN]
     vt = V * math.sin(p[TOE])
     yp, wp, zp = 0.0, 0.0, 0.0
     for j in range(n_el):
@@ -261,8 +262,10 @@ def brush_force(slip_rad, stiffness_per_length, half_length, mu, load, pressure:
 
     Parabolic pressure: ``F = mu N (1 - (1 - psi)^3)`` with
     ``psi = C_alpha tan(alpha) / (3 mu N)``, ``C_alpha = 2 c_p a^2``, for psi < 1, else mu N.
-    Uniform pressure: adhesion while ``c_p x tan(alpha) < mu N/(2a)``; ``F = mu N (t - t^2/4)``
-    with ``t = C_alpha tan(alpha)/(mu N)`` for t < 2, else mu N.
+    Uniform pressure, ``t = C_alpha tan(alpha)/(mu N)``: the whole patch adheres up to
+    t = 1/2 (``F = mu N t``); above, the rear of the patch slides from ``x_s = a/t``
+    behind the leading edge and ``F = mu N (1 - 1/(4 t))`` (full sliding only as t grows
+    without bound).
     """
     alpha = np.asarray(slip_rad, dtype=float)
     c_alpha = 2.0 * stiffness_per_length * half_length**2
@@ -272,8 +275,7 @@ def brush_force(slip_rad, stiffness_per_length, half_length, mu, load, pressure:
         psi = np.minimum(t / 3.0, 1.0)
         return sign * mu * load * (1.0 - (1.0 - psi) ** 3)
     if pressure == "uniform":
-        t = np.minimum(t, 2.0)
-        return sign * mu * load * (t - t * t / 4.0)
+        return sign * mu * load * np.where(t <= 0.5, t, 1.0 - 0.25 / np.maximum(t, 0.5))
     raise ValueError(f"pressure = {pressure!r}: must be one of {', '.join(PRESSURES)}")
 
 
@@ -318,3 +320,38 @@ def patch_model(elements: int, pressure: str) -> Model:
         kernels=_Kernels,
         coordinates=(("x", "k"),),
     )
+
+
+CORNERING_SLIP_DEG = 1e-3
+"""Slip angle [deg] at which the patch's cornering stiffness is taken as F / tan(alpha)
+(deep in the linear range: the force is linear in the slip there to about 1e-5)."""
+
+
+def steady_lateral_force(params, slip_deg) -> dict:
+    """Steady lateral force of the contact ``params`` asks for (``friction.contact``) at the
+    operating speed and load, one per slip angle [deg] (the toe angle of tread1dof):
+    ``{"contact", "load_n", "cornering_stiffness_n_per_rad", "rows": [{"slip_deg", "force_n"}]}``.
+
+    The cornering stiffness is the patch contact's (its force at
+    :data:`CORNERING_SLIP_DEG` over the tangent), whichever contact is asked for: the point
+    contact has none (its force jumps to about mu_s N at any slip), and this is what its force
+    is to be compared with."""
+    from . import model_for
+    from ..units import kmh_to_ms
+
+    V = kmh_to_ms(params.operating.speed_kmh)
+
+    def force(p, deg):
+        model = model_for(p)
+        q = model.pack(p.with_updates({"operating.toe_deg": float(deg)}))
+        u = model.equilibrium(V, q)
+        return float(model.diagnostics(u, V, q)[model.aux_names.index("friction_force")])
+
+    patch = params.with_updates({"friction.contact": "patch"})
+    c_alpha = force(patch, CORNERING_SLIP_DEG) / math.tan(math.radians(CORNERING_SLIP_DEG))
+    return {
+        "contact": params.friction.contact,
+        "load_n": params.operating.vertical_load_n,
+        "cornering_stiffness_n_per_rad": c_alpha,
+        "rows": [{"slip_deg": float(d), "force_n": force(params, d)} for d in slip_deg],
+    }
