@@ -50,6 +50,8 @@ EXPECTED = {
     "fleet": "polywear.studies.fleet:fleet",
     "load_fleet_spec": "polywear.studies.fleet:load_fleet_spec",
     "campbell": "polywear.measured.campbell:campbell",
+    "read_profiles": "polywear.measured.profile:read_profiles",
+    "calibrate_wear": "polywear.measured.wear_calibration:calibrate_wear",
     "SpecialPoint": "polywear.dynamics.points:SpecialPoint",
     "PointKind": "polywear.dynamics.points:PointKind",
     "read_run": "polywear.measured.campbell:read_run",

@@ -86,6 +86,12 @@ def _excitation(d):
     return excitation(d, default_speeds(d, 120.0)[:1], ExcitationSettings(duration_s=0.2))[0]
 
 
+def _excitation_result(d):
+    from polywear.dynamics.excitation import ExcitationSettings, default_speeds, excitation
+
+    return excitation(d, default_speeds(d, 120.0)[:1], ExcitationSettings(duration_s=0.2))
+
+
 def _attractor(d):
     from polywear.dynamics.attractor import reached_attractors
 
@@ -158,6 +164,14 @@ def _calibration(d):
     return calibrate(Params(), obs, ["friction.mu_static"], profile=False)
 
 
+def _tir(d):
+    from pathlib import Path
+
+    from polywear.measured.tir import load_with_tir
+
+    return load_with_tir(Path(__file__).parent / "data" / "mf62_example.tir", sets=["tread.mass_kg=0.25"])
+
+
 def _steady_curve(d):
     from polywear.friction import steady_curve
 
@@ -182,16 +196,34 @@ def _loop_fit(d):
     return fit_loops(*read_loops_csv(sample_path("loops")))
 
 
+def _measured_profiles(d):
+    from pathlib import Path
+
+    from polywear.measured.profile import read_profiles
+
+    return read_profiles([Path(__file__).parents[1] / "examples" / "worn_tire.csv"])
+
+
+def _wear_calibration(d):
+    from polywear.measured.wear_calibration import calibrate_wear
+    from polywear.wear.evolution import EvolutionSettings
+
+    return calibrate_wear(_measured_profiles(d), Params(), roughness_known=True,
+                          settings=EvolutionSettings(step_km=2000.0))
+
+
 CASES = {
     "stability": _stability, "bifurcation": _bifurcation, "simulation": _simulation,
     "simulation_set": _simulation_set, "sweep": _sweep, "sensitivity": _sensitivity, "study": _study,
-    "design": _design, "excitation": _excitation, "attractor": _attractor, "stability_map": _stability_map,
+    "design": _design, "excitation": _excitation, "excitation_result": _excitation_result, "attractor": _attractor,
+    "stability_map": _stability_map,
     "wear_map": _wear_map, "wear_design": _wear_design, "wear_evolution": _wear_evolution, "band": _band,
-    "fleet": _fleet, "campbell": _campbell, "calibration": _calibration, "steady_curve": _steady_curve,
+    "fleet": _fleet, "campbell": _campbell, "calibration": _calibration, "tir": _tir, "steady_curve": _steady_curve,
     "loops": _loops, "friction_fit": _friction_fit, "loop_fit": _loop_fit,
+    "measured_profiles": _measured_profiles, "wear_calibration": _wear_calibration,
 }
 NEEDS_TMP = {"fleet", "campbell"}
-WITHOUT_PARAMS = {"band", "campbell", "steady_curve", "loops", "friction_fit", "loop_fit"}
+WITHOUT_PARAMS = {"band", "campbell", "steady_curve", "loops", "friction_fit", "loop_fit", "measured_profiles"}
 """Results that do not come from a parameter set (a measured run, friction data, a band row)."""
 
 
@@ -230,7 +262,8 @@ def test_every_public_result_class_is_covered():
                      "SensitivityResult", "GlobalSensitivityResult", "DesignResult", "ExcitationPortrait",
                      "Attractor", "StabilityMap", "WearMap", "WearDesignResult", "EvolutionResult", "Band",
                      "FleetResult", "CampbellResult", "CalibrationResult", "SteadyCurve", "HysteresisLoops",
-                     "FrictionFit", "LoopFit"}
+                     "FrictionFit", "LoopFit", "ExcitationResult", "TirParameterSet", "MeasuredProfiles",
+                     "WearCalibration"}
     assert len(found) == len(CASES)
 
 

@@ -33,6 +33,8 @@ Entry points (each is the function or class named in brackets):
   from growing (or invisible up to a distance)
 - ``fleet``, ``load_fleet_spec`` [studies.fleet]: SEV risk over a fleet of cars
 - ``campbell``, ``read_run`` [measured.campbell]: Campbell maps of measured run-ups
+- ``read_profiles`` [measured.profile], ``calibrate_wear`` [measured.wear_calibration]:
+  measured worn tires as polygon spectra, and the wear rate k_e they imply
 - ``StabilitySettings``, ``ContinuationSettings``, ``SimulationSettings``, ``MapSettings``:
   validated frozen numerical settings of ``stability``, ``bifurcation``, ``simulate``,
   ``stability_map`` (a bad value raises ``ValueError`` naming the field)
@@ -81,6 +83,8 @@ _ENTRY_POINTS: dict[str, tuple[str, str | None]] = {
     "SpecialPoint": ("polywear.dynamics.points", "SpecialPoint"),
     "PointKind": ("polywear.dynamics.points", "PointKind"),
     "read_run": ("polywear.measured.campbell", "read_run"),
+    "read_profiles": ("polywear.measured.profile", "read_profiles"),
+    "calibrate_wear": ("polywear.measured.wear_calibration", "calibrate_wear"),
     "friction": ("polywear.friction", None),
     "models": ("polywear.models", None),
     "solvers": ("polywear.solvers", None),

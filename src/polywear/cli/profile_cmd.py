@@ -7,21 +7,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from .common import (
-    PLOT_SUFFIXES,
-    ConfigOpt,
-    JsonOpt,
-    PlotOpt,
-    QuietOpt,
-    SetOpt,
-    UserError,
-    emit_json,
-    info,
-    load,
-    output_file,
-    user_errors,
-    write_figure,
-)
+from .common import Inputs, Outputs, UserError, load, user_errors
 
 
 def profile(
@@ -43,24 +29,21 @@ def profile(
                                                          "(default: the measured one).")] = None,
     predict_set: Annotated[Optional[list[str]], typer.Option("--predict-set", help="A design change for the "
                                                              "prediction, key=value (repeatable).")] = None,
-    config: ConfigOpt = None,
-    set_: SetOpt = None,
-    json_: JsonOpt = False,
-    plot: PlotOpt = None,
-    quiet: QuietOpt = False,
+    inputs: Inputs = Inputs(),
+    outputs: Outputs = Outputs(),
 ) -> None:
     """Order spectrum, dominant order and peak-to-valley of measured worn tires; with
     --calibrate the wear rate k_e they imply, measured vs predicted, and --predict."""
     from ..measured.profile import ProfileError, read_profiles
 
-    output_file(plot, "--plot", PLOT_SUFFIXES)
+    outputs.check()
     if not 1 <= max_order <= 200:
         raise UserError(f"--max-order {max_order}: must be between 1 and 200")
     if (predict or roughness_known or predict_cycle or predict_set) and not calibrate:
         raise UserError("--predict, --predict-cycle, --predict-set and --roughness-known go with --calibrate")
     if (predict_cycle or predict_set) and not predict:
         raise UserError("--predict-cycle and --predict-set go with --predict")
-    params = load(config, set_)
+    params = inputs.load()
     from .wear_cmd import parse_cycle
 
     pairs = parse_cycle(cycle) if cycle else None
@@ -68,13 +51,13 @@ def profile(
         measured = read_profiles(files, unit=unit, max_order=max_order)
     for p in measured.profiles:
         for note in p.notes:
-            info(f"note: {p.label}: {note}", quiet)
+            outputs.note(f"note: {p.label}: {note}")
     summary = measured.summary()
     calibration = None
     if calibrate:
         from ..measured.wear_calibration import calibrate_wear, predict_visible_km
 
-        info("measure profile: calibrating k_e by the wear evolution on the drive cycle ...", quiet)
+        outputs.note("measure profile: calibrating k_e by the wear evolution on the drive cycle ...")
         with user_errors(ProfileError):
             calibration = calibrate_wear(measured, params, pairs, roughness_known=roughness_known)
         summary = calibration.summary()
@@ -86,29 +69,32 @@ def profile(
                 from ..params import ParameterError
 
                 with user_errors(ParameterError, prefix="--predict-set: "):
-                    changed = load(config, [*(set_ or []), *predict_set])
-            info("measure profile: predicting with the calibrated k_e ...", quiet)
+                    changed = load(inputs.config, [*(inputs.set_ or []), *predict_set])
+            outputs.note("measure profile: predicting with the calibrated k_e ...")
             summary["prediction"] = predict_visible_km(calibration, changed,
                                                        parse_cycle(predict_cycle) if predict_cycle else None)
-    if plot:
-        from .common import one_axes
+    def figure():
+        if calibration is None:
+            return _polar(measured)
+        return _two_panels(measured, calibration, _predicted_profile(calibration))
 
-        if calibration is not None:
-            from ..wear.law import profile_samples
+    outputs.write(make_figure=figure)
+    outputs.show(summary, lambda s: _print(s, calibration is not None))
 
-            ref = calibration.reference
-            scale = calibration._distance_scale()
-            import numpy as np
 
-            at = None if scale is None else int(np.argmin(np.abs(ref.distance_km - summary["comparison"]["at_km"] * scale)))
-            predicted = None if at is None else -profile_samples(ref.harmonics[at], 360) * 1e3
-            write_figure(plot, lambda: _two_panels(measured, calibration, predicted), quiet)
-        else:
-            write_figure(plot, lambda: _polar(measured), quiet)
-    if json_:
-        emit_json(summary)
-        return
-    _print(summary, calibration is not None)
+def _predicted_profile(calibration):
+    """The calibrated prediction of the worn depth [mm] at 360 angles, at the latest
+    measured mileage (None where k_e is not determined)."""
+    import numpy as np
+
+    from ..wear.law import profile_samples
+
+    scale = calibration.distance_scale()
+    if scale is None:
+        return None
+    ref = calibration.reference
+    at = int(np.argmin(np.abs(ref.distance_km - calibration.comparison["at_km"] * scale)))
+    return profile_samples(ref.harmonics[at], 360) * 1e3
 
 
 def _polar(measured):

@@ -139,7 +139,7 @@ class WearCalibration(Result):
             ax = plt.figure(figsize=(6.5, 4)).add_subplot()
         artists = []
         readings, _ = _readings(self.measured)
-        scale = self._distance_scale()
+        scale = self.distance_scale()
         top = max([r.distance_km for r in readings] + [1.0]) * 1.3
         d = np.linspace(0.0, top, 200)
         for i, n in enumerate(self.orders):
@@ -157,11 +157,12 @@ class WearCalibration(Result):
         ax.legend(fontsize=8)
         return artists
 
-    def _distance_scale(self) -> float | None:
-        """k / k_ref: the reference distance that a measured distance stands for."""
+    def distance_scale(self) -> float | None:
+        """k / k_ref: the reference evolution's distance per measured km [-] (None where k_e
+        is not determined)."""
         if self.energetic_rate_mm3_per_j is None:
             return None
-        return self.energetic_rate_mm3_per_j / getattr(self.reference.params.wear, "energetic_rate_mm3_per_j")
+        return self.energetic_rate_mm3_per_j / self.reference.params.wear.energetic_rate_mm3_per_j
 
 
 def _measured_visible_km(measured: MeasuredProfiles, limit_mm: float) -> float | None:
