@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any, Optional
 
@@ -97,6 +98,64 @@ def _print_curve(f, branch, v_op: float, mu_op: float, slope_op: float | None) -
         typer.echo(f"falling branch (d mu_ss/dv < 0): {branch[0]:.4g} to {branch[1]:.4g} m/s")
     slope_text = f"{slope_op:.4g} s/m" if slope_op is not None else "undefined (v_r = 0)"
     typer.echo(f"operating point: v_r = {v_op:.4g} m/s, mu_ss = {mu_op:.4g}, d mu_ss/dv = {slope_text}")
+
+
+class Contact(str, Enum):
+    point = "point"
+    patch = "patch"
+
+
+MAX_SLIPS = 1000
+"""Most slip angles of ``polywear friction steady``."""
+
+
+def _parse_slips(text: str) -> list[float]:
+    try:
+        values = [float(item) for item in text.split(",") if item.strip()]
+    except ValueError:
+        raise UserError(f"--slip-deg {text!r}: expected comma-separated numbers, e.g. 0.05,0.1,0.5") from None
+    if not values or any(not math.isfinite(x) or abs(x) >= 20.0 for x in values):
+        raise UserError(f"--slip-deg {text!r}: need one or more finite slip angles, less than 20 in size [deg]")
+    if len(values) > MAX_SLIPS:
+        raise UserError(f"--slip-deg: {len(values)} given, at most {MAX_SLIPS}")
+    return values
+
+
+@app.command("steady")
+def steady(
+    inputs: Inputs = Inputs(),
+    contact: Annotated[
+        Optional[Contact], typer.Option("--contact", help="Contact model (default: friction.contact).")
+    ] = None,
+    slip_deg: Annotated[
+        str, typer.Option("--slip-deg", help="Slip angles (toe) [deg], comma-separated.")
+    ] = "0.05,0.1,0.2,0.5,1,2,5,10",
+    outputs: Outputs = Outputs(takes_plot=False),
+) -> None:
+    """Steady lateral force of the contact at the operating speed and load against the slip
+    angle, with the patch contact's cornering stiffness (docs/patch_contact.md)."""
+    from ..models.patch import steady_lateral_force
+    from ..params import ParameterError
+
+    outputs.check()
+    slips = _parse_slips(slip_deg)
+    params = inputs.load()
+    if contact is not None:
+        with user_errors(ParameterError):
+            params = params.with_updates({"friction.contact": contact.value})
+    with user_errors(ParameterError, ValueError):
+        result = steady_lateral_force(params, slips)
+    outputs.show(result, _print_steady)
+
+
+def _print_steady(result: dict) -> None:
+    """The steady lateral forces as text on stdout."""
+    typer.echo(f"contact: {result['contact']}, load {result['load_n']:g} N, cornering stiffness of the patch "
+               f"{result['cornering_stiffness_n_per_rad'] / 1e3:.4g} kN/rad")
+    typer.echo(f"{'slip [deg]':>11} {'force [N]':>11} {'C_alpha*alpha [N]':>18}")
+    for row in result["rows"]:
+        linear = result["cornering_stiffness_n_per_rad"] * math.tan(math.radians(row["slip_deg"]))
+        typer.echo(f"{row['slip_deg']:>11.4g} {row['force_n']:>11.5g} {linear:>18.5g}")
 
 
 def _parse_frequencies(text: str) -> list[float]:

@@ -335,7 +335,7 @@ def steady_lateral_force(params, slip_deg) -> dict:
     The cornering stiffness is the patch contact's (its force at
     :data:`CORNERING_SLIP_DEG` over the tangent), whichever contact is asked for: the point
     contact has none (its force jumps to about mu_s N at any slip), and this is what its force
-    is to be compared with."""
+    is to be compared with (with ``model = axle4dof`` the patch on tread1dof gives it)."""
     from . import model_for
     from ..units import kmh_to_ms
 
@@ -347,7 +347,7 @@ def steady_lateral_force(params, slip_deg) -> dict:
         u = model.equilibrium(V, q)
         return float(model.diagnostics(u, V, q)[model.aux_names.index("friction_force")])
 
-    patch = params.with_updates({"friction.contact": "patch"})
+    patch = params.with_updates({"model": "tread1dof", "friction.contact": "patch"})
     c_alpha = force(patch, CORNERING_SLIP_DEG) / math.tan(math.radians(CORNERING_SLIP_DEG))
     return {
         "contact": params.friction.contact,
