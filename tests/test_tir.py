@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from polywear.params import Params, StudySpec, load_params, load_study
+from polywear.params import Params, StudySpec, flat_items, load_params, load_study
 from polywear.measured.tir import TirError, load_with_tir, read_tir, tir_parameters
 
 from .cli_runner import run_main
@@ -260,7 +260,8 @@ def test_missing_fnomin_and_missing_file(tmp_path):
 def test_order_tir_then_config_then_set(tmp_path):
     config = tmp_path / "c.toml"
     config.write_text("[operating]\nvertical_load_n = 8000.0\n[tire]\nvertical_damping_ns_per_m = 77.0\n")
-    params, mapping = load_with_tir(EXAMPLE, config, ["tire.vertical_stiffness_n_per_m=1.5e5"])
+    loaded = load_with_tir(EXAMPLE, config, ["tire.vertical_stiffness_n_per_m=1.5e5"])
+    params = loaded.params
     assert params.operating.vertical_load_n == 8000.0
     camber = 1 - 2.5 * math.sin(math.radians(Params().operating.camber_deg)) ** 2
     assert params.friction.mu_static == pytest.approx((1.05 - 0.12) * camber, rel=1e-12)  # at the user's load
@@ -269,9 +270,28 @@ def test_order_tir_then_config_then_set(tmp_path):
     ratio = Params().friction.mu_coulomb / Params().friction.mu_static
     assert params.friction.mu_coulomb / params.friction.mu_static == pytest.approx(ratio, rel=1e-12)
     # a user mu_static keeps the user's mu_coulomb: the file does not move it
-    params, mapping = load_with_tir(EXAMPLE, None, ["friction.mu_static=0.6"])
+    loaded = load_with_tir(EXAMPLE, None, ["friction.mu_static=0.6"])
+    params, mapping = loaded.params, loaded.mapping
     assert params.friction.mu_coulomb == Params().friction.mu_coulomb
     assert "friction.mu_coulomb" not in mapping.values
+
+
+def test_load_with_tir_answers_with_the_source_of_every_value(tmp_path):
+    """Every value the summary credits to the file is the file's mapped value; --config and
+    --set values are the user's; every other numeric key keeps its default."""
+    config = tmp_path / "c.toml"
+    config.write_text("[tire]\nvertical_damping_ns_per_m = 77.0\n")
+    loaded = load_with_tir(EXAMPLE, config, ["friction.mu_static=0.6"])
+    rows = {r["key"]: r for r in loaded.summary()["parameters"]}
+    assert rows["tire.vertical_damping_ns_per_m"]["source"].startswith("--config (overrides the file: ")
+    assert rows["friction.mu_static"]["source"].startswith("--set (overrides the file: ")
+    assert rows["friction.mu_static"]["value"] == 0.6 and rows["tire.vertical_damping_ns_per_m"]["value"] == 77.0
+    from_file = {k for k, r in rows.items() if r["from_file"]}
+    assert from_file == set(loaded.mapping.values) - {"tire.vertical_damping_ns_per_m", "friction.mu_static"}
+    assert all(rows[k]["value"] == loaded.mapping.values[k] for k in from_file)
+    defaults = {key: value for key, value, _ in flat_items(Params())}
+    assert all(r["value"] == defaults[k] for k, r in rows.items() if r["source"] == "default")
+    assert loaded.summary()["file"] == str(EXAMPLE) and loaded.params.friction.mu_static == 0.6
 
 
 def test_cli_from_tir_and_tir_option_agree(tmp_path):
@@ -287,7 +307,7 @@ def test_cli_from_tir_and_tir_option_agree(tmp_path):
     assert summary["format"] == "MF 6.2"
     # the written TOML reproduces the set, and every command's --tir gives the same
     from_file = load_params(out)
-    via_option, _ = load_with_tir(EXAMPLE)
+    via_option = load_with_tir(EXAMPLE).params
     assert from_file == via_option
     assert load_study(out) == StudySpec()  # the [study] table is written too (here: --config has none)
     config = tmp_path / "car.toml"

@@ -101,7 +101,7 @@ def load(config: Path | None, sets: list[str] | None):
     if tir is not None:
         from ..measured.tir import load_with_tir
 
-        return load_with_tir(tir, config, sets or ())[0]
+        return load_with_tir(tir, config, sets or ()).params
     from ..params import load_params
 
     return load_params(config, sets or ())

@@ -37,7 +37,7 @@ def excitation(
         raise UserError(f"--duration {duration}: must be at most {MAX_DURATION_S:g} [s]")
     params = inputs.load()
     from ..dynamics.bifurcation import bifurcation
-    from ..dynamics.excitation import ExcitationSettings, default_speeds, excitation, portraits_figure
+    from ..dynamics.excitation import ExcitationSettings, default_speeds, excitation
 
     outputs.note("excitation: bifurcation diagram ...")
     with outputs.progress("continuation steps") as update:
@@ -52,8 +52,8 @@ def excitation(
     outputs.note(f"excitation: simulating at {', '.join(f'{v:.1f}' for v in speeds)} km/h ...")
     with outputs.progress("excitation: simulations") as update:
         portraits = excitation(diagram, speeds, ExcitationSettings(duration_s=duration), progress=update)
-    outputs.write(make_figure=lambda: portraits_figure(portraits))
-    outputs.show({"model": params.model, "portraits": [p.summary() for p in portraits]}, _print_portraits)
+    outputs.write(make_figure=portraits.figure)
+    outputs.show(portraits.summary(), _print_portraits)
 
 
 def _print_portraits(summary: dict) -> None:

@@ -52,32 +52,14 @@ def from_tir(
 ) -> None:
     """Read a .tir file and say, for every key, whether it came from the file (which tir
     keys, which formula), from --config/--set, or stays a default."""
-    from ..params import flat_items, load_study, to_toml
-    from ..measured.tir import load_with_tir, user_keys
+    from ..params import load_study, to_toml
+    from ..measured.tir import load_with_tir
 
     output_file(out, "--out", (".toml",))
-    params, mapping = load_with_tir(tir, inputs.config, inputs.set_ or (), belt_mode=belt_mode)
-    in_sets = user_keys(None, inputs.set_ or ())
-    in_file = user_keys(inputs.config)
-    rows = []
-    for key, value, _ in flat_items(params):
-        if isinstance(value, tuple):
-            continue
-        user = "--set" if key in in_sets else "--config" if key in in_file else None
-        tir_source = mapping.sources.get(key)
-        if user and tir_source:
-            source = f"{user} (overrides the file: {tir_source})"
-        else:
-            source = user or (f"file: {tir_source}" if tir_source else "default")
-        rows.append({"key": key, "value": value, "source": source, "from_file": tir_source is not None and not user})
-    summary = {
-        "file": str(tir),
-        "format": mapping.tir.family,
-        "format_declared": mapping.tir.format_label,
-        "conditions": mapping.conditions,
-        "parameters": rows,
-        "notes": list(mapping.notes),
-    }
+    loaded = load_with_tir(tir, inputs.config, inputs.set_ or (), belt_mode=belt_mode)
+    params, mapping = loaded.params, loaded.mapping
+    summary = loaded.summary()
+    rows = summary["parameters"]
     if out is not None:
         header = [f"# polywear parameters from {tir} ({mapping.tir.family}); sources:"]
         header += [f"#   {r['key']} <- {r['source']}" for r in rows if r["source"] != "default"]

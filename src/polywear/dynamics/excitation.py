@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..models import model_for
+from ..params import Params
 from ..units import kmh_to_ms
 from ..results import Result
 from ..progress import Progress, StepCounter
@@ -22,8 +23,8 @@ from ..settings import check_order, check_positive
 from .bifurcation import BifurcationDiagram, CyclePoint
 from .simulation import SimulationResult, simulate
 
-__all__ = ["ExcitationPortrait", "ExcitationSettings", "excitation", "default_speeds", "portraits_figure",
-           "settling_time"]
+__all__ = ["ExcitationPortrait", "ExcitationResult", "ExcitationSettings", "excitation", "default_speeds",
+           "portraits_figure", "settling_time"]
 
 
 @dataclass
@@ -164,9 +165,56 @@ def settling_time(diagram: BifurcationDiagram, speed_kmh: float, cycles,
     return float(np.clip(factor / min(rates), *bounds))
 
 
+@dataclass(frozen=True)
+class ExcitationResult(Result):
+    """The portraits of :func:`excitation`, one per speed (indexable and iterable over them)."""
+
+    params: Params
+    settings: ExcitationSettings
+    portraits: list[ExcitationPortrait]
+
+    def __len__(self) -> int:
+        return len(self.portraits)
+
+    def __iter__(self):
+        return iter(self.portraits)
+
+    def __getitem__(self, index: int) -> ExcitationPortrait:
+        return self.portraits[index]
+
+    def summary(self) -> dict:
+        """The model and each speed's portrait (what ``polywear excitation --json`` prints)."""
+        return {"model": self.params.model, "portraits": [p.summary() for p in self.portraits]}
+
+    def to_dataframe(self):
+        """pandas DataFrame: one row per speed [km/h] and start (regime, initial offset of x [m],
+        outcome, final amplitude of x [m])."""
+        import pandas as pd
+
+        rows = [{"speed_kmh": p.speed_kmh, "regime": p.regime, **r} for p in self.portraits for r in p.summary()["runs"]]
+        columns = ["speed_kmh", "regime", "start", "initial_x_m", "outcome", "final_amplitude_x_m"]
+        return pd.DataFrame(rows, columns=columns).astype({"regime": str, "start": str, "outcome": str})
+
+    def _dataset(self):
+        """The table of :meth:`to_dataframe` along ``row``."""
+        return self._table_dataset()
+
+    def plot(self, ax=None):
+        """One phase portrait per speed onto ``ax``: axes in a sequence, one per speed (a new
+        row of axes if None). Returns artists."""
+        axes = _axes_row(len(self.portraits))[1] if ax is None else list(np.atleast_1d(ax))
+        if len(axes) < len(self.portraits):
+            raise ValueError(f"{len(self.portraits)} portraits need as many axes, got {len(axes)}")
+        return [artist for a, portrait in zip(axes, self.portraits) for artist in portrait.plot(a)]
+
+    def figure(self):
+        """A new Figure, one panel per speed."""
+        return portraits_figure(self.portraits)
+
+
 def excitation(diagram: BifurcationDiagram, speeds_kmh: Iterable[float],
                settings: ExcitationSettings = ExcitationSettings(),
-               progress: Progress | None = None) -> list[ExcitationPortrait]:
+               progress: Progress | None = None) -> ExcitationResult:
     """Cycles from the diagram and trajectories from inside/outside each cycle at every speed.
 
     ``settings.duration_s`` [s] per start; by default long enough for the slowest attractor
@@ -204,15 +252,22 @@ def excitation(diagram: BifurcationDiagram, speeds_kmh: Iterable[float],
             runs.append(replace(simulate(params, speed, duration, initial=initial), label=label))
             step(f"{speed:.1f} km/h, {label}")
         out.append(ExcitationPortrait(speed, regime, cycles, runs))
-    return out
+    return ExcitationResult(params, settings, out)
 
 
-def portraits_figure(portraits: list[ExcitationPortrait]):
-    """One panel per speed."""
+def _axes_row(n: int):
+    """A new Figure with a row of ``max(n, 1)`` axes: (figure, list of axes)."""
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, len(portraits), figsize=(5.2 * len(portraits), 4.6), squeeze=False)
-    for ax, portrait in zip(axes[0], portraits):
+    fig, axes = plt.subplots(1, max(n, 1), figsize=(5.2 * max(n, 1), 4.6), squeeze=False)
+    return fig, list(axes[0])
+
+
+def portraits_figure(portraits: Iterable[ExcitationPortrait]):
+    """One panel per speed (an :class:`ExcitationResult` or any sequence of portraits)."""
+    portraits = list(portraits)
+    fig, axes = _axes_row(len(portraits))
+    for ax, portrait in zip(axes, portraits):
         portrait.plot(ax)
     fig.tight_layout()
     return fig

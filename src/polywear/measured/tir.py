@@ -21,10 +21,12 @@ from typing import Any
 
 from ..errors import InputError
 from ..keys import study_keys
-from ..params import ParameterError, load_params, parse_override
+from ..params import ParameterError, Params, flat_items, get_value, load_params, parse_override
+from ..results import Result
 from ..units import kmh_to_ms
 
-__all__ = ["TirError", "TirEntry", "TirFile", "TirMapping", "read_tir", "tir_parameters", "user_keys", "load_with_tir"]
+__all__ = ["TirError", "TirEntry", "TirFile", "TirMapping", "TirParameterSet", "read_tir", "tir_parameters", "user_keys",
+           "load_with_tir"]
 
 
 class TirError(InputError, ParameterError):
@@ -501,12 +503,84 @@ def user_keys(config: str | Path | None, sets: list[str] | tuple[str, ...] = ())
     return keys | {parse_override(item)[0] for item in sets}
 
 
+@dataclass(frozen=True)
+class TirParameterSet(Result):
+    """:func:`load_with_tir`'s answer: the parameter set and where each of its values came from."""
+
+    file: str
+    """The .tir file as given."""
+    params: Params
+    mapping: TirMapping
+    """What the file determines at the operating point (``mapping.tir`` is the parsed file)."""
+    config_keys: frozenset[str] = frozenset()
+    """Keys the TOML file gives (they override the file)."""
+    set_keys: frozenset[str] = frozenset()
+    """Keys the ``--set`` overrides give."""
+
+    def sources(self) -> list[dict]:
+        """Per key (model, then table order): value, source (``"file: ..."``, ``"--config"``,
+        ``"--set"`` or ``"default"``) and whether the file's value stands."""
+        rows = []
+        for key, value, _ in flat_items(self.params):
+            if isinstance(value, tuple):
+                continue
+            user = "--set" if key in self.set_keys else "--config" if key in self.config_keys else None
+            tir_source = self.mapping.sources.get(key)
+            if user and tir_source:
+                source = f"{user} (overrides the file: {tir_source})"
+            else:
+                source = user or (f"file: {tir_source}" if tir_source else "default")
+            rows.append({"key": key, "value": value, "source": source,
+                         "from_file": tir_source is not None and not user})
+        return rows
+
+    def summary(self) -> dict:
+        """File, format, operating point, every key's value and source, notes (``polywear params from-tir --json``)."""
+        return {
+            "file": self.file,
+            "format": self.mapping.tir.family,
+            "format_declared": self.mapping.tir.format_label,
+            "conditions": self.mapping.conditions,
+            "parameters": self.sources(),
+            "notes": list(self.mapping.notes),
+        }
+
+    def to_dataframe(self):
+        """pandas DataFrame: one row per key (value, source, from_file)."""
+        import pandas as pd
+
+        return pd.DataFrame(self.sources())
+
+    def _dataset(self):
+        """The table of :meth:`to_dataframe` along ``row``."""
+        return self._table_dataset()
+
+    def plot(self, ax=None):
+        """Relative change from the defaults of every value the file sets (bars). Returns artists."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 4))
+        defaults = Params()
+        changes = [(r["key"], r["value"] / get_value(defaults, r["key"]) - 1.0) for r in self.sources()
+                   if r["from_file"] and get_value(defaults, r["key"])]
+        if not changes:
+            return [ax.text(0.5, 0.5, "the file sets no value", ha="center", va="center", transform=ax.transAxes)]
+        keys, rel = zip(*changes)
+        artists = list(ax.barh(range(len(keys)), [100.0 * r for r in rel], color="C0"))
+        ax.set_yticks(range(len(keys)), keys, fontsize=8)
+        ax.axvline(0.0, color="k", lw=0.5)
+        ax.set_xlabel("change from the default [%]")
+        ax.set_title(f"{Path(self.file).name}: values from the file ({self.mapping.tir.family})", fontsize=10)
+        return artists
+
+
 def load_with_tir(
     tir_path: str | Path,
     config: str | Path | None = None,
     sets: list[str] | tuple[str, ...] = (),
     belt_mode: bool = False,
-) -> tuple[Any, TirMapping]:
+) -> TirParameterSet:
     """Defaults, then the .tir values, then the TOML file, then ``--set`` overrides.
 
     The file's values are evaluated at the resolved operating point: the user's load if
@@ -516,7 +590,8 @@ def load_with_tir(
 
     Returns
     -------
-    (Params, TirMapping)
+    TirParameterSet
+        The parameters (``.params``), the file's mapping (``.mapping``) and each key's source.
     """
     tir = read_tir(tir_path)
     plain = load_params(config, sets)
@@ -528,4 +603,5 @@ def load_with_tir(
         mapping = replace(mapping, values={k: v for k, v in mapping.values.items() if k != drop},
                           sources={k: v for k, v in mapping.sources.items() if k != drop})
     base = {key: value for key, value in mapping.values.items() if key not in given}
-    return load_params(config, sets, base=base), mapping
+    return TirParameterSet(str(tir_path), load_params(config, sets, base=base), mapping,
+                           frozenset(user_keys(config)), frozenset(user_keys(None, sets)))
