@@ -38,7 +38,7 @@ from ..solvers.integrate import integrate
 from ..units import plot_scale, kmh_to_ms
 from .bifurcation import _open_at, _open_warning
 from .intervals import runs_of
-from .simulation import SimulationSettings, classify_window, initial_state
+from .simulation import SimulationSettings, SteadyOutcome, classify_window, initial_state
 
 __all__ = ["START_TYPES", "SteadyRun", "SweepResult", "SweepSettings", "settle", "sweep", "sweep_bands"]
 
@@ -78,8 +78,8 @@ class SteadyRun:
 
     speed_kmh: float
     start: str
-    outcome: str
-    """``"equilibrium"``, ``"cycle"`` or ``"transient"`` (not settled in time)."""
+    outcome: SteadyOutcome
+    """Equilibrium, cycle or transient (not settled in time)."""
     amplitude: np.ndarray
     mean: np.ndarray
     maximum: np.ndarray
@@ -91,7 +91,7 @@ class SteadyRun:
 
     @property
     def steady(self) -> bool:
-        return self.outcome != "transient"
+        return self.outcome is not SteadyOutcome.TRANSIENT
 
 
 def settle(
@@ -298,7 +298,7 @@ def sweep_bands(result) -> dict:
     def band(starts):
         on = np.zeros(len(speeds), dtype=bool)
         for start in starts:
-            on |= np.array([r.outcome == "cycle" for r in result.runs[start]])
+            on |= np.array([r.outcome is SteadyOutcome.CYCLE for r in result.runs[start]])
         return runs_of(speeds, on)
 
     sev = band(("large", "up", "down"))
