@@ -11,6 +11,7 @@ from polywear.errors import InputError, NumericalError, PolywearError
 from polywear.friction.data import FrictionDataError, read_steady_csv
 from polywear.measured.calibration import CalibrationError, read_observations
 from polywear.measured.campbell import MeasurementError, read_run
+from polywear.measured.profile import ProfileError
 from polywear.measured.tir import TirError, read_tir
 from polywear.models import get_model
 from polywear.params import ParameterError
@@ -25,6 +26,7 @@ KINDS = {
     TirError: (InputError, ParameterError),
     MeasurementError: (InputError, ParameterError),
     CalibrationError: (InputError, ParameterError),
+    ProfileError: (InputError, ValueError),
     IntegrationError: (NumericalError, RuntimeError),
     Auto07pError: (NumericalError, RuntimeError),
 }
