@@ -11,7 +11,8 @@ def test_stability_json_matches_model_md():
     code, out, err = run_main(["stability", "--speed-range", "5", "300", "--json"])
     assert code == 0, err
     s = json.loads(out)
-    assert set(s) >= {"model", "hopf_speeds_kmh", "hopf_frequencies_hz", "unstable_intervals_kmh"}
+    assert set(s) >= {"model", "hopf_speeds_kmh", "hopf_frequencies_hz", "linear_band_kmh", "unstable_intervals_kmh"}
+    assert s["unstable_intervals_kmh"] == s["linear_band_kmh"]  # the old name, until the next release
     assert s["model"] == "tread1dof"
     assert [round(v, 1) for v in s["hopf_speeds_kmh"]] == [58.1, 207.8]
     assert [round(v) for v in s["hopf_frequencies_hz"]] == [127, 147]

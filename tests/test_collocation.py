@@ -107,7 +107,7 @@ def test_hopf_point_of_normal_form_is_exact_and_subcritical(normal_form_branch):
     hopf, _ = normal_form_branch
     assert abs(hopf.speed_ms - 1.0) < 1e-12
     assert abs(hopf.omega - P[0]) < 1e-10
-    assert hopf.l1 > 0  # subcritical (hard)
+    assert hopf.first_lyapunov_coefficient > 0  # subcritical (hard)
     assert abs(hopf.dre_dspeed - 1.0) < 1e-10
 
 

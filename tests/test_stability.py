@@ -44,7 +44,7 @@ def test_default_hopf_speeds_match_routh_hurwitz_and_model_md():
     for h in result.hopf_points:
         a3, a2, a1, a0 = characteristic_polynomial(h.speed_ms, p)
         assert math.isclose(h.omega, math.sqrt(a1 / a3), rel_tol=1e-8)
-    assert result.unstable_intervals_kmh == [(h1.speed_kmh, h2.speed_kmh)]
+    assert result.linear_band_kmh == [(h1.speed_kmh, h2.speed_kmh)]
 
 
 @settings(max_examples=8, deadline=None)
@@ -90,12 +90,12 @@ def test_first_lyapunov_coefficient_predicts_the_emerging_cycle(index):
     branch = continue_from_hopf(MODEL, p, branch_start(hopf), (20 / 3.6, 300 / 3.6))
     first = branch.points[0]
     mu = hopf.dre_dspeed * (first.orbit.speed - hopf.speed_ms)
-    predicted = 2 * abs(hopf.q[0]) * math.sqrt(-mu / (hopf.omega * hopf.l1))
+    predicted = 2 * abs(hopf.q[0]) * math.sqrt(-mu / (hopf.omega * hopf.first_lyapunov_coefficient))
     assert first.orbit.amplitude()[0] == pytest.approx(predicted, rel=1e-3)
     # soft: cycles on the unstable side of the equilibrium, stable; hard: the opposite
     unstable_side = np.sign(hopf.dre_dspeed) * (first.orbit.speed - hopf.speed_ms) > 0
-    assert unstable_side == (hopf.l1 < 0)
-    assert first.stable == (hopf.l1 < 0)
+    assert unstable_side == (hopf.first_lyapunov_coefficient < 0)
+    assert first.stable == (hopf.first_lyapunov_coefficient < 0)
 
 
 def test_bad_speed_range_is_rejected():
@@ -153,4 +153,4 @@ def test_a_band_narrower_than_the_grid_is_not_missed(n_speeds):
     oracle = routh_hurwitz_hopf_speeds(MODEL.pack(params), 110 / 3.6, 130 / 3.6)
     assert len(oracle) == 2 and 0.0 < (oracle[1] - oracle[0]) * 3.6 < 0.5
     assert np.allclose([h.speed_ms for h in result.hopf_points], oracle, rtol=1e-9)
-    assert len(result.unstable_intervals_kmh) == 1
+    assert len(result.linear_band_kmh) == 1

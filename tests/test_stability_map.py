@@ -54,7 +54,7 @@ def test_toe_map_curves_follow_one_over_sin_toe(toe_map, nominal):
         c = curve.speed_kmh * np.sin(np.radians(curve.value))
         k = int(np.argmin([abs(c[0] - x) for x in constants]))
         assert np.allclose(c, constants[k], rtol=1e-9)
-        assert np.all(np.diff(np.sign(curve.l1)) == 0)  # criticality does not depend on toe
+        assert np.all(np.diff(np.sign(curve.first_lyapunov_coefficient)) == 0)  # criticality does not depend on toe
     fold = toe_map.fold_curves[0]
     c_fold = nominal.folds[0].speed_kmh * math.sin(math.radians(0.5))
     assert np.allclose(fold.speed_kmh * np.sin(np.radians(fold.value)), c_fold, rtol=1e-6)
@@ -116,11 +116,11 @@ def test_bautin_point_of_the_mu_static_map(mu_map, nominal):
     l1 = {}
     for side in (-1, 1):
         stab = stability(perturbed(Params(), MU, value * (1 + side * 1e-3)), (20.0, 300.0))
-        l1[side] = min(stab.hopf_points, key=lambda h: abs(h.speed_kmh - speed)).l1
+        l1[side] = min(stab.hopf_points, key=lambda h: abs(h.speed_kmh - speed)).first_lyapunov_coefficient
     assert l1[-1] < 0 < l1[1]  # soft below, hard above (the default, 0.9, is hard)
     at = min(stability(perturbed(Params(), MU, value), (20.0, 300.0)).hopf_points,
              key=lambda h: abs(h.speed_kmh - speed))
-    assert abs(at.l1) < 1e-3 * abs(nominal.hopf_points[1].l1)
+    assert abs(at.first_lyapunov_coefficient) < 1e-3 * abs(nominal.hopf_points[1].first_lyapunov_coefficient)
     (fold,) = mu_map.fold_curves
     end = int(np.argmin(fold.value))
     assert fold.end_reasons[0].startswith("amplitude vanishing")

@@ -39,7 +39,7 @@ def test_hopf_criticality_follows_the_sign_of_the_lyapunov_coefficient():
     hopfs = stability(Params(), (20.0, 300.0)).hopf_points
     assert len(hopfs) == 2
     for h in hopfs:
-        assert h.criticality is (Criticality.SOFT if h.l1 < 0 else Criticality.HARD)
+        assert h.criticality is (Criticality.SOFT if h.first_lyapunov_coefficient < 0 else Criticality.HARD)
         assert h.special_point().criticality is h.criticality
         assert h.summary()["criticality"] == h.criticality.value
 

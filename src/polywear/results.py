@@ -34,10 +34,36 @@ if TYPE_CHECKING:
 
     from .params import Params
 
-__all__ = ["Result", "SAVE_SUFFIXES", "jsonable"]
+__all__ = ["Result", "SAVE_SUFFIXES", "jsonable", "with_deprecated_keys"]
 
 SAVE_SUFFIXES = (".nc", ".json", ".csv")
 """File suffixes :meth:`Result.save` writes."""
+
+
+def with_deprecated_keys(summary: dict, renamed: dict[str, str | tuple[str, float]]) -> dict:
+    """``summary`` with, beside each renamed key, its old name (readable for one release; CHANGELOG.md).
+
+    ``renamed`` maps a new key to its old name, or to ``(old name, factor)`` where the unit
+    changed: the old key then holds the new value times ``factor`` (``None`` stays ``None``;
+    lists and lists of pairs are scaled element by element). Keys absent from ``summary``
+    are skipped; the old key follows the new one. Returns a new dict.
+    """
+    out: dict = {}
+    for key, value in summary.items():
+        out[key] = value
+        if key in renamed:
+            old, factor = renamed[key] if isinstance(renamed[key], tuple) else (renamed[key], None)
+            out[old] = value if factor is None else _scaled(value, factor)
+    return out
+
+
+def _scaled(value: Any, factor: float) -> Any:
+    """``value`` times ``factor``, through lists and tuples; ``None`` stays ``None``."""
+    if value is None:
+        return None
+    if isinstance(value, (list, tuple)):
+        return [_scaled(v, factor) for v in value]
+    return value * factor
 
 
 def jsonable(obj: Any) -> Any:

@@ -36,7 +36,7 @@ def _print_summary(result, summary: dict) -> None:
     typer.echo(f"model {summary['model']}")
     if not result.hopf_points:
         typer.echo("no Hopf point in the speed range: steady rolling is "
-                   + ("unstable throughout" if summary["unstable_intervals_kmh"] else "stable throughout"))
+                   + ("unstable throughout" if summary["linear_band_kmh"] else "stable throughout"))
     for h in result.hopf_points:
         s = h.summary()
         typer.echo(
@@ -45,7 +45,7 @@ def _print_summary(result, summary: dict) -> None:
         )
     for v in summary["real_eigenvalue_crossings_kmh"]:
         typer.echo(f"real eigenvalue crosses zero at {v:9.3f} km/h (static divergence / fold of equilibria)")
-    for lo, hi in summary["unstable_intervals_kmh"]:
+    for lo, hi in summary["linear_band_kmh"]:
         typer.echo(f"steady rolling unstable from {lo:.3f} to {hi:.3f} km/h")
     if "running_alignment" in summary:
         a = summary["running_alignment"]

@@ -123,7 +123,7 @@ class BifurcationDiagram(Result):
 
     @property
     def linear_band_kmh(self) -> list[tuple[float, float]]:
-        return list(self.stability.unstable_intervals_kmh)
+        return list(self.stability.linear_band_kmh)
 
     def stable_cycle_intervals_kmh(self) -> list[tuple[float, float]]:
         """Speed intervals [km/h] covered by stable cycles.

@@ -20,7 +20,7 @@ from scipy.optimize import brentq
 
 from ..errors import NumericalError
 from ..models import model_for
-from ..results import Result
+from ..results import Result, with_deprecated_keys
 from ..params import Params
 from ..settings import check_count, check_positive
 from ..units import DEFAULT_SPEED_RANGE_KMH, STABILITY_SPEED_RANGE_KMH, kmh_to_ms, ms_to_kmh
@@ -62,7 +62,7 @@ class HopfPoint:
     ``q`` and ``w`` are right and left critical eigenvectors with ``J q = i omega q``,
     ``w^H J = i omega w^H``, ``|q| = 1`` and ``w^H q = 1``. ``dre_dspeed`` is
     d Re(lambda)/dV [1/m] (> 0: the pair crosses into the right half plane with
-    increasing speed). ``l1`` is the first Lyapunov coefficient (< 0: supercritical,
+    increasing speed). ``first_lyapunov_coefficient`` is l1 (< 0: supercritical,
     soft; > 0: subcritical, hard).
     """
 
@@ -73,7 +73,7 @@ class HopfPoint:
     q: np.ndarray
     w: np.ndarray
     dre_dspeed: float
-    l1: float
+    first_lyapunov_coefficient: float
     mode: str
 
     @property
@@ -87,7 +87,7 @@ class HopfPoint:
     @property
     def criticality(self) -> Criticality:
         """Soft (supercritical, l1 < 0) or hard (subcritical)."""
-        return Criticality.SOFT if self.l1 < 0.0 else Criticality.HARD
+        return Criticality.SOFT if self.first_lyapunov_coefficient < 0.0 else Criticality.HARD
 
     def special_point(self) -> SpecialPoint:
         """This Hopf point as a :class:`~polywear.dynamics.points.SpecialPoint` (kind HB)."""
@@ -98,7 +98,7 @@ class HopfPoint:
             "speed_kmh": self.speed_kmh,
             "frequency_hz": self.frequency_hz,
             "criticality": self.criticality,
-            "first_lyapunov_coefficient": self.l1,
+            "first_lyapunov_coefficient": self.first_lyapunov_coefficient,
             "crossing": "destabilizing" if self.dre_dspeed > 0 else "stabilizing",
             "mode": self.mode,
         }
@@ -189,6 +189,10 @@ def first_lyapunov_coefficient(model, u, V, p, q, w, omega, J) -> float:
     return float(np.vdot(w, terms).real / (2.0 * omega))
 
 
+RENAMED_KEYS = {"linear_band_kmh": "unstable_intervals_kmh"}
+"""New -> old keys of :meth:`StabilityResult.summary` (the old ones go in the next release)."""
+
+
 @dataclass
 class StabilityResult(Result):
     """Eigenvalues of the equilibrium along speed, Hopf points and unstable intervals."""
@@ -200,7 +204,8 @@ class StabilityResult(Result):
     hopf_points: list[HopfPoint]
     real_crossings_kmh: list[float]
     """Speeds where a real eigenvalue crosses zero (static divergence / fold of equilibria)."""
-    unstable_intervals_kmh: list[tuple[float, float]]
+    linear_band_kmh: list[tuple[float, float]]
+    """Speed intervals where steady rolling is unstable [km/h]."""
     state_names: tuple[str, ...]
     settings: dict = field(default_factory=dict)
     alignment_deg: np.ndarray | None = None
@@ -213,10 +218,11 @@ class StabilityResult(Result):
             "model": self.params.model,
             "hopf_speeds_kmh": [h.speed_kmh for h in self.hopf_points],
             "hopf_frequencies_hz": [h.frequency_hz for h in self.hopf_points],
-            "unstable_intervals_kmh": [list(iv) for iv in self.unstable_intervals_kmh],
+            "linear_band_kmh": [list(iv) for iv in self.linear_band_kmh],
             "hopf_points": [h.summary() for h in self.hopf_points],
             "real_eigenvalue_crossings_kmh": list(self.real_crossings_kmh),
         }
+        out = with_deprecated_keys(out, RENAMED_KEYS)
         if self.alignment_deg is not None:
             op = self.params.operating.speed_kmh
             at = [float(np.interp(op, self.speeds_kmh, self.alignment_deg[:, k])) for k in (0, 1)]
@@ -261,7 +267,7 @@ class StabilityResult(Result):
         for j in range(re_sorted.shape[1]):
             artists += ax.plot(self.speeds_kmh, re_sorted[:, j], lw=1.0, color=f"C{j % 10}")
         artists.append(ax.axhline(0.0, color="k", lw=0.8))
-        for lo, hi in self.unstable_intervals_kmh:
+        for lo, hi in self.linear_band_kmh:
             artists.append(ax.axvspan(lo, hi, color="tab:red", alpha=0.12))
         for v in self.real_crossings_kmh:
             artists += ax.plot([v], [0.0], "D", color="tab:purple")
@@ -340,7 +346,7 @@ def stability(
         equilibria=states,
         hopf_points=hopfs,
         real_crossings_kmh=real_kmh,
-        unstable_intervals_kmh=intervals,
+        linear_band_kmh=intervals,
         state_names=model.state_names,
         settings={"n_speeds": settings.n_speeds, "xtol_ms": settings.xtol_ms},
         alignment_deg=None if alignment is None else np.degrees([alignment(u, p) for u in states]),

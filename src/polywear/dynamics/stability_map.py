@@ -107,12 +107,13 @@ class HopfCurve:
     speed_kmh: np.ndarray
     value: np.ndarray
     frequency_hz: np.ndarray
-    l1: np.ndarray
+    first_lyapunov_coefficient: np.ndarray
+    """l1 along the curve (< 0 soft, > 0 hard)."""
     tangent: np.ndarray  # (n, 2) unit tangent in scaled (speed, value) coordinates
     turning_points: list[SpecialPoint]
     """Where the curve turns back in the parameter and the linear band closes (kind HT)."""
     bautin_points: list[SpecialPoint]
-    """Where ``l1`` changes sign (kind GH)."""
+    """Where ``first_lyapunov_coefficient`` changes sign (kind GH)."""
     end_reasons: tuple[str, str]
 
 
@@ -185,7 +186,7 @@ def _hopf_curve(tracer: HopfCurveTracer, start: HopfState, on_step) -> HopfCurve
         speed_kmh=np.array([ms_to_kmh(p.V) for p in c.points]),
         value=np.array([p.theta for p in c.points]),
         frequency_hz=np.array([p.lam.imag / (2 * np.pi) for p in c.points]),
-        l1=np.array(c.tests),
+        first_lyapunov_coefficient=np.array(c.tests),
         tangent=c.tangents,
         turning_points=[SpecialPoint(PointKind.HOPF_TURN, ms_to_kmh(st.V), value=st.theta) for st in c.turning_points],
         bautin_points=[SpecialPoint(PointKind.GH, ms_to_kmh(st.V), value=st.theta) for st in c.test_zeros],
@@ -312,7 +313,7 @@ class StabilityMap(Result):
             cols = {n: np.concatenate([getattr(c, n) for c in curves]) if curves else np.zeros(0) for n in names}
             return idx, cols
 
-        h_idx, h = stack(self.hopf_curves, ("value", "speed_kmh", "frequency_hz", "l1"))
+        h_idx, h = stack(self.hopf_curves, ("value", "speed_kmh", "frequency_hz", "first_lyapunov_coefficient"))
         f_idx, f = stack(self.fold_curves, ("value", "speed_kmh", "derivative", "amplitude_x", "frequency_hz"))
         speeds = np.linspace(*self.speed_range_kmh, 561)
         ds = xr.Dataset(
@@ -359,8 +360,8 @@ class StabilityMap(Result):
         handles = [Patch(color="#f4a3a3", label="linear band: rolling unstable"),
                    Patch(color="#ffd27f", label="hard band: SEV after a large disturbance")]
         for k, c in enumerate(self.hopf_curves):
-            soft = np.where(c.l1 < 0, c.value, np.nan)
-            hard = np.where(c.l1 >= 0, c.value, np.nan)
+            soft = np.where(c.first_lyapunov_coefficient < 0, c.value, np.nan)
+            hard = np.where(c.first_lyapunov_coefficient >= 0, c.value, np.nan)
             artists += ax.plot(c.speed_kmh, soft, "-", color="tab:red", lw=1.6,
                                label="Hopf, soft (l1 < 0)" if k == 0 else None)
             artists += ax.plot(c.speed_kmh, hard, "--", color="tab:red", lw=1.6,
@@ -391,7 +392,7 @@ class StabilityMap(Result):
 def _hard_side(curve: HopfCurve, theta_b, speed_b, scale_value, scale_speed, distance=0.05):
     """A parameter value on the subcritical (l1 > 0) side of a Bautin point, ``distance`` away (scaled)."""
     d = np.hypot((curve.value - theta_b) / scale_value, (curve.speed_kmh - speed_b) / scale_speed)
-    candidates = np.flatnonzero((curve.l1 > 0) & (d >= distance))
+    candidates = np.flatnonzero((curve.first_lyapunov_coefficient > 0) & (d >= distance))
     if candidates.size == 0:
         return None
     return float(curve.value[candidates[np.argmin(d[candidates])]])

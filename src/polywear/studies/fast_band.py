@@ -787,7 +787,7 @@ class FastBand:
             hopf_criticality=tuple(h.criticality for h in stab.hopf_points),
             folds_kmh=tuple(folds),
             fold_amplitude_x_m=tuple(fold_amp),
-            linear_band_kmh=tuple(tuple(b) for b in stab.unstable_intervals_kmh),
+            linear_band_kmh=tuple(tuple(b) for b in stab.linear_band_kmh),
             sev_band_kmh=mapped(ref.sev_labels),
             hard_regions_kmh=mapped(ref.hard_labels),
             amplitude_speeds_kmh=tuple(self.amplitude_speeds_kmh),

@@ -302,7 +302,7 @@ def wear_map(params: Params, speeds_kmh: ArrayLike, max_order: int | None = None
         H = X @ C + D
         change[i] = -(k_e / (V * b_w)) * sinc2 * (k_z + s * c_z) * H
     lo, hi = float(speeds_kmh.min()), float(speeds_kmh.max())
-    bands = stability(params, (lo, hi)).unstable_intervals_kmh if hi > lo else (
+    bands = stability(params, (lo, hi)).linear_band_kmh if hi > lo else (
         [] if stable[0] else [(lo, hi)])
     return WearMap(params=params, speeds_kmh=speeds_kmh, orders=orders, relative_change=change,
                    rolling_stable=stable, mode_frequency_hz=mode_f, mean_wear_mm_per_1000km=mean_wear,
