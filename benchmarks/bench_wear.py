@@ -1,6 +1,7 @@
 """Timing of the wear analysis: the linear map and the nonlinear evolution.
 
-    .venv/bin/python benchmarks/bench_wear.py [--repeat 3] [--skip-evolution] [--axle] [--workers 2] [--critical-path]
+    .venv/bin/python benchmarks/bench_wear.py [--repeat 3] [--skip-evolution] [--axle] [--km 60000]
+                                             [--cycle default|110] [--only-fast]
 
 Measured in one process, warm (compiled kernels cached), as CPU time (``time.process_time``:
 the machine may be shared, and wall time then measures the load), best of N:
@@ -8,16 +9,16 @@ the machine may be shared, and wall time then measures the load), best of N:
 * the linear wear map, 60 orders x 300 speeds (20-300 km/h), both models, against a
   baseline in the same run: the same resolvent evaluated one (speed, order) at a time
   in a Python loop (``np.linalg.solve`` per pair) instead of one batched solve per speed;
-* one simulated window of the evolution (a stable and a vibrating speed), and how its
-  cost grows with the number of orders (20, 40, 60);
-* the evolution over 60 000 km on the three-speed default drive cycle (tread1dof;
-  axle4dof with ``--axle``), in one process (the baseline) and with the windows of the
-  cycle's speeds in ``--workers`` processes at once (default 2): wall time, and CPU time
-  of this process plus its finished worker processes (on a machine shared with other jobs
-  the wall time is the CPU time stretched by the load, so both are printed, with the load);
-* with ``--critical-path``, the one-process evolution with every window timed: the CPU
-  time per step of the longest window plus everything outside the windows, i.e. what
-  the evolution costs in wall time when the cycle's speeds run side by side on idle cores.
+* one simulated window of the evolution (a stable and a vibrating speed) with 20, 40 and
+  60 orders, against the window of the evolution before it was made fast
+  (``benchmarks/wear_evolution_baseline.py``: the load summed over every harmonic in every
+  right-hand side, tolerance 1e-8, padded spectrum);
+* the evolution over ``--km`` (default 60 000 km) on the three-speed default drive cycle
+  (``--cycle 110``: 110 km/h alone), tread1dof (axle4dof too with ``--axle``), in one
+  process: the fast evolution (``polywear.wear.evolution.evolve``) and the baseline
+  (today's implementation before issue 22, fixed 1000 km steps) in the same run, CPU and
+  wall time, their ratio, the load, and the answers side by side (visible distance, depth
+  at the end, dominant order).
 """
 
 from __future__ import annotations
@@ -25,13 +26,13 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import resource
 import time
 
 import numpy as np
 
-import polywear.wear.evolution as wear_evolution
-from polywear.wear.evolution import evolve, initial_roughness, window_wear
+import wear_evolution_baseline as baseline
+from polywear.wear.evolution import evolve, initial_roughness
+from polywear.wear.windows import window_wear
 from polywear.wear.map import load_to_power, wear_map
 from polywear.models import get_model
 from polywear.models.profile import coupled_model, profile_vector
@@ -66,11 +67,14 @@ def looped_map(params, speeds_kmh, K):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--skip-evolution", action="store_true", help="no 60 000 km evolutions")
-    parser.add_argument("--axle", action="store_true", help="also the 60 000 km axle4dof evolution (minutes)")
-    parser.add_argument("--workers", type=int, default=2, help="worker processes of the parallel evolution")
-    parser.add_argument("--critical-path", action="store_true", help="time every window of the one-process evolution")
+    parser.add_argument("--skip-evolution", action="store_true", help="no evolutions")
+    parser.add_argument("--axle", action="store_true", help="also the axle4dof evolution (baseline: minutes)")
+    parser.add_argument("--km", type=float, default=60000.0, help="distance of the evolutions [km]")
+    parser.add_argument("--cycle", choices=("default", "110"), default="default",
+                        help="the default three-speed drive cycle, or 110 km/h alone")
+    parser.add_argument("--only-fast", action="store_true", help="the fast evolution only (no baseline run)")
     args = parser.parse_args()
+    print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
     speeds = np.linspace(20.0, 300.0, 300)
     for name in ("tread1dof", "axle4dof"):
         params = with_updates(Params(), {"model": name})
@@ -90,61 +94,38 @@ def main() -> None:
             u0 = coupled.equilibrium(V, profile_vector(base, p_k, V))
             revs = 16 if v_kmh == 120.0 else 3
             t_win, _ = best_of(args.repeat, lambda: window_wear(p_k, V, W, u0, 0.2, revs, base))
+            t_old, _ = best_of(args.repeat, lambda: baseline.window_wear(p_k, V, W, u0, 0.2, revs, base))
             T = 2 * math.pi * params.operating.rolling_radius_m / V
-            print(f"window at {v_kmh:.0f} km/h, {K} orders: {t_win:.3f} s CPU for {0.2 + revs * T:.2f} s simulated")
+            print(f"window at {v_kmh:.0f} km/h, {K} orders, {0.2 + revs * T:.2f} s simulated: {t_win:.3f} s CPU "
+                  f"(baseline {t_old:.3f} s, x{t_old / t_win:.1f})")
     if args.skip_evolution:
         return
+    cycle = None if args.cycle == "default" else ((110.0, 1.0),)
     for name in ("tread1dof",) + (("axle4dof",) if args.axle else ()):
         p_m = with_updates(params, {"model": name})
-        walls = {}
-        for workers in (1, args.workers):
+        runs = {}
+        for label, run in (("fast", evolve), ("baseline", baseline.evolve)):
+            if label == "baseline" and args.only_fast:
+                continue
             load = os.getloadavg()[0]
-            start, cpu = time.perf_counter(), cpu_seconds()
-            result = evolve(p_m, 60000.0, workers=workers)
-            walls[workers], cpu = time.perf_counter() - start, cpu_seconds() - cpu
-            s = result.summary()
-            print(f"evolution {name}, 60 000 km, cycle {[c[0] for c in result.cycle]} km/h, {workers} process(es): "
-                  f"{walls[workers]:.1f} s wall, {cpu:.1f} s CPU ({len(result.distance_km) - 1} steps; load "
-                  f"{load:.1f} on {os.cpu_count()} CPUs); depth {s['final_depth_mm']:.4f} mm, order "
-                  f"{s['dominant_order']}, visible {s['visible_km']}")
-        print(f"  wall time 1 process / {args.workers}: x{walls[1] / walls[args.workers]:.2f}")
-        if args.critical_path:
-            critical_path(p_m)
-
-
-def critical_path(params) -> None:
-    """One-process evolution with every window timed (CPU): total, windows, and the
-    critical path (per step the longest window, plus all the time outside windows)."""
-    calls, steps, depth = [], [], [0]
-    original = wear_evolution.window_wear
-
-    def timed(*args, **kwargs):
-        start = time.process_time()
-        depth[0] += 1  # a lengthened window calls itself again: count the outermost call only
-        try:
-            return original(*args, **kwargs)
-        finally:
-            depth[0] -= 1
-            if depth[0] == 0:
-                calls.append(time.process_time() - start)
-
-    wear_evolution.window_wear = timed
-    try:
-        start = time.process_time()
-        evolve(params, 60000.0, progress=lambda done, total, message="": steps.append(len(calls)))
-        total = time.process_time() - start
-    finally:
-        wear_evolution.window_wear = original
-    longest = sum(max(calls[a:b], default=0.0) for a, b in zip([0] + steps[:-1], steps))
-    print(f"  critical path {params.model}: {total - sum(calls) + longest:.1f} s CPU of {total:.1f} s "
-          f"({len(calls)} windows in {len(steps)} steps, {sum(calls):.1f} s in windows)")
-
-
-def cpu_seconds() -> float:
-    """CPU time [s] of this process and of its finished child processes (the pool's workers)."""
-    own = resource.getrusage(resource.RUSAGE_SELF)
-    children = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+            start, cpu = time.perf_counter(), time.process_time()
+            result = run(p_m, args.km, cycle=cycle)
+            wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+            runs[label] = (cpu, result.summary())
+            s = runs[label][1]
+            visible = f"{s['visible_km']:,.0f} km" if s["visible_km"] is not None else "not visible"
+            print(f"evolution {name}, {args.km:,.0f} km, cycle {[c[0] for c in result.cycle]} km/h, {label}: "
+                  f"{cpu:.1f} s CPU, {wall:.1f} s wall (load {load:.1f}; {len(result.distance_km) - 1} steps, "
+                  f"{result.settings.get('windows', '')} windows); visible {visible}, depth "
+                  f"{s['final_depth_mm']:.4f} mm, order {s['dominant_order']}")
+        if "baseline" in runs:
+            (t_fast, fast), (t_base, old) = runs["fast"], runs["baseline"]
+            visible = (f"{fast['visible_km'] / old['visible_km'] - 1:+.2%}"
+                       if fast["visible_km"] is not None and old["visible_km"] is not None
+                       else f"{fast['visible_km']} vs {old['visible_km']}")
+            print(f"  fast / baseline: x{t_base / t_fast:.1f} less CPU; visible distance {visible}, depth "
+                  f"{fast['final_depth_mm'] / old['final_depth_mm'] - 1:+.2%}, order {fast['dominant_order']} vs "
+                  f"{old['dominant_order']}")
 
 
 if __name__ == "__main__":

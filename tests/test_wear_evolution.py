@@ -8,19 +8,17 @@ import math
 import numpy as np
 import pytest
 
-from polywear.wear.evolution import (
+from polywear.wear.evolution import EvolutionSettings, evolve, initial_roughness
+from polywear.wear.windows import (
     MAX_WINDOW,
     SEPARATED_BEATS,
     SETTLED_PHASE,
-    EvolutionSettings,
     _per_revolution,
     _remaining_drift,
     _settle_times,
     _split,
     _tire_phase,
     coherence,
-    evolve,
-    initial_roughness,
     window_wear,
 )
 from polywear.wear.law import written_harmonics
@@ -170,9 +168,9 @@ def test_vibrating_window_write_does_not_depend_on_where_the_window_starts():
 @pytest.fixture(scope="module")
 def halved_vibrating_runs():
     """120 km/h (tread vibrating, inside the linear band, pulled into locking at order 8
-    before 5500 km) over 6000 km, when the polygon has grown twentyfold: 1000 km steps and
-    the default limit on the change per step, then every step halved (the nominal step and
-    the adaptive limit MAX_CHANGE, which sets most steps here)."""
+    before 5500 km) over 6000 km, when the polygon has grown twentyfold: the default settings,
+    then every step halved (the first step, the limit MAX_CHANGE on the change per step, and
+    the tolerance of the error estimate over four: the estimate goes as the step squared)."""
     import polywear.wear.evolution as we
 
     params = Params()
@@ -180,7 +178,8 @@ def halved_vibrating_runs():
     default = we.MAX_CHANGE
     try:
         we.MAX_CHANGE = 0.5 * default
-        fine = evolve(params, 6000.0, cycle=((120.0, 1.0),), settings=EvolutionSettings(step_km=500.0))
+        fine = evolve(params, 6000.0, cycle=((120.0, 1.0),),
+                      settings=EvolutionSettings(step_km=500.0, tolerance=0.25 * EvolutionSettings().tolerance))
     finally:
         we.MAX_CHANGE = default
     return coarse, fine
@@ -266,3 +265,64 @@ def test_initial_roughness_has_the_requested_rms():
     W = initial_roughness(params)
     assert W.size == 40
     assert math.sqrt(0.5 * np.sum(np.abs(W) ** 2)) == pytest.approx(2.5e-6, rel=1e-12)
+
+
+def _baseline():
+    """The evolution before it was made fast (``benchmarks/wear_evolution_baseline.py``)."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    if "wear_evolution_baseline" not in sys.modules:
+        path = Path(__file__).resolve().parents[1] / "benchmarks" / "wear_evolution_baseline.py"
+        spec = importlib.util.spec_from_file_location("wear_evolution_baseline", path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[spec.name] = module  # its dataclasses look their module up there
+        spec.loader.exec_module(module)
+    return sys.modules["wear_evolution_baseline"]
+
+
+def test_fast_evolution_agrees_with_the_baseline_on_a_short_cycle():
+    """Tabulated load, looser integration tolerance, error-controlled steps and reused
+    windows against the evolution before them (fixed 1000 km steps, every window simulated
+    with the load summed over all harmonics): 3000 km on a 50/120 km/h cycle, the 120 km/h
+    tread vibrating. The growing orders' sizes within 1 %, the depth within 1 %."""
+    params = Params()
+    cycle = ((50.0, 0.5), (120.0, 0.5))
+    fast = evolve(params, 3000.0, cycle=cycle)
+    old = _baseline().evolve(params, 3000.0, cycle=cycle)
+    assert np.isfinite(fast.vibration_order[:, 1]).all()
+    grown = np.abs(old.harmonics[-1]) > 2.0 * np.abs(old.harmonics[0])
+    assert grown.sum() >= 3
+    np.testing.assert_allclose(np.abs(fast.harmonics[-1])[grown], np.abs(old.harmonics[-1])[grown], rtol=0.01)
+    assert fast.depth_mm[-1] == pytest.approx(old.depth_mm[-1], rel=0.01)
+    assert fast.mean_depth_m[-1] == pytest.approx(old.mean_depth_m[-1], rel=1e-3)
+
+
+@pytest.mark.slow
+def test_fast_evolution_agrees_with_the_baseline_through_locking():
+    """120 km/h alone over 6000 km (pulled into locking at order 8 before 5000 km): visible
+    distance and final depth within 1 % of the baseline, the same polygon order."""
+    params = Params()
+    fast = evolve(params, 6000.0, cycle=((120.0, 1.0),))
+    old = _baseline().evolve(params, 6000.0, cycle=((120.0, 1.0),))
+    assert fast.locked[-1, 0] and old.locked[-1, 0]
+    assert fast.visible_km == pytest.approx(old.visible_km, rel=0.01)
+    assert fast.depth_mm[-1] == pytest.approx(old.depth_mm[-1], rel=0.01)
+    assert fast.dominant_order[-1] == old.dominant_order[-1] == 8
+
+
+@pytest.mark.slow
+def test_visible_distance_scales_as_one_over_k_e_where_the_tread_vibrates():
+    """The dynamics do not depend on k_e, the writes are proportional to it: twice k_e
+    with every distance setting halved is the same evolution at half the distance, through
+    the pull into locking (120 km/h)."""
+    params = Params()
+    one = evolve(params, 6000.0, cycle=((120.0, 1.0),), settings=EvolutionSettings(step_km=1000.0))
+    two = evolve(with_updates(params, {"wear.energetic_rate_mm3_per_j": 2e-3}), 3000.0, cycle=((120.0, 1.0),),
+                 settings=EvolutionSettings(step_km=500.0))
+    assert one.visible_km is not None and one.locked[-1, 0]
+    assert two.visible_km == pytest.approx(0.5 * one.visible_km, rel=1e-6)
+    np.testing.assert_allclose(2 * two.distance_km, one.distance_km, rtol=1e-9)
+    np.testing.assert_allclose(two.harmonics, one.harmonics, rtol=1e-6, atol=1e-6 * np.abs(one.harmonics).max())
+

@@ -1,0 +1,334 @@
+"""The simulated window of the wear evolution: what the coupled model writes per revolution.
+
+At one speed the coupled model (profile -> load, :mod:`polywear.models.profile`) runs with
+the current profile, from a given state, for a settling time, then for ``M`` whole
+revolutions. Each revolution ``k`` writes harmonics ``D_k`` (a DFT of the sampled
+friction power, :func:`_per_revolution`). The dominant frequency of the tread velocity
+gives the vibration's order ``nu = f / f_rot``; the writes are split by least squares
+with the known ratios ``r_j = exp(+-2 pi i j nu)`` into ``D_k = S + sum_j C_j r_j^k``
+(:func:`_split`): S is written in the same place every revolution, the C_j drift
+(``docs/wear.md``). A vibration is locked when its order is an integer to within
+``LOCK_TOLERANCE`` or when its phase relative to the tire settles (``SETTLED_PHASE``).
+
+The profile's load is tabulated over the contact angle (:func:`table_points` points,
+:func:`~polywear.models.profile.profile_vector`) instead of summed over all harmonics in
+every right-hand side, and the order estimate refines the line of an unpadded spectrum
+with a compiled sum.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from ..models import get_model
+from ..models.profile import coupled_model, patch_sinc, profile_vector
+from ..params import Params
+from ..solvers.integrate import integrate
+from .law import energetic_rate, friction_power
+
+__all__ = ["WindowWear", "window_wear", "coherence", "table_points", "LOCK_TOLERANCE", "SETTLED_PHASE",
+           "SEPARATED_BEATS", "MAX_WINDOW"]
+
+LOCK_TOLERANCE = 1e-6
+"""A vibration whose order is this close to an integer is locked [-]."""
+SETTLED_PHASE = 0.01
+"""A vibration is also locked when its phase relative to the tire settles: the drift of
+its phase at the nearest integer order over the last quarter of the window, continued at
+the rate it decays from the quarter before, adds up to less than this [cycles]."""
+VIBRATION_RMS = 0.01
+"""The tread vibrates (self-excited) when the RMS of its velocity fluctuation exceeds this
+[m/s]: 10 um at 150 Hz, far above the response to a worn profile of a tenth of a
+millimetre and far below the SEV of a vibrating tire (0.1-0.3 m/s)."""
+RESOLVABLE = 0.25
+"""A drifting line is separated in a window of M revolutions when eps M >= this [-]."""
+SIDEBANDS = 2
+"""Harmonics j of the vibration whose drifting writes are separated (j = +-1..+-SIDEBANDS)."""
+SEPARATED_BEATS = 3.0
+"""A window separates the vibration's line from its nearest integer order when the pattern
+turns by at least this many periods over it (eps M >= this) [-]: the Hann main lobe is 2
+bins wide, so a shorter window mixes the line with the profile's locked response at that
+order; the order estimate and the coherent write then depend on where the window starts."""
+MAX_WINDOW = 64
+"""Most revolutions a window is lengthened to for SEPARATED_BEATS [-]; a vibration closer
+to an integer order (eps < SEPARATED_BEATS / MAX_WINDOW) is only partly separated."""
+_RTOL = 1e-6
+"""Relative tolerance of the window's integration [-] (the coherent writes move by less than
+1e-3 of the largest from 1e-8, at a third of the cost: docs/wear.md)."""
+_ATOL_FRACTION = 1e-9
+"""Absolute tolerance of each state, as a fraction of its size in steady rolling [-]."""
+
+
+def table_points(orders: int) -> int:
+    """Points of the load table over the contact angle for ``orders`` harmonics: a power of
+    two, at least 64 per order and 4096 (interpolation error of the highest order below
+    ``(2 pi / 64)^4 / 384 = 2.4e-7`` of its size, ``polywear.models.profile``)."""
+    return max(4096, 1 << math.ceil(math.log2(64 * max(orders, 1))))
+
+
+def coherence(eps: float, revolutions: float) -> float:
+    """``|sin(pi eps M)/(M sin pi eps)|``: the fraction of M coherent writes that a
+    pattern drifting by ``eps`` of a period per revolution keeps after M revolutions."""
+    s = math.sin(math.pi * eps)
+    if abs(s) < 1e-15:
+        return 1.0
+    return abs(math.sin(math.pi * eps * revolutions) / (revolutions * s))
+
+
+def _window_sum(x: np.ndarray):
+    """Sum of a window's samples, the same in every process: numpy's own pairwise sum.
+
+    A BLAS dot product (``np.dot``) of a long vector splits the sum over BLAS threads,
+    so its rounding depends on the thread count, which is fixed when BLAS loads and
+    follows ``OPENBLAS_NUM_THREADS``/``OMP_NUM_THREADS``; a worker process started later
+    (``evolve(..., workers=N)``) may get another count than this process (e.g. after
+    ``distributed.LocalCluster`` set those variables to 1 here) and a different window."""
+    return np.sum(x)
+
+
+def _dominant_order(t, signal, f_rot: float) -> float:
+    """Order nu = f / f_rot of the dominant spectral line of ``signal``: the largest bin of
+    the Hann-windowed spectrum, refined to the maximum of ``|sum x_j exp(-2 pi i f t_j)|``
+    within one bin either side (the main lobe, two bins wide, is unimodal there)."""
+    x = signal - signal.mean()
+    dt = t[1] - t[0]
+    n = x.size
+    from scipy.fft import next_fast_len
+
+    size = next_fast_len(n, real=True)  # zero-padded to a length FFTs like (n itself can be nearly prime)
+    xw = x * np.hanning(n)  # low leakage: neighbouring lines one order away barely bias the peak
+    spectrum = np.abs(np.fft.rfft(xw, size))
+    k = int(np.argmax(spectrum[1:])) + 1
+    from scipy.optimize import minimize_scalar
+
+    df = 1.0 / (size * dt)
+    best = minimize_scalar(lambda f: -_line_amplitude(xw, f * dt), bounds=((k - 1) * df, (k + 1) * df),
+                           method="bounded", options={"xatol": 1e-10 * k * df})
+    return float(best.x) / f_rot
+
+
+@njit(cache=True)
+def _line_amplitude(x, cycles_per_sample: float) -> float:
+    """``|sum_j x_j exp(-2 pi i c j)|`` (c cycles per sample), summed in order: the same
+    rounding in every process (no BLAS, whose thread count can differ in worker processes)."""
+    turn = np.exp(-2j * np.pi * cycles_per_sample)
+    rotor = 1.0 + 0.0j
+    acc = 0.0 + 0.0j
+    for j in range(x.size):
+        acc += x[j] * rotor
+        rotor *= turn
+        if j % 1024 == 1023:  # renormalize: the recurrence drifts by rounding
+            rotor = np.exp(-2j * np.pi * cycles_per_sample * (j + 1))
+    return abs(acc)
+
+
+@dataclass
+class WindowWear:
+    """What one simulated window writes per revolution, split into coherent and drifting parts."""
+
+    coherent: np.ndarray
+    """S_n (K,) written in the same place every revolution [m per revolution]"""
+    drifting: np.ndarray
+    """C_j (2J, K) drifting parts at revolution 0 of the window [m]"""
+    ratios: np.ndarray
+    """r_j (2J,) turn of each drifting part per revolution"""
+    mean_per_rev: float
+    """uniform wear per revolution [m]"""
+    revolutions: int
+    order: float
+    """order nu of the dominant vibration (NaN if none)"""
+    locked: bool
+    end_state: np.ndarray
+    energy_per_rev: float
+    """friction energy per revolution [J]"""
+    profile: np.ndarray
+    """the harmonics W_n the window ran with [m]"""
+
+    def rescaled(self, W: np.ndarray) -> WindowWear:
+        """This steady-rolling window's writes for the profile ``W``: in the linear regime each
+        harmonic's coherent write is proportional to it (the rates S_n / W_n are the map's)."""
+        rates = np.where(self.profile != 0, self.coherent / np.where(self.profile != 0, self.profile, 1), 0)
+        return WindowWear(coherent=rates * W, drifting=self.drifting[:0], ratios=self.ratios[:0],
+                          mean_per_rev=self.mean_per_rev, revolutions=self.revolutions, order=self.order,
+                          locked=False, end_state=self.end_state, energy_per_rev=self.energy_per_rev, profile=W.copy())
+
+    def written(self, revolutions: float) -> np.ndarray:
+        """Harmonics written over ``revolutions`` following the window [m] (coherent + drifting)."""
+        out = revolutions * self.coherent
+        for r, c in zip(self.ratios, self.drifting):
+            geometric = (1.0 - r ** revolutions) / (1.0 - r)
+            out = out + c * r ** self.revolutions * geometric
+        return out
+
+
+def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float, revolutions: int = 8,
+                base=None, max_revolutions: int | None = None) -> WindowWear:
+    """Simulate ``settle_s`` [s] then ``revolutions`` at speed V [m/s] with profile ``W``
+    from ``state`` (coupled-model state) and split what each revolution writes.
+
+    With ``max_revolutions``, a window too short to separate the vibration from its nearest
+    integer order (``eps * revolutions < SEPARATED_BEATS``) is run again from the same state,
+    ``ceil(SEPARATED_BEATS / eps)`` revolutions long (at most ``max_revolutions``)."""
+    base = base or get_model(params.model)
+    coupled = coupled_model(base)
+    R = params.operating.rolling_radius_m
+    K = W.size
+    sinc = patch_sinc(np.arange(1, K + 1), params.tire.contact_length_m, R)
+    p = profile_vector(base, params, V, sinc * W.real, -sinc * W.imag, table_points(K))
+    T = 2.0 * math.pi * R / V
+    state = np.array(state, dtype=float)
+    state[-1] = math.fmod(state[-1], 2.0 * math.pi)
+    scale = np.maximum(np.abs(base.equilibrium(V, base.pack(params))), 1e-6)
+    atol = np.append(_ATOL_FRACTION * scale, 1e-9)
+    t_end = settle_s + revolutions * T
+    run = integrate(coupled, state, V, p, t_end, rtol=_RTOL, atol=atol, dense_from=settle_s)
+    per_rev = max(32 * K, int(T * 8000.0))
+    t = settle_s + np.arange(revolutions * per_rev + 1) * (T / per_rev)
+    t[-1] = min(t[-1], t_end)
+    u = run.dense(t)
+    power = friction_power(coupled, u, V, p)
+    D, mean = _per_revolution(t, power, u[:, -1], per_rev, revolutions, params, K)
+    xdot = u[:, base.index("xdot")]
+    vibrating = float(np.std(xdot)) > VIBRATION_RMS
+    nu = _dominant_order(t, xdot, 1.0 / T) if vibrating else math.nan
+    eps = _detuning(nu) if vibrating else []
+    # the phase per revolution is followed without aliasing while it turns by less than 1/4 cycle
+    locked = vibrating and (eps[0] < LOCK_TOLERANCE or (
+        eps[0] < 0.25 and _remaining_drift(_tire_phase(xdot, u[:, -1], round(nu), per_rev, revolutions))
+        < SETTLED_PHASE))
+    if locked:  # everything the window writes is written in the same place every revolution
+        eps = [0.0] * SIDEBANDS
+    if max_revolutions is not None and vibrating and not locked:
+        needed = min(max_revolutions, _separating_window(eps))
+        if needed > revolutions:
+            return window_wear(params, V, W, state, settle_s, needed, base, max_revolutions)
+    slow = _slow_orders(nu, eps, revolutions, K)
+    reference = None
+    if slow:  # the same window without those harmonics: what the vibration writes there by itself
+        W_ref = np.array(W)
+        W_ref[[m - 1 for m in slow]] = 0.0
+        p_ref = profile_vector(base, params, V, sinc * W_ref.real, -sinc * W_ref.imag, table_points(K))
+        run_ref = integrate(coupled, state, V, p_ref, t_end, rtol=_RTOL, atol=atol, dense_from=settle_s)
+        u_ref = run_ref.dense(t)
+        reference = _per_revolution(t, friction_power(coupled, u_ref, V, p_ref), u_ref[:, -1], per_rev, revolutions,
+                                    params, K)[0]
+    coherent, drifting, ratios = _split(D, nu, eps, revolutions, reference)
+    energy = float(_window_sum(power[:-1] * np.diff(t))) / revolutions
+    return WindowWear(coherent=coherent, drifting=drifting, ratios=ratios, mean_per_rev=mean,
+                      revolutions=revolutions, order=nu, locked=bool(locked), end_state=run.u_end.copy(),
+                      energy_per_rev=energy, profile=np.array(W))
+
+
+def _tire_phase(signal, angle, order: int, per_rev: int, revolutions: int) -> np.ndarray:
+    """Phase [cycles] of ``signal``'s line at integer ``order`` relative to the tire, per
+    revolution (unwrapped): constant where the vibration is locked to the tire, turning by
+    eps per revolution where it drifts."""
+    rot = signal[: revolutions * per_rev] * np.exp(-1j * order * angle[: revolutions * per_rev])
+    return np.unwrap(np.angle(rot.reshape(revolutions, per_rev).sum(axis=1))) / (2.0 * math.pi)
+
+
+def _remaining_drift(phase: np.ndarray) -> float:
+    """Phase drift [cycles] from the start of the window's last quarter on, if it keeps
+    decaying geometrically at the rate from the quarter before to the last (inf if it does
+    not decay): how far a settling phase has still to go."""
+    q = max(phase.size // 4, 1)
+    last = abs(phase[-1] - phase[-1 - q])
+    before = abs(phase[-1 - q] - phase[-1 - 2 * q]) if phase.size > 2 * q else math.inf
+    return last / (1.0 - last / before) if last < before else math.inf
+
+
+def _detuning(nu: float) -> list[float]:
+    """Distance eps_j of j nu to the nearest integer, j = 1..SIDEBANDS."""
+    return [abs(j * nu - round(j * nu)) for j in range(1, SIDEBANDS + 1)]
+
+
+def _separating_window(eps) -> int:
+    """Revolutions that separate every drifting line j nu from its nearest integer order
+    (``eps_j M >= SEPARATED_BEATS``; lines locked to within LOCK_TOLERANCE are not drifting)."""
+    drifting = [e for e in eps if e >= LOCK_TOLERANCE]
+    return math.ceil(SEPARATED_BEATS / min(drifting)) if drifting else 0
+
+
+def _slow_orders(nu, eps, revolutions, K) -> list[int]:
+    """Harmonics m = round(j nu) of drifting lines too slow to separate in the window."""
+    return sorted({int(round(j * nu)) for j in range(1, len(eps) + 1)
+                   if LOCK_TOLERANCE <= eps[j - 1] and eps[j - 1] * revolutions < RESOLVABLE
+                   and 1 <= round(j * nu) <= K})
+
+
+def _split(D, nu, eps, revolutions, reference=None):
+    """Coherent part S (K,), drifting parts C (R, K) and their ratios r (R,) of the
+    per-revolution writes D (M, K) of a vibration at order nu (see module notes).
+
+    A line whose pattern turns by at least RESOLVABLE of a period over the window is
+    separated by least squares with its known ratio. A slower one cannot be told apart
+    from a coherent write within the window; it writes essentially on its nearest
+    harmonic m = round(j nu) only. With ``reference``, the writes of the same window run
+    without the profile's harmonic m, the vibration's own write at m is the reference's
+    (drifting, turning by r per revolution, bounded over the step by 1/|sin(pi eps)|) and
+    the difference is the profile's coherent feedback. Without it, the whole write at m
+    is counted as drifting."""
+    M, K = D.shape
+    k = np.arange(M)
+    fast, slow = [], []
+    for j in range(1, len(eps) + 1):
+        if eps[j - 1] < LOCK_TOLERANCE:
+            continue
+        (fast if eps[j - 1] * M >= RESOLVABLE else slow).append(j)
+    ratios = [np.exp(sign * 2j * math.pi * j * nu) for j in fast for sign in (1, -1)]
+    A = np.column_stack([np.ones(M)] + [r ** k for r in ratios])
+    coef = np.linalg.lstsq(A, D, rcond=None)[0]
+    coherent, drifting = coef[0].copy(), [c for c in coef[1:]]
+    for j in slow:
+        m = int(round(j * nu))
+        if not 1 <= m <= K:
+            continue
+        r = np.exp(2j * math.pi * j * nu)
+        c = np.zeros(K, dtype=complex)
+        own = D[:, m - 1] if reference is None else reference[:, m - 1]
+        c[m - 1] = np.mean(own * r ** -k)
+        coherent[m - 1] = 0.0 if reference is None else np.mean(D[:, m - 1] - reference[:, m - 1])
+        for other in drifting:
+            other[m - 1] = 0.0
+        drifting.append(c)
+        ratios.append(r)
+    return coherent, np.array(drifting).reshape(len(drifting), K), np.array(ratios)
+
+
+def _per_revolution(t, power, angle, per_rev, revolutions, params, K):
+    """Harmonics written in each revolution (revolutions, K) and the mean wear per revolution.
+
+    The contact angle advances uniformly (phi_c' = V/R), so the samples of one revolution
+    sit at phi_0 + 2 pi j / per_rev and the projection of :func:`~.wear_law.written_harmonics`
+    is a DFT of the trapezoid-weighted power (the closing sample folds onto j = 0)."""
+    dt = t[1] - t[0]
+    D = np.empty((revolutions, K), dtype=complex)
+    mean = 0.0
+    R, b_w = params.operating.rolling_radius_m, params.tire.tread_width_m
+    k_e = energetic_rate(params)
+    sinc = patch_sinc(np.arange(1, K + 1), params.tire.contact_length_m, R)
+    for k in range(revolutions):
+        seg = power[k * per_rev : (k + 1) * per_rev + 1] * dt
+        folded = seg[:-1].copy()
+        folded[0] = 0.5 * (seg[0] + seg[-1])
+        spectrum = np.fft.rfft(folded)[1 : K + 1]
+        phi0 = angle[k * per_rev]
+        integral = spectrum * np.exp(-1j * np.arange(1, K + 1) * phi0)
+        D[k] = (k_e / (math.pi * R * b_w)) * sinc * integral
+        mean += k_e / (2.0 * math.pi * R * b_w) * float(folded.sum()) / revolutions
+    return D, mean
+
+
+def _settle_times(base, params, V: float) -> tuple[float, float, bool]:
+    """(first, next) settling times [s] from the slowest decay (or growth) rate of steady
+    rolling, and whether steady rolling is unstable (the tread vibrates)."""
+    p = base.pack(params)
+    q = base.prepared(V, p)
+    lam = np.linalg.eigvals(base.jacobian(base.equilibrium(V, q), V, q))
+    rate = max(float(np.min(np.abs(lam.real))), 1.0)
+    T = 2.0 * math.pi * params.operating.rolling_radius_m / V
+    first = min(max(30.0 / rate, 0.5), 6.0)
+    return first, min(first, max(4.0 * T, 8.0 / rate)), bool(np.max(lam.real) > 0.0)
