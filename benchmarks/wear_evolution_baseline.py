@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from polywear.models import get_model
-from polywear.models.base import kmh_to_ms
+from polywear.units import kmh_to_ms
 from polywear.models.profile import coupled_model, patch_sinc, profile_vector
 from polywear.params import Params
 from polywear.progress import Progress

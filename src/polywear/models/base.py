@@ -31,8 +31,6 @@ import numpy as np
 
 from ..params import Params, get_value
 
-from ..units import kmh_to_ms  # noqa: F401  for wear/evolution.py until it imports from units
-
 __all__ = ["ParamSlot", "Model"]
 
 
