@@ -286,15 +286,17 @@ def test_fast_evolution_agrees_with_the_baseline_on_a_short_cycle():
     """Tabulated load, looser integration tolerance, error-controlled steps and reused
     windows against the evolution before them (fixed 1000 km steps, every window simulated
     with the load summed over all harmonics): 3000 km on a 50/120 km/h cycle, the 120 km/h
-    tread vibrating. The growing orders' sizes within 1 %, the depth within 1 %."""
+    tread vibrating, order 8 growing fourfold. Every harmonic within 1 % of the largest
+    (measured: 0.6 %, order 8 0.3 %, in 2 steps against 7), the depth within 1 %."""
     params = Params()
     cycle = ((50.0, 0.5), (120.0, 0.5))
     fast = evolve(params, 3000.0, cycle=cycle)
     old = _baseline().evolve(params, 3000.0, cycle=cycle)
     assert np.isfinite(fast.vibration_order[:, 1]).all()
-    grown = np.abs(old.harmonics[-1]) > 2.0 * np.abs(old.harmonics[0])
-    assert grown.sum() >= 3
-    np.testing.assert_allclose(np.abs(fast.harmonics[-1])[grown], np.abs(old.harmonics[-1])[grown], rtol=0.01)
+    assert abs(old.harmonics[-1, 7]) > 3.0 * abs(old.harmonics[0, 7])
+    largest = np.abs(old.harmonics[-1]).max()
+    np.testing.assert_allclose(fast.harmonics[-1], old.harmonics[-1], rtol=0, atol=0.01 * largest)
+    assert abs(fast.harmonics[-1, 7]) == pytest.approx(abs(old.harmonics[-1, 7]), rel=0.01)
     assert fast.depth_mm[-1] == pytest.approx(old.depth_mm[-1], rel=0.01)
     assert fast.mean_depth_m[-1] == pytest.approx(old.mean_depth_m[-1], rel=1e-3)
 
