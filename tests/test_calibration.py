@@ -57,7 +57,7 @@ def test_cycle_quantities_and_their_jacobian():
     """Amplitude, frequency and polygon order of the stable cycle at 110 km/h: values from the
     continuation, derivatives (collocation system differentiated) against central differences
     of whole new diagrams."""
-    obs = [Observation(q, 0.0, 1.0, at_speed_kmh=110.0) for q in ("amplitude_mm", "cycle_frequency_hz", "polygon_order")]
+    obs = [Observation(q, 0.0, 1.0, at_speed_kmh=110.0) for q in ("amplitude_x_mm", "cycle_frequency_hz", "frequency_order")]
     keys = ["tread.lateral_damping_ns_per_m", "operating.rolling_radius_m"]
     params = Params()
     values, jac = predict(params, obs, keys)

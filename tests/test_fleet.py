@@ -175,7 +175,7 @@ def test_risk_matches_the_toe_law(tmp_path, reference):
     assert s["paths"] == {"hopf": 0, "fast": 39, "full": 0, "pilot": 1}  # car 0: the pilot stage's (1 per 32)
     assert result.paths == ["pilot"] + ["fast"] * 39
     band = reference.band
-    v1, v2 = band.first_bifurcation_kmh, band.second_bifurcation_kmh
+    v1, v2 = band.first_bifurcation_speed_kmh, band.second_bifurcation_speed_kmh
     s0 = math.sin(math.radians(0.5))
     toe = stats.norm(0.5, 0.08)
 

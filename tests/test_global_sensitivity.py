@@ -295,7 +295,7 @@ def test_bifurcation_outputs_on_the_continuation_path():
                             {"key": "operating.camber_deg", "low": -1.5, "high": -0.5}],
     })
     result = study(Params(), spec, backend="processes", workers=2)
-    assert result.outputs == ("first_bifurcation_kmh", "second_bifurcation_kmh", "sev_band_width_kmh",
+    assert result.outputs == ("first_bifurcation_speed_kmh", "second_bifurcation_speed_kmh", "sev_band_width_kmh",
                               "max_amplitude_mm")
     assert result.failures() == {}
     first, second, width, amplitude = result.values.T

@@ -197,4 +197,4 @@ def test_wheel_circumference_and_rotation_frequency():
     v = units.kmh_to_ms(110.0)
     f = units.wheel_rotation_frequency_hz(v, 0.3)
     assert f * units.wheel_circumference_m(0.3) == pytest.approx(v, rel=1e-15)  # one circumference per turn
-    assert units.polygon_order(150.0, v, 0.3) == pytest.approx(150.0 / f, rel=1e-15)
+    assert units.frequency_order(150.0, v, 0.3) == pytest.approx(150.0 / f, rel=1e-15)

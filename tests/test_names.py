@@ -18,3 +18,15 @@ def test_old_key_of_a_unit_change_holds_the_old_unit():
                                {"amplitude_x_mm": ("amplitude_x_m", 1e-3), "range_x_mm": ("range_x_m", 1e-3)})
     assert out["amplitude_x_m"] == pytest.approx(0.27e-3, rel=1e-15)
     assert out["range_x_m"] == [0.0, None]
+
+
+@pytest.mark.parametrize("old, new", [("first_bifurcation_kmh", "first_bifurcation_speed_kmh"),
+                                      ("amplitude_mm", "amplitude_x_mm"), ("polygon_order", "frequency_order")])
+def test_observation_files_with_an_old_quantity_name_still_read(tmp_path, old, new):
+    from polywear.measured.calibration import read_observations
+
+    path = tmp_path / "obs.toml"
+    path.write_text(f'[[observation]]\nquantity = "{old}"\nvalue = 1.0\nsigma = 0.1\nat_speed_kmh = 110.0\n')
+    with pytest.warns(FutureWarning, match=new):
+        (obs,) = read_observations(path)
+    assert obs.quantity == new

@@ -13,7 +13,7 @@ import pytest
 from polywear.dynamics.simulation import (
     SimulationSettings,
     phase_pairs,
-    polygon_order,
+    frequency_order,
     simulate,
     simulate_disturbances,
     simulate_values,
@@ -38,7 +38,7 @@ def _crossing_times(t, s, level):
     return t[i] + (level - s[i]) * (t[i + 1] - t[i]) / (s[i + 1] - s[i])
 
 
-def test_cycle_at_110_kmh_amplitude_frequency_and_polygon_order(run110):
+def test_cycle_at_110_kmh_amplitude_frequency_and_frequency_order(run110):
     st = run110.steady
     assert st.outcome == "cycle" and st.steady
     x = run110.model.index("x")
@@ -54,8 +54,8 @@ def test_cycle_at_110_kmh_amplitude_frequency_and_polygon_order(run110):
     assert st.frequency == pytest.approx(1.0 / np.diff(up).mean(), rel=1e-6)
     # polygon order n = f / f_rot, f_rot = V / (2 pi R_e)
     f_rot = (110.0 / 3.6) / (2 * np.pi * DEFAULTS.operating.rolling_radius_m)
-    assert run110.polygon_order == pytest.approx(st.frequency / f_rot, rel=1e-12)
-    assert polygon_order(150.0, 110.0, 0.3) == pytest.approx(150.0 * 2 * np.pi * 0.3 * 3.6 / 110.0)
+    assert run110.frequency_order == pytest.approx(st.frequency / f_rot, rel=1e-12)
+    assert frequency_order(150.0, 110.0, 0.3) == pytest.approx(150.0 * 2 * np.pi * 0.3 * 3.6 / 110.0)
 
 
 def model_index(name):
@@ -230,7 +230,8 @@ def test_cli_simulate_json_out_plot(tmp_path):
     assert summary["steady_state"] is True and summary["outcome"] == "cycle"
     assert 0.25e-3 < summary["amplitude"]["x"] < 0.29e-3
     f_rot = (110.0 / 3.6) / (2 * np.pi * 0.3)
-    assert summary["polygon_order"] == pytest.approx(summary["frequency_hz"] / f_rot)
+    assert summary["frequency_order"] == pytest.approx(summary["frequency_hz"] / f_rot)
+    assert summary["polygon_order"] == summary["frequency_order"]  # the old name, until the next release
     assert out.stat().st_size > 0 and fig.stat().st_size > 0
 
 

@@ -35,7 +35,7 @@ def test_frictional_power_obeys_the_energy_balance_of_the_cycle(diagram):
         expected = v_slide * k * u[:, 0].mean() - c * np.mean(u[:, 1] ** 2)
         assert w.frictional_power_w == pytest.approx(expected, rel=1e-6)
         assert w.frequency_hz == pytest.approx(1.0 / cycle.period)
-        assert w.polygon_order == pytest.approx(w.frequency_hz / wheel_rotation_frequency_hz(speed / 3.6, 0.3))
+        assert w.frequency_order == pytest.approx(w.frequency_hz / wheel_rotation_frequency_hz(speed / 3.6, 0.3))
         assert w.uneven_wear_index > 0.0
 
 

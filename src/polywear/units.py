@@ -20,7 +20,7 @@ __all__ = [
     "ms_to_kmh",
     "wheel_circumference_m",
     "wheel_rotation_frequency_hz",
-    "polygon_order",
+    "frequency_order",
     "plot_scale",
 ]
 
@@ -68,8 +68,9 @@ def wheel_rotation_frequency_hz(speed_ms, rolling_radius_m):
     return speed_ms / wheel_circumference_m(rolling_radius_m)
 
 
-def polygon_order(frequency_hz, speed_ms, rolling_radius_m):
-    """Wheel order ``n = f / f_rot = f 2 pi R_e / V`` (dimensionless) of a frequency f [Hz] at speed V [m/s].
+def frequency_order(frequency_hz, speed_ms, rolling_radius_m):
+    """Frequency order ``f / f_rot = f 2 pi R_e / V``, a ratio (dimensionless, not a whole number of sides),
+    of a frequency f [Hz] at speed V [m/s].
 
     Linear in f, so it also turns a derivative of f into one of n (at fixed V, R_e).
     """

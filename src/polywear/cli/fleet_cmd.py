@@ -93,7 +93,7 @@ def fleet(
             else:
                 typer.echo(f"  of the fleet, a simulation ends in SEV there: {s['gap_sev_share']:.4f}, "
                            f"{s['confidence']:.0%} CI [{s['gap_sev_ci'][0]:.4f}, {s['gap_sev_ci'][1]:.4f}]")
-        for name in ("first_bifurcation_kmh", "second_bifurcation_kmh"):
+        for name in ("first_bifurcation_speed_kmh", "second_bifurcation_speed_kmh"):
             q = s[name]
             if "p50" in q:  # some cars have that speed inside the range
                 typer.echo(f"{name}: 5 % {q['p5']:.1f}, median {q['p50']:.1f}, 95 % {q['p95']:.1f}")

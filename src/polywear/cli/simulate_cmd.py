@@ -49,7 +49,7 @@ def _status(run) -> str:
         return f"{head}: no oscillation, the disturbance decays"
     if not math.isfinite(st.amplitude[x]):
         return f"{head}: not settled and no whole cycle to measure (a longer --duration may settle it)"
-    freq = f", {st.frequency:.2f} Hz, polygon order {run.polygon_order:.2f}" if math.isfinite(st.frequency) else ""
+    freq = f", {st.frequency:.2f} Hz, frequency order {run.frequency_order:.2f}" if math.isfinite(st.frequency) else ""
     return f"{head}, x amplitude {st.amplitude[x] * 1e3:.4g} mm{freq}"
 
 
@@ -75,7 +75,7 @@ def simulate(
     rtol: Annotated[float, typer.Option("--rtol", help="Relative tolerance of the integrator.")] = 1e-8,
     outputs: Outputs = NETCDF_OUTPUTS,
 ) -> None:
-    """Simulate from a disturbed steady rolling state: amplitudes, SEV frequency, polygon order.
+    """Simulate from a disturbed steady rolling state: amplitudes, SEV frequency, frequency order.
 
     Phase portraits of every coordinate; --sweep KEY=v1,v2 compares parameter values."""
     outputs.check()

@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike
 from .. import __version__, units
 from ..units import plot_scale, kmh_to_ms
 from ..models import model_for
-from ..results import Result
+from ..results import Result, with_deprecated_keys
 from ..params import Params, get_value, to_toml, with_updates
 from ..progress import Progress, StepCounter
 from ..settings import check_count, check_fraction, check_positive
@@ -60,7 +60,7 @@ __all__ = [
     "classify_window",
     "initial_state",
     "phase_pairs",
-    "polygon_order",
+    "frequency_order",
 ]
 
 AUX_UNITS = {"sliding_velocity": "m/s", "friction_force": "N", "normal_load": "N", "contact_lost": "1"}
@@ -141,9 +141,9 @@ def phase_pairs(model) -> list[tuple[str, str]]:
     return [(q, q + "dot") for q in model.state_names if q + "dot" in model.state_names]
 
 
-def polygon_order(frequency_hz: float, speed_kmh: float, rolling_radius_m: float) -> float:
-    """Polygon order n = f_SEV / f_rot with f_rot = V / (2 pi R_e), V in km/h [-]."""
-    return units.polygon_order(frequency_hz, float(kmh_to_ms(speed_kmh)), rolling_radius_m)
+def frequency_order(frequency_hz: float, speed_kmh: float, rolling_radius_m: float) -> float:
+    """Frequency order f_SEV / f_rot, a ratio, with f_rot = V / (2 pi R_e), V in km/h [-]."""
+    return units.frequency_order(frequency_hz, float(kmh_to_ms(speed_kmh)), rolling_radius_m)
 
 
 def initial_state(model, p, V: float, disturbance: float = 0.0, initial=None) -> np.ndarray:
@@ -283,6 +283,10 @@ def classify_window(model, V, p, t, u, dense, u_eq, deviation_scale, settings: S
 
 
 # -- results -----------------------------------------------------------------------------
+RENAMED_KEYS = {"frequency_order": "polygon_order"}
+"""New -> old keys of :meth:`SimulationResult.summary` (the old ones go in the next release)."""
+
+
 @dataclass(frozen=True)
 class SimulationResult(Result):
     """One simulation run: inputs, settings, time series, steady state."""
@@ -306,9 +310,9 @@ class SimulationResult(Result):
         return model_for(self.params)
 
     @property
-    def polygon_order(self) -> float:
-        """n = f_SEV / f_rot [-] (NaN without a frequency)."""
-        return polygon_order(self.steady.frequency, self.speed_kmh, self.params.operating.rolling_radius_m)
+    def frequency_order(self) -> float:
+        """f_SEV / f_rot, a ratio [-] (NaN without a frequency)."""
+        return frequency_order(self.steady.frequency, self.speed_kmh, self.params.operating.rolling_radius_m)
 
     @property
     def contact_lost(self) -> bool:
@@ -320,7 +324,7 @@ class SimulationResult(Result):
         """JSON-ready summary: model, speed, per-state amplitude, frequency, steady flag, n."""
         names = self.model.state_names
         st = self.steady
-        return {
+        return with_deprecated_keys({
             "model": self.params.model,
             "speed_kmh": self.speed_kmh,
             "duration_s": self.duration_s,
@@ -330,11 +334,11 @@ class SimulationResult(Result):
             "amplitude": {q: _finite(a) for q, a in zip(names, st.amplitude)},
             "units": dict(zip(names, self.model.state_units)),
             "frequency_hz": _finite(st.frequency),
-            "polygon_order": _finite(self.polygon_order),
+            "frequency_order": _finite(self.frequency_order),
             "cycles_analysed": st.n_cycles,
             "steps": {"accepted": self.stats.accepted, "rejected": self.stats.rejected},
             **({"contact_lost": self.contact_lost} if "contact_lost" in self.model.aux_names else {}),
-        }
+        }, RENAMED_KEYS)
 
     def _dataset(self):
         """xarray Dataset: states and diagnostics against time, steady-state values per state."""
@@ -364,7 +368,7 @@ class SimulationResult(Result):
                 "steady_state": int(st.steady),
                 "frequency_hz": st.frequency,
                 "period_s": st.period,
-                "polygon_order": self.polygon_order,
+                "frequency_order": self.frequency_order,
                 "cycles_analysed": st.n_cycles,
                 "maxima_per_period": st.maxima_per_period,
                 "period_change": st.period_change,
@@ -422,7 +426,7 @@ class SimulationSet(Result):
         if any(len(ds.time) != len(sets[0].time) for ds in sets):
             raise ValueError("runs of different length cannot be stacked")
         per_run = ("speed_kmh", "label", "outcome", "steady_state", "frequency_hz", "period_s",
-                   "polygon_order", "cycles_analysed", "maxima_per_period", "period_change", "amplitude_change",
+                   "frequency_order", "cycles_analysed", "maxima_per_period", "period_change", "amplitude_change",
                    "steps_accepted", "steps_rejected", "rhs_evaluations", "params_toml")
         stacked = xr.concat([ds.drop_attrs() for ds in sets], dim="run")
         for key in per_run:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import tomllib
+import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -31,7 +32,7 @@ from ..keys import KEYS, study_keys
 from ..params import ParameterError, Params, get_value, with_updates
 from ..progress import Progress, StepCounter
 from ..settings import check_count, check_positive
-from ..units import STABILITY_SPEED_RANGE_KMH, polygon_order, kmh_to_ms, ms_to_kmh
+from ..units import STABILITY_SPEED_RANGE_KMH, frequency_order, kmh_to_ms, ms_to_kmh
 
 __all__ = [
     "QUANTITIES",
@@ -49,21 +50,25 @@ QUANTITIES = {
     "second_hopf_kmh": "speed of the second Hopf point (end of the linear band) [km/h]",
     "hopf_frequency_hz": "frequency at the lowest Hopf point [Hz]",
     "second_hopf_frequency_hz": "frequency at the second Hopf point [Hz]",
-    "first_bifurcation_kmh": "lower end of the SEV band (Hopf point or fold; continuation) [km/h]",
-    "second_bifurcation_kmh": "upper end of the SEV band (Hopf point or fold; continuation) [km/h]",
-    "amplitude_mm": "lateral tread amplitude (half peak-to-peak of x) of the largest stable cycle at at_speed_kmh "
+    "first_bifurcation_speed_kmh": "lower end of the SEV band (Hopf point or fold; continuation) [km/h]",
+    "second_bifurcation_speed_kmh": "upper end of the SEV band (Hopf point or fold; continuation) [km/h]",
+    "amplitude_x_mm": "lateral tread amplitude (half peak-to-peak of x) of the largest stable cycle at at_speed_kmh "
                     "[mm] (continuation)",
     "cycle_frequency_hz": "frequency of the largest stable cycle at at_speed_kmh [Hz] (continuation)",
-    "polygon_order": "SEV frequency over the wheel's rotation frequency, f 2 pi R_e / V, at at_speed_kmh [-] "
+    "frequency_order": "SEV frequency over the wheel's rotation frequency, f 2 pi R_e / V, at at_speed_kmh [-] "
                      "(continuation)",
     "friction_mu": "steady friction coefficient mu_ss at at_sliding_speed_m_per_s [-]",
 }
 """Observable quantities calibrate can fit, and their units."""
+RENAMED_QUANTITIES = {"first_bifurcation_kmh": "first_bifurcation_speed_kmh",
+                      "second_bifurcation_kmh": "second_bifurcation_speed_kmh",
+                      "amplitude_mm": "amplitude_x_mm", "polygon_order": "frequency_order"}
+"""Old -> new quantity names that observation files may still use until the next release."""
 
 _HOPF = {"first_hopf_kmh": (0, "speed"), "second_hopf_kmh": (1, "speed"),
          "hopf_frequency_hz": (0, "frequency"), "second_hopf_frequency_hz": (1, "frequency")}
-_BAND = {"first_bifurcation_kmh": "first_bifurcation", "second_bifurcation_kmh": "second_bifurcation"}
-_CYCLE = ("amplitude_mm", "cycle_frequency_hz", "polygon_order")
+_BAND = {"first_bifurcation_speed_kmh": "first_bifurcation", "second_bifurcation_speed_kmh": "second_bifurcation"}
+_CYCLE = ("amplitude_x_mm", "cycle_frequency_hz", "frequency_order")
 CHI2_95 = 3.841458820694124
 """chi^2 quantile (1 degree of freedom) of a 95 % profile-likelihood interval."""
 Z_95 = 1.959963984540054
@@ -152,6 +157,10 @@ def read_observations(path: str | Path, params: Params | None = None) -> list[Ob
         if extra:
             raise CalibrationError(f"{where}: unknown field {extra[0]!r} (known: {', '.join(sorted(_FIELDS))})")
         quantity = entry.get("quantity")
+        if quantity in RENAMED_QUANTITIES:
+            warnings.warn(f"{where}: quantity {quantity!r} is now {RENAMED_QUANTITIES[quantity]!r}; the old name "
+                          "goes in the next release", FutureWarning, stacklevel=2)
+            quantity = RENAMED_QUANTITIES[quantity]
         if quantity not in QUANTITIES:
             raise CalibrationError(f"{where}: quantity = {quantity!r} is not one calibrate fits "
                                    f"(supported: {', '.join(QUANTITIES)})")
@@ -311,16 +320,16 @@ def _cycle_rows(params: Params, obs: list[Observation], keys: list[str], diagram
         derivs = _cycle_derivatives(model, p, orbit, directions)
         f = 1.0 / orbit.period
         df = np.array([-dt / orbit.period**2 for _, dt in derivs])
-        if o.quantity == "amplitude_mm":
+        if o.quantity == "amplitude_x_mm":
             values.append(1e3 * orbit.amplitude()[x])
             rows.append(np.array([1e3 * da for da, _ in derivs]))
         elif o.quantity == "cycle_frequency_hz":
             values.append(f)
             rows.append(df)
-        else:  # polygon order n = f 2 pi R_e / V; R_e enters here directly
+        else:  # frequency order n = f 2 pi R_e / V; R_e enters here directly
             radius, v = params.operating.rolling_radius_m, kmh_to_ms(o.at_speed_kmh)
-            n = polygon_order(f, v, radius)
-            row = polygon_order(df, v, radius)
+            n = frequency_order(f, v, radius)
+            row = frequency_order(df, v, radius)
             row += np.array([n / radius if k == "operating.rolling_radius_m" else 0.0 for k in keys])
             values.append(n)
             rows.append(row)

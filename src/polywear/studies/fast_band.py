@@ -199,12 +199,12 @@ class Band(Result):
         return artists
 
     @property
-    def first_bifurcation_kmh(self) -> float:
+    def first_bifurcation_speed_kmh(self) -> float:
         """Lowest speed of the SEV band (NaN without a band)."""
         return self.sev_band_kmh[0][0] if self.sev_band_kmh else np.nan
 
     @property
-    def second_bifurcation_kmh(self) -> float:
+    def second_bifurcation_speed_kmh(self) -> float:
         """Highest speed of the SEV band (NaN without a band)."""
         return self.sev_band_kmh[-1][1] if self.sev_band_kmh else np.nan
 

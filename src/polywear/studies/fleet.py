@@ -55,7 +55,7 @@ from ..keys import get_value
 from ..params import ParameterError, Params, to_toml
 from ..parallel import Executor
 from ..progress import Progress, report, shifted
-from ..results import Result
+from ..results import Result, with_deprecated_keys
 from .sampling import SAMPLE_FAILURES, sample_params
 
 if TYPE_CHECKING:
@@ -64,8 +64,11 @@ if TYPE_CHECKING:
 __all__ = ["CarOutcome", "FleetParameter", "FleetUsage", "FleetSpec", "load_fleet_spec", "sample_fleet", "FleetEvaluator",
            "FleetResult", "fleet"]
 
-OUTPUTS = ("first_bifurcation_kmh", "second_bifurcation_kmh", "at_risk", "hard_at_usage", "fast_path",
+OUTPUTS = ("first_bifurcation_speed_kmh", "second_bifurcation_speed_kmh", "at_risk", "hard_at_usage", "fast_path",
            "wear_efold_km", "usage_in_gap_after_pd_ns", "gap_sev_by_simulation")
+RENAMED_KEYS = {"first_bifurcation_speed_kmh": "first_bifurcation_kmh",
+                "second_bifurcation_speed_kmh": "second_bifurcation_kmh"}
+"""New -> old keys of :meth:`FleetResult.summary` (the old ones go in the next release)."""
 N_BINS = 20
 """Equal-probability bins of the main-effect estimator."""
 PATHS = ("hopf", "fast", "full", "pilot")
@@ -328,7 +331,7 @@ class FleetEvaluator:
             gap_sev = self._gap_sev(params, in_gap, diagram)
             if isinstance(gap_sev, CarOutcome):
                 return (np.nan,) * len(OUTPUTS), gap_sev
-        return (band.first_bifurcation_kmh, band.second_bifurcation_kmh, float(inside(band.sev_band_kmh)),
+        return (band.first_bifurcation_speed_kmh, band.second_bifurcation_speed_kmh, float(inside(band.sev_band_kmh)),
                 float(inside(band.hard_regions_kmh)), float(band.path == "fast"), efold, float(bool(in_gap)),
                 gap_sev), outcome
 
@@ -492,7 +495,7 @@ class FleetResult(Result):
             if not c.ok:
                 failures[c.failure] = failures.get(c.failure, 0) + 1
         failed_cars = [{"car": i, "reason": c.status} for i, c in enumerate(self.outcomes) if not c.ok]
-        return {
+        return with_deprecated_keys({
             "model": self.params.model,
             "n_samples": len(self.outcomes),
             "n_evaluated": n,
@@ -508,8 +511,8 @@ class FleetResult(Result):
             "gap_after_pd_ns_ci": list(gap_ci),
             "gap_sev_share": gap_sev / n if n and self.spec.simulate_gaps else None,
             "gap_sev_ci": list(gap_sev_ci) if self.spec.simulate_gaps else None,
-            "first_bifurcation_kmh": quantiles(0),
-            "second_bifurcation_kmh": quantiles(1),
+            "first_bifurcation_speed_kmh": quantiles(0),
+            "second_bifurcation_speed_kmh": quantiles(1),
             "fast_path_share": float(np.mean(v[:, 4])) if n else None,
             **self._path_summary(),
             "drivers_main_effect": {key: (None if not np.isfinite(d) else float(d)) for key, d in
@@ -523,7 +526,7 @@ class FleetResult(Result):
             "usage": [u.model_dump() for u in self.spec.usage],
             **self._wear_summary(v, n),
             "settings": self.settings,
-        }
+        }, RENAMED_KEYS)
 
     @cached_property
     def _classifier(self) -> dict | None:

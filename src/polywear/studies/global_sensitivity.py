@@ -16,7 +16,7 @@ Outputs per sample (``study.outputs``):
     :func:`~polywear.dynamics.stability.fast_linear_band`;
     ``linear_band_width_kmh``: its total width.
 ``"bifurcation"`` (continuation, ~0.3 s per sample for tread1dof, a few s for axle4dof)
-    ``first_bifurcation_kmh``, ``second_bifurcation_kmh``: bounds of the SEV band;
+    ``first_bifurcation_speed_kmh``, ``second_bifurcation_speed_kmh``: bounds of the SEV band;
     ``sev_band_width_kmh``; ``max_amplitude_mm``: the largest tread amplitude of a
     stable cycle in ``study.operating_range_kmh`` (0 where there is none).
 
@@ -55,7 +55,7 @@ from ..params import (
 )
 from ..parallel import Executor
 from ..progress import Progress
-from ..results import Result
+from ..results import Result, with_deprecated_keys
 from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH, ms_to_kmh
 from ..dynamics.stability import fast_linear_band
 from .sampling import SAMPLE_FAILURES, sample_params
@@ -73,7 +73,11 @@ __all__ = [
 ]
 
 HOPF_OUTPUTS = ("hopf_1_kmh", "hopf_2_kmh", "linear_band_width_kmh")
-BIFURCATION_OUTPUTS = ("first_bifurcation_kmh", "second_bifurcation_kmh", "sev_band_width_kmh", "max_amplitude_mm")
+BIFURCATION_OUTPUTS = ("first_bifurcation_speed_kmh", "second_bifurcation_speed_kmh", "sev_band_width_kmh", "max_amplitude_mm")
+RENAMED_OUTPUTS = {"first_bifurcation_speed_kmh": "first_bifurcation_kmh",
+                   "second_bifurcation_speed_kmh": "second_bifurcation_kmh"}
+"""New -> old output names, kept beside the new ones in the summary's ``indices`` and
+``convergence`` until the next release."""
 
 
 
@@ -368,10 +372,11 @@ class GlobalSensitivityResult(Result):
             "n_runs": len(self.status),
             "failures": self.failures(),
             "failure_examples": examples,
-            "indices": {
+            "indices": with_deprecated_keys({
                 out: {k: clean(v) for k, v in ind.items()} for out, ind in self.indices.items()
-            },
-            "convergence": {out: {k: clean(v) for k, v in c.items()} for out, c in self.convergence.items()},
+            }, RENAMED_OUTPUTS),
+            "convergence": with_deprecated_keys({out: {k: clean(v) for k, v in c.items()}
+                                                 for out, c in self.convergence.items()}, RENAMED_OUTPUTS),
             "settings": self.settings,
         }
 

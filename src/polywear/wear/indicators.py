@@ -28,18 +28,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..units import polygon_order, ms_to_kmh
+from ..results import with_deprecated_keys
+from ..units import frequency_order, ms_to_kmh
 
 __all__ = ["WearIndicators", "wear_indicators"]
+
+RENAMED_KEYS = {"frequency_order": "polygon_order", "frequency_order_offset": "polygon_order_offset"}
+"""New -> old keys of :meth:`WearIndicators.summary` (the old ones go in the next release)."""
 
 
 @dataclass(frozen=True)
 class WearIndicators:
     speed_kmh: float
     frequency_hz: float
-    polygon_order: float
-    polygon_order_offset: float
-    """Distance of the polygon order to the nearest integer [-]."""
+    frequency_order: float
+    """f / f_rot of the cycle, a ratio [-]."""
+    frequency_order_offset: float
+    """Distance of the frequency order to the nearest whole number of sides [-]."""
     rms_acceleration: float  # [m/s^2]
     frictional_power_w: float
     steady_frictional_power_w: float
@@ -47,7 +52,7 @@ class WearIndicators:
     uneven_wear_index: float
 
     def summary(self) -> dict:
-        return {k: float(v) for k, v in self.__dict__.items()}
+        return with_deprecated_keys({k: float(v) for k, v in self.__dict__.items()}, RENAMED_KEYS)
 
 
 def wear_indicators(model, p, orbit, rolling_radius_m: float, samples: int = 2048) -> WearIndicators:
@@ -65,12 +70,12 @@ def wear_indicators(model, p, orbit, rolling_radius_m: float, samples: int = 204
     p0 = float(steady[names.index("friction_force")] * steady[names.index("sliding_velocity")])
     power = float(np.mean(force * v_r))
     f = 1.0 / orbit.period
-    n = polygon_order(f, V, rolling_radius_m)
+    n = frequency_order(f, V, rolling_radius_m)
     return WearIndicators(
         speed_kmh=ms_to_kmh(V),
         frequency_hz=f,
-        polygon_order=n,
-        polygon_order_offset=abs(n - round(n)),
+        frequency_order=n,
+        frequency_order_offset=abs(n - round(n)),
         rms_acceleration=float(np.sqrt(np.mean(accel**2))),
         frictional_power_w=power,
         steady_frictional_power_w=p0,
