@@ -17,7 +17,9 @@ import time
 
 import numpy as np
 
-from polywear.measured.campbell import Run, campbell, order_frequency_hz
+from polywear.measured.campbell import campbell
+from polywear.units import order_frequency_hz
+from polywear.measured.run_file import Run
 from polywear.params import Params
 
 

@@ -54,7 +54,7 @@ EXPECTED = {
     "calibrate_wear": "polywear.measured.wear_calibration:calibrate_wear",
     "SpecialPoint": "polywear.dynamics.points:SpecialPoint",
     "PointKind": "polywear.dynamics.points:PointKind",
-    "read_run": "polywear.measured.campbell:read_run",
+    "read_run": "polywear.measured.run_file:read_run",
     "friction": "polywear.friction",
     "models": "polywear.models",
     "solvers": "polywear.solvers",

@@ -12,7 +12,10 @@ import sys
 import numpy as np
 import pytest
 
-from polywear.measured.campbell import MeasurementError, _remove_orders, campbell, order_frequency_hz, read_run
+from polywear.measured.campbell import campbell
+from polywear.units import order_frequency_hz
+from polywear.measured.run_file import MeasurementError, read_run
+from polywear.measured.sev_detection import remove_orders
 from polywear.measured.runup import simulate_ramp
 from polywear.dynamics.stability import stability
 from polywear.params import Params
@@ -95,7 +98,7 @@ def test_order_removal_keeps_constant_frequency():
     core = slice(1000, -1000)  # away from the filter's start and end transients
     for f_tone, tol in ((160.0, 0.02), (130.0, None)):
         tone = 0.5 * np.sin(2 * np.pi * f_tone * t)
-        cleaned = _remove_orders(order + tone, speed, fs, [12.0], radius)
+        cleaned = remove_orders(order + tone, speed, fs, [12.0], radius)
         if tol is not None:
             assert np.std(cleaned[core] - tone[core]) < tol * np.std(order[core])
         assert np.std(cleaned[core]) == pytest.approx(np.std(tone[core]), rel=0.1)
@@ -186,7 +189,7 @@ def _sev_line(t, v, f0, v_on, v_off, amplitude=5.0, tau_s=0.03):
 
 
 def _run(t, v, x, name="synthetic"):
-    from polywear.measured.campbell import Run
+    from polywear.measured.run_file import Run
 
     return Run(name, t, v, {"acc_y": (x, "m/s^2")})
 

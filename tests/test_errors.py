@@ -10,7 +10,7 @@ import polywear as pw
 from polywear.errors import InputError, NumericalError, PolywearError
 from polywear.friction.data import FrictionDataError, read_steady_csv
 from polywear.measured.calibration import CalibrationError, read_observations
-from polywear.measured.campbell import MeasurementError, read_run
+from polywear.measured.run_file import MeasurementError, read_run
 from polywear.measured.profile import ProfileError
 from polywear.measured.tir import TirError, read_tir
 from polywear.models import get_model

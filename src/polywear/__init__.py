@@ -82,7 +82,7 @@ _ENTRY_POINTS: dict[str, tuple[str, str | None]] = {
     "campbell": ("polywear.measured.campbell", "campbell"),
     "SpecialPoint": ("polywear.dynamics.points", "SpecialPoint"),
     "PointKind": ("polywear.dynamics.points", "PointKind"),
-    "read_run": ("polywear.measured.campbell", "read_run"),
+    "read_run": ("polywear.measured.run_file", "read_run"),
     "read_profiles": ("polywear.measured.profile", "read_profiles"),
     "calibrate_wear": ("polywear.measured.wear_calibration", "calibrate_wear"),
     "friction": ("polywear.friction", None),

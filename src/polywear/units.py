@@ -68,6 +68,13 @@ def wheel_rotation_frequency_hz(speed_ms, rolling_radius_m):
     return speed_ms / wheel_circumference_m(rolling_radius_m)
 
 
+def order_frequency_hz(order, speed_kmh, rolling_radius_m):
+    """Frequency ``n V / (2 pi R_e)`` [Hz] of wheel order n at vehicle speed V [km/h]."""
+    import numpy as np  # here, not at import: see the module docstring
+
+    return wheel_rotation_frequency_hz(kmh_to_ms(order * np.asarray(speed_kmh)), rolling_radius_m)
+
+
 def frequency_order(frequency_hz, speed_ms, rolling_radius_m):
     """Frequency order ``f / f_rot = f 2 pi R_e / V``, a ratio (dimensionless, not a whole number of sides),
     of a frequency f [Hz] at speed V [m/s].

@@ -45,7 +45,8 @@ def campbell(
     if not (math.isfinite(disturbance_m) and 0.0 < disturbance_m < 1e-2):
         raise UserError(f"--disturbance {disturbance_m}: must be between 0 and 0.01 m")
     params = inputs.load()
-    from ..measured.campbell import CampbellSettings, campbell as analyze, read_run
+    from ..measured.campbell import CampbellSettings, campbell as analyze
+    from ..measured.run_file import read_run
 
     run = read_run(run_file, time_column, speed_column, channel or (), params.operating.rolling_radius_m)
     for note in run.notes:

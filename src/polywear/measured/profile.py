@@ -24,7 +24,7 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterable
 
 import numpy as np
 
@@ -396,7 +396,8 @@ def _read_harmonics(path: Path, frame, max_order: int) -> list[MeasuredProfile]:
     return profiles
 
 
-def read_profiles(paths, unit: str | None = None, max_order: int = DEFAULT_MAX_ORDER) -> "MeasuredProfiles":
+def read_profiles(paths: Iterable[str | Path], unit: str | None = None, max_order: int = DEFAULT_MAX_ORDER
+                  ) -> MeasuredProfiles:
     """Measured profiles from CSV files (long profiles or harmonics tables).
 
     ``unit``: the length unit of the depth or radius column when the header has none
