@@ -148,6 +148,11 @@ class WearCalibration(Result):
             artists.append(ax.errorbar([r.distance_km for r in pts], [math.exp(r.log_amplitude) for r in pts],
                                        yerr=[math.exp(r.log_amplitude) * r.sigma for r in pts], fmt="o", color=color,
                                        label=f"order {n} measured"))
+            below = [(p.distance_km, p.floor_mm[n - 1]) for p in self.measured.profiles
+                     if p.distance_km is not None and n <= p.harmonics_mm.size and not p.significant[n - 1]]
+            if below:
+                artists.append(ax.scatter(*zip(*below), marker="v", color=color, facecolors="none",
+                                          label=f"order {n} below the noise floor"))
             if scale is not None:
                 artists += ax.plot(d, np.exp(_log_amplitude(self.reference, d * scale, n)), color=color,
                                    label=f"order {n} calibrated")
