@@ -143,8 +143,8 @@ def _fleet(d, tmp_path_factory):
 
 def _campbell(d, tmp_path_factory):
     from polywear.measured.campbell import campbell
-from polywear.units import order_frequency_hz
     from polywear.measured.run_file import read_run
+    from polywear.units import order_frequency_hz
 
     fs, radius = 1000.0, Params().operating.rolling_radius_m
     t = np.arange(0.0, 4.0, 1.0 / fs)
