@@ -33,7 +33,9 @@ import numpy as np
 from polywear.dynamics.bifurcation import bifurcation
 from polywear.studies.fast_band import _FIXED_RANGE, FastBand, band_reference, pilot_references
 from polywear.studies.fleet import FleetSpec, fleet
-from polywear.studies.global_sensitivity import DEFAULT_KEYS, sample_params
+from polywear.studies.global_sensitivity import DEFAULT_KEYS
+from polywear.studies.sampling import sample_params
+from polywear.parallel import Executor
 from polywear.params import Params, StudySpec, get_value, with_updates
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -52,7 +54,7 @@ def _references(base, n_pilot: int, seed: int, amplitude_speeds=()):
     than the samples compared), serial; prints their CPU time and topologies."""
     t = time.process_time()
     refs, failed = pilot_references([base, *_samples(base, n_pilot, seed + 1)], amplitude_speeds_kmh=amplitude_speeds,
-                                    backend="serial")
+                                    executor=Executor("serial"))
     topologies = Counter((r.band.hopf_criticality, len(r.band.folds_kmh), "unusable" if r.unusable else "")
                          for r in refs)
     print(f"{base.model}: nominal + {n_pilot} pilot references, {time.process_time() - t:.1f} s CPU, "

@@ -16,6 +16,7 @@ from polywear.studies.fast_band import (_FIXED_RANGE, BandPath, Fallback, Fallba
                                          band_reference, pilot_indices, pilot_references)
 from polywear.studies.global_sensitivity import DEFAULT_KEYS
 from polywear.studies.sampling import sample_params
+from polywear.parallel import Executor
 from polywear.dynamics.stability import stability
 from polywear.models import get_model
 from polywear.params import Params, get_value, with_updates
@@ -181,7 +182,8 @@ def test_a_second_reference_serves_its_hopf_signature():
     nominal = np.array([get_value(base, k) for k in DEFAULT_KEYS])
     samples = [sample_params(base, DEFAULT_KEYS, nominal * (1.0 + 0.05 * (2.0 * rng.random(len(nominal)) - 1.0)))
                for _ in range(10)]
-    refs, failed = pilot_references([base, samples[3]], amplitude_speeds_kmh=AMPLITUDE_SPEEDS, backend="serial")
+    refs, failed = pilot_references([base, samples[3]], amplitude_speeds_kmh=AMPLITUDE_SPEEDS,
+                                    executor=Executor("serial"))
     assert not failed and [r.band.hopf_criticality for r in refs] == [("soft", "hard"), ("hard", "hard")]
     alone = FastBand(refs[:1], amplitude_speeds_kmh=AMPLITUDE_SPEEDS)
     both = FastBand(refs, amplitude_speeds_kmh=AMPLITUDE_SPEEDS)
