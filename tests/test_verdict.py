@@ -195,9 +195,9 @@ def test_trigger_amplitude_runs_from_zero_to_the_fold(model, auto_fold_mm):
     diagram = bifurcation(with_updates(Params(), {"model": model}), (20.0, 300.0))
     (trigger,) = diagram.trigger_amplitude("x")
     (fold,) = diagram.folds
-    assert trigger["min_x"] == 0.0
-    assert trigger["max_x"] == fold.amplitude[diagram.state_names.index("x")]
-    assert trigger["max_x"] * 1e3 == pytest.approx(auto_fold_mm, rel=2e-6)
+    assert trigger["min_x_mm"] == 0.0
+    assert trigger["max_x_mm"] == 1e3 * fold.amplitude[diagram.state_names.index("x")]
+    assert trigger["max_x_mm"] == pytest.approx(auto_fold_mm, rel=2e-6)
     assert trigger["speed_range_kmh"][1] == pytest.approx(fold.speed_kmh)
 
 
@@ -284,7 +284,7 @@ def test_hard_region_cut_at_the_ceiling_has_an_open_trigger_range(nominal, capsy
     (region,) = s["hard_regions_kmh"]
     assert region[0] == pytest.approx(_scaled(hopfs[1], 0.115), rel=1e-9) and region[1] is None
     (trigger,) = s["trigger_amplitude"]
-    assert trigger["speed_range_kmh"] == region and trigger["min_x"] == 0.0
+    assert trigger["speed_range_kmh"] == region and trigger["min_x_mm"] == 0.0 == trigger["min_x"]
     _print_summary(s)
     assert "hard excitation" in capsys.readouterr().out
 
@@ -449,6 +449,18 @@ def test_point_contact_force_against_c_alpha_alpha():
     assert point_contact(_toe(0.05), 110.0)["overstated"] and not point_contact(_toe(5.0), 110.0)["overstated"]
 
 
+def test_the_point_contact_note_is_beside_the_wear_judgement_only_for_the_point_contact():
+    from polywear.report.verdict import verdict
+
+    ev = _alone(110.0, 26_000.0, 10)
+    summary = {"operating": STABLE_ROLLING, "wear": _wear_summary(ev, {**ev, "label": "drive cycle"}),
+               "design": NO_BAND}
+    point = verdict(summary, _toe(0.05), _sentence(STABLE_ROLLING))
+    assert point["point_contact"]["overstated"] and any("slides under the whole load" in x for x in point["lines"])
+    patch = verdict(summary, with_updates(_toe(0.05), {"friction.contact": "patch"}), _sentence(STABLE_ROLLING))
+    assert patch["point_contact"] is None and not any("slides under the whole load" in x for x in patch["lines"])
+
+
 def test_option_that_clears_the_band_but_brings_the_polygon_sooner_is_shown_as_such():
     """Toe 0.5 -> 0.05 deg clears the band; against a car with no visible polygon within
     100 000 km it brings one. Its distance (linear map) checked against the linear depth of
@@ -481,7 +493,7 @@ def test_hard_region_says_the_evolution_starts_from_steady_rolling_and_names_the
     from polywear.report.verdict import verdict
 
     hard = {"speed_kmh": 230.0, "steady_rolling_stable": True, "regime": "hard SEV region",
-            "sev_amplitude_x_m": 4e-4, "trigger_amplitude_x_m": 2e-4, "wear": {"polygon_order": 4.31, "frequency_hz": 153.0}}
+            "sev_amplitude_x_m": 4e-4, "trigger_amplitude_x_m": 2e-4, "wear": {"frequency_order": 4.31, "frequency_hz": 153.0}}
     ev = _alone(230.0, None, 5)
     summary = {"operating": hard, "wear": _wear_summary(ev, {**ev, "label": "drive cycle"}), "design": NO_BAND}
     v = verdict(summary, with_updates(Params(), {"operating.speed_kmh": 230.0}), "At 230 km/h: hard excitation.")

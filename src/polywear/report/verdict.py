@@ -7,7 +7,8 @@ wear map with the option's parameters at the operating speed and on the drive cy
 (:func:`wear_outlook`). The paper's point contact slides under the whole load, so its
 steady lateral force (about mu N) can far exceed what a real tire carries at the same slip
 angle, ``C_alpha * alpha``; where it does by more than :data:`OVERSTATED_FACTOR`, the wear
-judgement says that its growth is overstated (:func:`point_contact`).
+judgement says that its growth is overstated (:func:`point_contact`); not with the patch
+contact (``friction.contact = "patch"``).
 """
 
 from __future__ import annotations
@@ -80,7 +81,8 @@ def wear_outlook(params: Params, distance_km: float) -> dict:
     vibrates there, the map does not apply); on the drive cycle, the speeds where steady
     rolling is unstable, else the distance [km] within ``distance_km`` at which the seeded
     roughness grown at the cycle's share-weighted rates becomes visible (None: not within it)
-    and its order; and the :func:`point_contact` check at the operating speed."""
+    and its order; and the :func:`point_contact` check at the operating speed (None with
+    the patch contact)."""
     from ..wear.design import cycle_rates
     from ..wear.map import wear_map
 
@@ -88,7 +90,7 @@ def wear_outlook(params: Params, distance_km: float) -> dict:
     row = wear_map(params, [op]).rows()[0]
     cycle = params.wear.cycle_shares()
     out = {"operating": {k: row[k] for k in ("speed_kmh", "rolling_stable", "order", "frequency_hz", "efold_km")},
-           "cycle": {"basis": "linear wear map", "distance_km": distance_km}, "point_contact": point_contact(params, op)}
+           "cycle": {"basis": "linear wear map", "distance_km": distance_km}, "point_contact": _check(params)}
     rates = cycle_rates(params, cycle)
     if rates is None:
         stable = wear_map(params, [v for v, _ in cycle]).rolling_stable
@@ -99,6 +101,11 @@ def wear_outlook(params: Params, distance_km: float) -> dict:
     out["cycle"].update(rolling_stable=True, visible_km=visible, order=int(np.argmax(rates.real)) + 1,
                         vibrating_speeds_kmh=[])
     return out
+
+
+def _check(params: Params) -> dict | None:
+    """:func:`point_contact` at the operating speed for the point contact, None for the patch."""
+    return point_contact(params, params.operating.speed_kmh) if params.friction.contact == "point" else None
 
 
 def judge_options(params: Params, design: dict, distance_km: float, nominal_visible_km: float | None) -> list[dict]:
@@ -150,7 +157,7 @@ def _option_text(look: dict, nominal_visible_km: float | None, distance_km: floa
                 else f", against none within {distance_km:,.0f} km now")
     if op["rolling_stable"] and op["efold_km"] is not None:
         text += (f"; at {op['speed_kmh']:g} km/h order {op['order']} grows by e every {_km(op['efold_km'])} km")
-    if look["point_contact"]["overstated"]:
+    if look["point_contact"] is not None and look["point_contact"]["overstated"]:
         text += "; " + _overstated(look["point_contact"])
     return text
 
@@ -174,7 +181,7 @@ def verdict(summary: dict, params: Params, vibration: str) -> dict:
     vibrates = "sev_amplitude_x_m" in v
     visible = [ev for ev in evs.values() if ev["visible_km"] is not None]
     first = min(visible, key=lambda ev: ev["visible_km"]) if visible else None
-    pc = point_contact(params, params.operating.speed_kmh)
+    pc = _check(params)
     out = {"vibrates": vibrates, "polygon_visible": bool(visible) if evs else None,
            "sides": first["dominant_order"] if first else None,
            "visible_km": {label: ev["visible_km"] for label, ev in evs.items()},
@@ -207,10 +214,11 @@ def verdict(summary: dict, params: Params, vibration: str) -> dict:
         w = v["wear"]
         lines.append(f"Steady rolling is stable at {v['speed_kmh']:g} km/h, so the evolutions start from it, as a car "
                      f"drives; after a disturbance above {v['trigger_amplitude_x_m'] * 1e3:.3f} mm (a pothole) the "
-                     f"tread vibrates at order {w['polygon_order']:.2f} ({w['frequency_hz']:.0f} Hz) instead, and the "
+                     f"tread vibrates at order {w['frequency_order']:.2f} ({w['frequency_hz']:.0f} Hz) instead, and the "
                      "wear from that vibration is not evolved here.")
-    if pc["overstated"]:
-        lines.append("Beside the wear judgement: " + _overstated(pc) + " (until the patch contact replaces it).")
+    if pc is not None and pc["overstated"]:
+        lines.append("Beside the wear judgement: " + _overstated(pc) + " (friction.contact = \"patch\" is the "
+                     "distributed contact, for tread1dof).")
     nominal = wear_outlook(params, distance)
     out["wear_outlook"] = nominal
     nominal_visible = evs["drive cycle"]["visible_km"] if "drive cycle" in evs else None
