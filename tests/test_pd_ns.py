@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from polywear.dynamics.bifurcation import bifurcation
-from polywear.studies.global_sensitivity import DEFAULT_KEYS, sample_params
+from polywear.studies.global_sensitivity import DEFAULT_KEYS
+from polywear.studies.sampling import sample_params
 from polywear.models import get_model
 from polywear.params import Params, get_value, with_updates
 from polywear.solvers.continuation import (BranchPoint, ContinuationSettings, same_special_point, solve_at_speed,
