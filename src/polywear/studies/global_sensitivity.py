@@ -56,7 +56,7 @@ from ..params import (
 from ..parallel import Executor
 from ..progress import Progress
 from ..results import Result, with_deprecated_keys
-from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH, ms_to_kmh
+from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH
 from ..dynamics.stability import fast_linear_band
 from .sampling import SAMPLE_FAILURES, sample_params
 
