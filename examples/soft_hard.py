@@ -32,17 +32,17 @@ def main(out_dir: Path) -> None:
     for region in diagram.trigger_amplitude():
         lo, hi = region["speed_range_kmh"]
         print(f"hard region {lo:.1f}-{hi:.1f} km/h: trigger amplitude of x "
-              f"{region['min_x'] * 1e3:.3f} to {region['max_x'] * 1e3:.3f} mm (grows from the Hopf point to the fold)")
+              f"{region['min_x_mm']:.3f} to {region['max_x_mm']:.3f} mm (grows from the Hopf point to the fold)")
     portraits = pw.excitation(diagram, SPEEDS_KMH)
     fig, axes = plt.subplots(1, len(portraits), figsize=(10, 4.4))
     for portrait, ax in zip(portraits, axes):
         s = portrait.summary()
         print(f"{s['speed_kmh']:g} km/h: {s['regime']}")
         for cycle in s["cycles"]:
-            print(f"  {'stable' if cycle['stable'] else 'unstable'} cycle, amplitude {cycle['amplitude_x_m'] * 1e3:.3f} mm")
+            print(f"  {'stable' if cycle['stable'] else 'unstable'} cycle, amplitude {cycle['amplitude_x_mm']:.3f} mm")
         for run in s["runs"]:
-            print(f"  start {run['start']} ({run['initial_x_m'] * 1e3:+.3f} mm): {run['outcome']}, "
-                  f"final amplitude {run['final_amplitude_x_m'] * 1e3:.3f} mm")
+            print(f"  start {run['start']} ({run['initial_x_mm']:+.3f} mm): {run['outcome']}, "
+                  f"final amplitude {run['final_amplitude_x_mm']:.3f} mm")
         portrait.plot(ax=ax)
     fig.tight_layout()
     fig.savefig(out_dir / "soft_hard.png", dpi=110)

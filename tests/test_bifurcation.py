@@ -37,7 +37,8 @@ def test_default_diagram_matches_model_md(default_diagram):
     assert [h["criticality"] for h in s["hopf_points"]] == ["soft", "hard"]
     (fold,) = s["folds"]
     assert 250.0 < fold["speed_kmh"] < 260.0  # docs/model.md section 7: a fold of cycles near 255 km/h
-    assert 0.40e-3 < fold["amplitude_x_m"] < 0.55e-3
+    assert 0.40 < fold["amplitude_x_mm"] < 0.55
+    assert fold["amplitude_x_m"] == pytest.approx(1e-3 * fold["amplitude_x_mm"], rel=1e-15)  # old key, next release
     assert s["first_bifurcation_speed_kmh"] == pytest.approx(s["hopf_points"][0]["speed_kmh"])
     assert s["second_bifurcation_speed_kmh"] == pytest.approx(fold["speed_kmh"])
     assert s["hard_regions_kmh"] == [[pytest.approx(207.7503, abs=1e-3), pytest.approx(fold["speed_kmh"])]]

@@ -123,10 +123,10 @@ def test_excitation_soft_and_hard_regions_end_on_the_right_attractor():
     assert soft["regime"].startswith("soft") and hard["regime"].startswith("hard")
     (stable,) = soft["cycles"]
     assert all(r["outcome"] == "cycle" for r in soft["runs"])
-    assert all(r["final_amplitude_x_m"] == pytest.approx(stable["amplitude_x_m"], rel=1e-5) for r in soft["runs"])
+    assert all(r["final_amplitude_x_mm"] == pytest.approx(stable["amplitude_x_mm"], rel=1e-5) for r in soft["runs"])
     unstable, stable = hard["cycles"]
     assert not unstable["stable"] and stable["stable"]
     outcome = {r["start"]: r for r in hard["runs"]}
     assert outcome["near steady rolling"]["outcome"] == outcome["inside cycle 1"]["outcome"] == "equilibrium"
     for start in ("outside cycle 1", "inside cycle 2", "outside cycle 2"):
-        assert outcome[start]["final_amplitude_x_m"] == pytest.approx(stable["amplitude_x_m"], rel=1e-5)
+        assert outcome[start]["final_amplitude_x_mm"] == pytest.approx(stable["amplitude_x_mm"], rel=1e-5)

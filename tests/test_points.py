@@ -80,7 +80,8 @@ def test_the_diagram_holds_special_points(diagram):
     (fold,) = diagram.folds
     assert fold is points[2] and fold.label == "LP" and fold.branch == 0
     summary = diagram.summary()["folds"][0]
-    assert summary == {"speed_kmh": fold.speed_kmh, "amplitude_x_m": fold.amplitude[0], "frequency_hz": fold.frequency_hz}
+    assert summary == {"speed_kmh": fold.speed_kmh, "amplitude_x_mm": 1e3 * fold.amplitude[0], "frequency_hz": fold.frequency_hz,
+                       "amplitude_x_m": 1e3 * fold.amplitude[0] * 1e-3}  # the old key, until the next release
     assert fold.frequency_hz == pytest.approx(1.0 / fold.orbit.period, rel=1e-15)
     low, high = fold.orbit.extrema()
     np.testing.assert_array_equal(fold.amplitude, 0.5 * (high - low))

@@ -105,7 +105,7 @@ def _print_summary(s: dict) -> None:
         typer.echo(f"  Hopf   {h['speed_kmh']:9.3f} km/h  {h['frequency_hz']:7.2f} Hz  {h['criticality']}")
     for f in s.get("folds", []):
         typer.echo(
-            f"  fold   {f['speed_kmh']:9.3f} km/h  {f['frequency_hz']:7.2f} Hz  amplitude {f['amplitude_x_m'] * 1e3:.4f} mm"
+            f"  fold   {f['speed_kmh']:9.3f} km/h  {f['frequency_hz']:7.2f} Hz  amplitude {f['amplitude_x_mm']:.4f} mm"
         )
     for v in s.get("period_doublings", []):
         typer.echo(f"  PD     {v:9.3f} km/h  period doubling (a multiplier crosses -1)")
@@ -135,7 +135,7 @@ def _print_summary(s: dict) -> None:
         lo, hi = t["speed_range_kmh"]
         typer.echo(
             f"  hard excitation {_bound(lo).strip()} .. {_bound(hi).strip()} km/h: a disturbance of x above "
-            f"{t['min_x'] * 1e3:.4f} .. {t['max_x'] * 1e3:.4f} mm starts SEV"
+            f"{t['min_x_mm']:.4f} .. {t['max_x_mm']:.4f} mm starts SEV"
         )
 
 

@@ -61,6 +61,6 @@ def _print_portraits(summary: dict) -> None:
     for p in summary["portraits"]:
         typer.echo(f"{p['speed_kmh']:.1f} km/h: {p['regime']}")
         for c in p["cycles"]:
-            typer.echo(f"  {'stable' if c['stable'] else 'unstable'} cycle, amplitude {c['amplitude_x_m'] * 1e3:.4f} mm")
+            typer.echo(f"  {'stable' if c['stable'] else 'unstable'} cycle, amplitude {c['amplitude_x_mm']:.4f} mm")
         for r in p["runs"]:
-            typer.echo(f"  start {r['start']:22s} -> {r['outcome']} (amplitude {r['final_amplitude_x_m'] * 1e3:.4f} mm)")
+            typer.echo(f"  start {r['start']:22s} -> {r['outcome']} (amplitude {r['final_amplitude_x_mm']:.4f} mm)")

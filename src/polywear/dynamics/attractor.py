@@ -38,7 +38,7 @@ from enum import StrEnum
 import numpy as np
 
 from ..units import ms_to_kmh
-from ..results import Result
+from ..results import Result, with_deprecated_keys
 from .simulation import SimulationResult, SteadyOutcome, _finite, simulate
 
 __all__ = ["Attractor", "Regime", "reached_attractors", "dominant_frequency"]
@@ -102,18 +102,18 @@ class Attractor(Result):
     def summary(self) -> dict:
         st = self.run.steady
         x = self.run.model.index("x")
-        return {
+        return with_deprecated_keys({
             "regime": self.regime,
             "speed_kmh": self.speed_kmh,
-            "amplitude_x_m": float(self.amplitude[x]),
+            "amplitude_x_mm": 1e3 * float(self.amplitude[x]),
             "dominant_frequency_hz": _finite(self.dominant_frequency_hz),
             "period_s": _finite(st.period),
             "maxima_per_period": st.maxima_per_period,
             "outcome": st.outcome,
-            "offset_x_m": float(st.mean[x] - self.run.equilibrium[x]),
+            "offset_x_mm": 1e3 * float(st.mean[x] - self.run.equilibrium[x]),
             "simulated_s": self.simulated_s,
             "start": self.start,
-        }
+        }, {"amplitude_x_mm": ("amplitude_x_m", 1e-3), "offset_x_mm": ("offset_x_m", 1e-3)})
 
 
 def dominant_frequency(t: np.ndarray, s: np.ndarray) -> float:

@@ -22,7 +22,7 @@ from functools import cached_property
 import numpy as np
 
 from ..models import model_for
-from ..results import Result
+from ..results import Result, with_deprecated_keys
 from ..params import Params
 from ..progress import Progress, StepCounter
 from ..solvers.continuation import (Branch, BranchEnd, ContinuationSettings, HopfStart, continue_from_hopf,
@@ -77,6 +77,11 @@ class CyclePoint:
     @property
     def speed_kmh(self) -> float:
         return ms_to_kmh(self.speed_ms)
+
+
+RENAMED_KEYS = {"amplitude_x_mm": ("amplitude_x_m", 1e-3), "min_x_mm": ("min_x", 1e-3), "max_x_mm": ("max_x", 1e-3)}
+"""New -> (old key, factor) in the folds and trigger amplitudes of :meth:`BifurcationDiagram.summary`
+(tread amplitudes were in m; the old keys go in the next release)."""
 
 
 @dataclass
@@ -232,15 +237,18 @@ class BifurcationDiagram(Result):
 
     def trigger_amplitude(self, state: str = "x") -> list[dict]:
         """Per hard region: range of the unstable-cycle amplitude (the disturbance that starts SEV),
-        from 0 at a subcritical Hopf point to the amplitude at the fold that ends the region."""
+        from 0 at a subcritical Hopf point to the amplitude at the fold that ends the region;
+        keys ``min_<state>_<unit>``, ``max_<state>_<unit>`` in mm (or mrad) for a state in m (rad)."""
         i = self.state_names.index(state)
+        scale, unit = plot_scale(model_for(self.params).state_units[i])
         out = []
         for lo, hi in self.hard_regions_kmh:
             amps = [c.amplitude[i] for c in [*(c for c in self.cycles if not c.stable), *self.folds]
                     if lo - 1e-9 <= c.speed_kmh <= hi + 1e-9]
             if amps:
                 out.append(
-                    {"speed_range_kmh": [lo, hi], f"min_{state}": float(min(amps)), f"max_{state}": float(max(amps))}
+                    {"speed_range_kmh": [lo, hi], f"min_{state}_{unit}": scale * float(min(amps)),
+                     f"max_{state}_{unit}": scale * float(max(amps))}
                 )
         return out
 
@@ -287,11 +295,11 @@ class BifurcationDiagram(Result):
             "warnings": [_open_warning(edge, self.speed_range_kmh) for edge in open_at] + self.branch_warnings(),
             "hopf_points": [h.summary() for h in self.hopf_points],
             "folds": [
-                {
+                with_deprecated_keys({
                     "speed_kmh": f.speed_kmh,
-                    "amplitude_x_m": float(f.amplitude[x]),
+                    "amplitude_x_mm": 1e3 * float(f.amplitude[x]),
                     "frequency_hz": f.frequency_hz,
-                }
+                }, RENAMED_KEYS)
                 for f in self.folds
             ],
             "period_doublings": [p.speed_kmh for p in self.special if p.kind is PointKind.PD],
@@ -304,7 +312,8 @@ class BifurcationDiagram(Result):
             "second_bifurcation_speed_kmh": sev[-1][1] if sev and "upper" not in open_at else None,
             "hard_regions_kmh": self.open_bounds(self.hard_regions_kmh),
             "gaps_after_pd_ns_kmh": [list(g) for g in self.gaps_after_pd_ns_kmh],
-            "trigger_amplitude": [{**t, "speed_range_kmh": self.open_bounds([t["speed_range_kmh"]])[0]}
+            "trigger_amplitude": [with_deprecated_keys({**t, "speed_range_kmh": self.open_bounds([t["speed_range_kmh"]])[0]},
+                                                       RENAMED_KEYS)
                                   for t in self.trigger_amplitude("x")],
             "branches": self.branch_info,
             "band_edges_from_failed_branches_kmh": self.failed_band_edges_kmh(),

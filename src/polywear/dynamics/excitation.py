@@ -17,7 +17,7 @@ import numpy as np
 from ..models import model_for
 from ..params import Params
 from ..units import kmh_to_ms
-from ..results import Result
+from ..results import Result, with_deprecated_keys
 from ..progress import Progress, StepCounter
 from ..settings import check_order, check_positive
 from .bifurcation import BifurcationDiagram, CyclePoint
@@ -25,6 +25,12 @@ from .simulation import SimulationResult, simulate
 
 __all__ = ["ExcitationPortrait", "ExcitationResult", "ExcitationSettings", "excitation", "default_speeds",
            "portraits_figure", "settling_time"]
+
+
+RENAMED_KEYS = {"amplitude_x_mm": ("amplitude_x_m", 1e-3), "initial_x_mm": ("initial_x_m", 1e-3),
+                "final_amplitude_x_mm": ("final_amplitude_x_m", 1e-3)}
+"""New -> (old key, factor) of the cycles and runs of :meth:`ExcitationPortrait.summary`
+(tread amplitudes were in m; the old keys go in the next release)."""
 
 
 @dataclass
@@ -48,11 +54,12 @@ class ExcitationPortrait(Result):
         s = self.summary()
         return xr.Dataset(
             {
-                "cycle_amplitude_x": ("cycle", np.array([c["amplitude_x_m"] for c in s["cycles"]], dtype=float),
+                "cycle_amplitude_x": ("cycle", 1e-3 * np.array([c["amplitude_x_mm"] for c in s["cycles"]], dtype=float),
                                       {"units": "m"}),
                 "cycle_stable": ("cycle", np.array([c["stable"] for c in s["cycles"]], dtype=np.int8)),
-                "initial_x": ("run", np.array([r["initial_x_m"] for r in s["runs"]], dtype=float), {"units": "m"}),
-                "final_amplitude_x": ("run", np.array([r["final_amplitude_x_m"] for r in s["runs"]], dtype=float),
+                "initial_x": ("run", 1e-3 * np.array([r["initial_x_mm"] for r in s["runs"]], dtype=float),
+                              {"units": "m"}),
+                "final_amplitude_x": ("run", 1e-3 * np.array([r["final_amplitude_x_mm"] for r in s["runs"]], dtype=float),
                                       {"units": "m"}),
                 "outcome": ("run", np.array([r["outcome"] for r in s["runs"]], dtype=str)),
             },
@@ -61,20 +68,22 @@ class ExcitationPortrait(Result):
         )
 
     def to_dataframe(self):
-        """pandas DataFrame: one row per run (start, initial offset, outcome, final amplitude)."""
+        """pandas DataFrame: one row per run (start, initial offset [mm], outcome, final amplitude [mm])."""
         import pandas as pd
 
-        return pd.DataFrame(self.summary()["runs"])
+        return pd.DataFrame(self.summary()["runs"], columns=["start", "initial_x_mm", "outcome", "final_amplitude_x_mm"])
 
     def summary(self) -> dict:
         x = self.runs[0].model.index("x") if self.runs else 0
         return {
             "speed_kmh": self.speed_kmh,
             "regime": self.regime,
-            "cycles": [{"amplitude_x_m": float(c.amplitude[x]), "stable": c.stable} for c in self.cycles],
+            "cycles": [with_deprecated_keys({"amplitude_x_mm": 1e3 * float(c.amplitude[x]), "stable": c.stable},
+                                            RENAMED_KEYS) for c in self.cycles],
             "runs": [
-                {"start": r.label, "initial_x_m": float(r.initial[x] - r.equilibrium[x]), "outcome": r.steady.outcome,
-                 "final_amplitude_x_m": float(r.steady.amplitude[x])}
+                with_deprecated_keys({"start": r.label, "initial_x_mm": 1e3 * float(r.initial[x] - r.equilibrium[x]),
+                                      "outcome": r.steady.outcome,
+                                      "final_amplitude_x_mm": 1e3 * float(r.steady.amplitude[x])}, RENAMED_KEYS)
                 for r in self.runs
             ],
         }
@@ -187,12 +196,12 @@ class ExcitationResult(Result):
         return {"model": self.params.model, "portraits": [p.summary() for p in self.portraits]}
 
     def to_dataframe(self):
-        """pandas DataFrame: one row per speed [km/h] and start (regime, initial offset of x [m],
-        outcome, final amplitude of x [m])."""
+        """pandas DataFrame: one row per speed [km/h] and start (regime, initial offset of x [mm],
+        outcome, final amplitude of x [mm])."""
         import pandas as pd
 
         rows = [{"speed_kmh": p.speed_kmh, "regime": p.regime, **r} for p in self.portraits for r in p.summary()["runs"]]
-        columns = ["speed_kmh", "regime", "start", "initial_x_m", "outcome", "final_amplitude_x_m"]
+        columns = ["speed_kmh", "regime", "start", "initial_x_mm", "outcome", "final_amplitude_x_mm"]
         return pd.DataFrame(rows, columns=columns).astype({"regime": str, "start": str, "outcome": str})
 
     def _dataset(self):

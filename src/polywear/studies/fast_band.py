@@ -66,7 +66,7 @@ from ..models import model_for
 from ..parallel import Executor
 from ..params import Params
 from ..progress import Progress
-from ..results import Result
+from ..results import Result, with_deprecated_keys
 from ..units import DEFAULT_SPEED_RANGE_KMH, kmh_to_ms, ms_to_kmh
 from ..solvers.continuation import (BranchPoint, ContinuationSettings, cycle_along_branch, fold_at, fold_curvature,
                                     on_adapted_mesh, recentred, solve_at_speed, solve_at_speed_on_kinks,
@@ -209,21 +209,22 @@ class Band(Result):
         return self.sev_band_kmh[-1][1] if self.sev_band_kmh else np.nan
 
     def summary(self) -> dict:
-        return {
+        """The band as JSON; tread amplitudes in mm (the attributes hold them in m)."""
+        return with_deprecated_keys({
             "hopf_kmh": list(self.hopf_kmh),
             "hopf_criticality": list(self.hopf_criticality),
             "folds_kmh": list(self.folds_kmh),
-            "fold_amplitude_x_m": list(self.fold_amplitude_x_m),
+            "fold_amplitude_x_mm": [1e3 * a for a in self.fold_amplitude_x_m],
             "linear_band_kmh": [list(b) for b in self.linear_band_kmh],
             "sev_band_kmh": [list(b) for b in self.sev_band_kmh],
             "hard_regions_kmh": [list(b) for b in self.hard_regions_kmh],
             "gaps_after_pd_ns_kmh": [list(b) for b in self.gaps_after_pd_ns_kmh],
             "amplitude_speeds_kmh": list(self.amplitude_speeds_kmh),
-            "amplitude_x_m": list(self.amplitude_x_m),
+            "amplitude_x_mm": [1e3 * a for a in self.amplitude_x_m],
             "path": self.path.value,
             "reason": None if self.reason is None else self.reason.value,
             "detail": self.detail,
-        }
+        }, {"fold_amplitude_x_mm": ("fold_amplitude_x_m", 1e-3), "amplitude_x_mm": ("amplitude_x_m", 1e-3)})
 
 
 def _stable_amplitude(cycles, ix: int) -> float:
