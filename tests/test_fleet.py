@@ -272,24 +272,6 @@ def test_same_numbers_on_serial_processes_and_dask(tmp_path, reference):
 
 
 @pytest.mark.slow
-def test_wear_share_from_the_wear_map(tmp_path, reference):
-    """Per car: the shortest e-folding distance over the usage speeds, each speed's map taken alone."""
-    from polywear.studies.sampling import sample_params
-    from polywear.wear.map import wear_map
-
-    text = TOE_SPEC.replace("[[fleet.parameter]]", "mileage_km = 50000.0\n[[fleet.parameter]]", 1)
-    spec = _spec(tmp_path, samples=3, every=3, text=text)
-    result = fleet(Params(), spec, backend="serial", reference=reference)
-    for x, row in zip(result.samples, result.values):
-        car = sample_params(Params(), ["operating.toe_deg"], x)
-        alone = [np.nanmin(wear_map(car, [v]).efold_km, initial=np.inf) for v in (110.0, 60.0)]
-        assert row[5] == pytest.approx(min(alone), rel=1e-12)
-    s = result.summary()
-    assert s["wear_share"] == np.mean(result.values[:, 5] < 50000.0)
-    assert s["wear_ci"][0] <= s["wear_share"] <= s["wear_ci"][1]
-
-
-@pytest.mark.slow
 def test_cli_json_summary(tmp_path):
     path = tmp_path / "fleet.toml"
     path.write_text(TOE_SPEC.format(samples=3, seed=1, every=3))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -36,14 +37,21 @@ def fleet(
         Optional[Path], typer.Option("--checkpoint", help="Folder for the checkpoint (fleet_checkpoint.npz).")
     ] = None,
     resume: Annotated[bool, typer.Option("--resume", help="Continue from the checkpoint in --checkpoint.")] = False,
+    wear_km: Annotated[
+        Optional[float], typer.Option("--wear-km", help="Wear risk: evolve every car's wear over this distance [km] "
+                                                        "on the usage cycle (default: the spec's wear_km).")
+    ] = None,
     json_: JsonOpt = False,
     plot: PlotOpt = None,
     out: FleetOutOpt = None,
     quiet: QuietOpt = False,
 ) -> None:
-    """Fleet risk: probability that the SEV band overlaps the usage speeds, with an exact CI (docs/fleet.md)."""
+    """Fleet risk: probability that the SEV band overlaps the usage speeds, with an exact CI; with --wear-km, the
+    probability that a polygon becomes visible within that distance (docs/fleet.md)."""
     output_file(out, "--out", (".nc", ".csv", ".json"))
     output_file(plot, "--plot", PLOT_SUFFIXES)
+    if wear_km is not None and not (math.isfinite(wear_km) and 0.0 < wear_km <= 1e7):
+        raise UserError(f"--wear-km {wear_km:g}: must be in (0, 1e7]")
     if resume and checkpoint is None:
         raise UserError("--resume needs --checkpoint FOLDER")
     if checkpoint is not None and not checkpoint.is_dir():
@@ -60,7 +68,7 @@ def fleet(
         5.0 if chosen == "dask" else None
     ):
         result = fleet(params, fleet_spec, executor=Executor(chosen, workers, scheduler),
-                       checkpoint_dir=checkpoint, resume=resume, progress=update)
+                       checkpoint_dir=checkpoint, resume=resume, progress=update, wear_km=wear_km)
     if out:
         write_output(out, result.save, quiet)
     if plot:
@@ -103,3 +111,24 @@ def fleet(
             c = s["drivers_classifier"]
             typer.echo(f"drivers (drop of a classifier's held-out ROC AUC {c['held_out_auc']:.3f} when shuffled, "
                        "interactions included): " + ", ".join(f"{k} {v:.3f}" for k, v in s["drivers_importance"].items()))
+        if s["wear_risk_probability"] is not None:
+            _print_wear_risk(s)
+
+
+def _print_wear_risk(s: dict) -> None:
+    """The wear risk lines of the summary ``s`` on stdout."""
+    lo, hi = s["wear_risk_ci"]
+    cycle = ", ".join(f"{c['speed_kmh']:g} km/h {c['share']:.0%}" for c in s["wear_cycle"])
+    typer.echo(f"wear risk (a polygon visible within {s['wear_km']:,.0f} km on the usage cycle {cycle}, nonlinear "
+               f"evolution): {s['wear_risk_probability']:.4f}, {s['confidence']:.0%} CI [{lo:.4f}, {hi:.4f}] "
+               "(Clopper-Pearson); distances scale as 1/k_e")
+    if s["wear_most_dangerous_order"] is not None:
+        q = s["wear_visible_km"]
+        typer.echo(f"  most dangerous order {s['wear_most_dangerous_order']} (visible polygons by order: "
+                   + ", ".join(f"{o}: {c}" for o, c in s["wear_orders"].items())
+                   + f"); visible after 5 % {q['p5']:,.0f}, median {q['p50']:,.0f}, 95 % {q['p95']:,.0f} km")
+    typer.echo("  drivers of the wear risk (main effect): " + ", ".join(
+        f"{k} {v:.3f}" for k, v in s["wear_drivers_main_effect"].items() if v is not None))
+    if s["wear_drivers_importance"] is not None:
+        typer.echo(f"  drivers (classifier, held-out ROC AUC {s['wear_drivers_classifier']['held_out_auc']:.3f}): "
+                   + ", ".join(f"{k} {v:.3f}" for k, v in s["wear_drivers_importance"].items()))

@@ -21,10 +21,14 @@ usage speed, in a diagram with period doublings or torus bifurcations, is counte
 (``gap_after_pd_ns_share``): the band counts period-1 cycles only, and the motion past
 those bifurcations can persist in such a gap (a simulation decides; the risk does not
 count it). The risk probability gets an exact binomial
-(Clopper-Pearson) interval over the cars that were evaluated. With ``mileage_km`` the
-linear wear map (:func:`~polywear.wear.map.wear_map`) of every car at the usage
-speeds gives the shortest e-folding distance of any polygon order where rolling is
-stable; the wear share is the share of cars where it is below the mileage.
+(Clopper-Pearson) interval over the cars that were evaluated.
+
+Wear risk. With ``wear_km`` (D) every car's worn profile is evolved over D km on the
+usage cycle (the usage speeds with their shares, :func:`~polywear.wear.evolution.evolve`,
+vibrating or not): the wear risk is the share of cars whose polygon becomes visible
+(``wear.visible_depth_mm``) within D, with the same exact interval; the most dangerous
+order is the order most of the visible polygons have; its drivers are computed as the
+band risk's.
 
 Reproducibility: all samples are drawn in the calling process from
 ``numpy.random.SeedSequence(seed)`` before any evaluation, the pilot stage depends on
@@ -56,6 +60,7 @@ from ..params import ParameterError, Params, to_toml
 from ..parallel import Executor
 from ..progress import Progress, report, shifted
 from ..results import Result, with_deprecated_keys
+from ..units import FLEET_SPEED_RANGE_KMH
 from .sampling import SAMPLE_FAILURES, sample_params
 
 if TYPE_CHECKING:
@@ -65,7 +70,7 @@ __all__ = ["CarOutcome", "FleetParameter", "FleetUsage", "FleetSpec", "load_flee
            "FleetResult", "fleet"]
 
 OUTPUTS = ("first_bifurcation_speed_kmh", "second_bifurcation_speed_kmh", "at_risk", "hard_at_usage", "fast_path",
-           "wear_efold_km", "usage_in_gap_after_pd_ns", "gap_sev_by_simulation")
+           "wear_visible_km", "usage_in_gap_after_pd_ns", "gap_sev_by_simulation", "wear_order")
 RENAMED_KEYS = {"first_bifurcation_speed_kmh": "first_bifurcation_kmh",
                 "second_bifurcation_speed_kmh": "second_bifurcation_kmh"}
 """New -> old keys of :meth:`FleetResult.summary` (the old ones go in the next release)."""
@@ -82,7 +87,7 @@ CAR_FIELDS = ("failure", "detail", "path", "fallback", "fallback_detail")
 
 @dataclass(frozen=True)
 class CarOutcome:
-    """How one car ended. Failed: ``failure`` (the exception type, or ``"wear map"``) and
+    """How one car ended. Failed: ``failure`` (the exception type, or ``"wear evolution"``) and
     ``detail`` (its message); evaluated: ``path`` (one of :data:`PATHS`) and, on the full
     path, ``fallback`` (a :class:`~polywear.studies.fast_band.FallbackReason` value) and
     ``fallback_detail``. The texts of the files (:attr:`status`, :attr:`path_text`) are
@@ -196,14 +201,14 @@ class FleetSpec(_Spec):
     parameter: tuple[FleetParameter, ...]
     usage: tuple[FleetUsage, ...]
     correlation: FleetCorrelation | None = None
-    speed_range_kmh: tuple[float, float] = (10.0, 600.0)
+    speed_range_kmh: tuple[float, float] = FLEET_SPEED_RANGE_KMH
     band_every: int = Field(1, ge=1)
     """Every k-th car gets its whole band (both bifurcation speeds); the others only what
     their risk needs: the Hopf points, and the folds only where a fold's position decides
     whether a usage speed lies in the band. Risk and hard share stay exact for every car."""
-    mileage_km: float | None = Field(None, gt=0.0)
-    """With it, the share of cars with a polygon order whose wear grows by e within this
-    distance at a usage speed where rolling is stable (linear wear map)."""
+    wear_km: float | None = Field(None, gt=0.0, le=1e7)
+    """With it, every car's wear is evolved over this distance [km] on the usage cycle:
+    the wear risk is the share of cars whose polygon becomes visible within it."""
     simulate_gaps: bool = False
     """Decide a car with a usage speed in a gap of its band after a period doubling or torus
     bifurcation by simulation, as the verdict does (runs from the stable cycle of its diagram
@@ -238,6 +243,12 @@ class FleetSpec(_Spec):
             if np.linalg.eigvalsh(R).min() <= 0.0:
                 raise ParameterError("fleet.correlation: matrix is not positive definite")
         return self
+
+    def usage_cycle(self) -> tuple[tuple[float, float], ...]:
+        """(speed [km/h], share) of the usage speeds with a positive share, shares normalised to 1."""
+        used = [u for u in self.usage if u.share > 0.0]
+        total = math.fsum(u.share for u in used)
+        return tuple((u.speed_kmh, u.share / total) for u in used)
 
     def correlation_matrix(self) -> np.ndarray:
         """Full correlation matrix of the normal scores, in parameter order."""
@@ -290,13 +301,16 @@ def sample_fleet(spec: FleetSpec) -> np.ndarray:
 @dataclass(frozen=True)
 class FleetEvaluator:
     """One car: (outputs, :class:`CarOutcome`). Outputs as :data:`OUTPUTS` (speeds [km/h],
-    e-folding distance [km], 0/1 flags)."""
+    visible-polygon distance [km] (inf: not within ``wear_km``), 0/1 flags, polygon order)."""
 
     params: Params
     keys: tuple[str, ...]
     solver: object  # FastBand
     usage_speeds_kmh: tuple[float, ...]
-    wear: bool = False
+    wear_km: float | None = None
+    """Evolve the wear over this distance [km] on ``usage_cycle`` (None: no wear)."""
+    usage_cycle: tuple[tuple[float, float], ...] = ()
+    """(speed [km/h], share) of the usage, shares summing to 1."""
     band_every: int = 1
     simulate_gaps: bool = False
     """Decide usage speeds in gaps after PD/NS by simulation (:attr:`FleetSpec.simulate_gaps`)."""
@@ -314,12 +328,14 @@ class FleetEvaluator:
             band, diagram = (solved, None) if solved is not None or verdict is not None else self._band(params)
         except SAMPLE_FAILURES as exc:  # invalid parameters or a numerical failure: recorded, never dropped
             return (np.nan,) * len(OUTPUTS), CarOutcome(failure=type(exc).__name__, detail=str(exc))
-        efold = self._efold(params) if self.wear else np.nan
-        if isinstance(efold, CarOutcome):
-            return (np.nan,) * len(OUTPUTS), efold
+        worn = self._wear(params) if self.wear_km is not None else (np.nan, np.nan)
+        if isinstance(worn, CarOutcome):
+            return (np.nan,) * len(OUTPUTS), worn
+        visible, order = worn
         if verdict is not None:  # Hopf points alone decided: no second speed for this car
             at_risk, hard, first = verdict
-            return (first, np.nan, float(at_risk), float(hard), 1.0, efold, 0.0, np.nan), CarOutcome(path="hopf")
+            return ((first, np.nan, float(at_risk), float(hard), 1.0, visible, 0.0, np.nan, order),
+                    CarOutcome(path="hopf"))
         inside = lambda intervals: any(a <= v <= b for v in self.usage_speeds_kmh for a, b in intervals)
         if solved is not None or band.path == "fast":
             outcome = CarOutcome(path="fast" if solved is None else "pilot")
@@ -332,8 +348,8 @@ class FleetEvaluator:
             if isinstance(gap_sev, CarOutcome):
                 return (np.nan,) * len(OUTPUTS), gap_sev
         return (band.first_bifurcation_speed_kmh, band.second_bifurcation_speed_kmh, float(inside(band.sev_band_kmh)),
-                float(inside(band.hard_regions_kmh)), float(band.path == "fast"), efold, float(bool(in_gap)),
-                gap_sev), outcome
+                float(inside(band.hard_regions_kmh)), float(band.path == "fast"), visible, float(bool(in_gap)),
+                gap_sev, order), outcome
 
     def _band(self, params):
         """(band, full diagram or None): the fast path, else the full continuation, whose
@@ -358,14 +374,20 @@ class FleetEvaluator:
         except SAMPLE_FAILURES as exc:
             return CarOutcome(failure="gap simulation", detail=f"{type(exc).__name__}: {exc}")
 
-    def _efold(self, params) -> float | CarOutcome:
-        """Shortest e-folding distance [km] of any order at the usage speeds, or the failure."""
-        from ..wear.map import wear_map
+    def _wear(self, params) -> tuple[float, float] | CarOutcome:
+        """(distance [km] at which the polygon becomes visible, inf if not within ``wear_km``;
+        its order: the dominant order where it first is visible, else at the end) by the
+        nonlinear evolution on the usage cycle, or the failure."""
+        from ..wear.evolution import evolve
 
         try:
-            return float(np.nanmin(wear_map(params, self.usage_speeds_kmh).efold_km, initial=np.inf))
+            worn = evolve(params, self.wear_km, self.usage_cycle)
         except SAMPLE_FAILURES as exc:
-            return CarOutcome(failure="wear map", detail=f"{type(exc).__name__}: {exc}")
+            return CarOutcome(failure="wear evolution", detail=f"{type(exc).__name__}: {exc}")
+        visible = worn.visible_km
+        at = np.flatnonzero(worn.depth_mm >= params.wear.visible_depth_mm)
+        order = worn.dominant_order[at[0] if at.size else -1]
+        return (math.inf if visible is None else visible), float(order)
 
 
 def _spec_hash(params: Params, spec: FleetSpec) -> str:
@@ -564,12 +586,32 @@ class FleetResult(Result):
         return x[~at_end], int(at_end.sum())
 
     def _wear_summary(self, v, n) -> dict:
-        """Share of cars with an order whose wear e-folds within ``spec.mileage_km`` (CI)."""
-        mileage = self.spec.mileage_km
-        if mileage is None or n == 0:
-            return {"wear_share": None}
-        k, ci = self._share(v[:, 5] < mileage, n)
-        return {"wear_share": k / n, "wear_ci": list(ci), "mileage_km": mileage}
+        """The wear risk within ``spec.wear_km`` (its exact interval), the most dangerous
+        order, the visible distances and the drivers, as the band risk's (None without it)."""
+        D = self.spec.wear_km
+        if D is None or n == 0:
+            return {"wear_risk_probability": None, "wear_risk_ci": None}
+        visible = v[:, 5] < D
+        k, ci = self._share(visible, n)
+        orders, counts = np.unique(v[visible, 8].astype(int), return_counts=True)
+        drivers = main_effects(self.samples[self.ok], visible.astype(float)) if n > 2 * N_BINS \
+            else np.full(len(self.keys), np.nan)
+        classifier = classifier_importances(self.samples[self.ok], visible, self.spec.seed)
+        seen = v[visible, 5]
+        return {
+            "wear_km": D, "wear_cycle": [{"speed_kmh": s, "share": w} for s, w in self.spec.usage_cycle()],
+            "wear_risk_probability": k / n, "wear_risk_ci": list(ci),
+            "wear_most_dangerous_order": int(orders[np.argmax(counts)]) if k else None,
+            "wear_orders": {str(o): int(c) for o, c in zip(orders, counts)},
+            "wear_visible_km": {f"p{q}": float(np.percentile(seen, q)) for q in (5, 50, 95)} if k else {},
+            "wear_drivers_main_effect": {key: (None if not np.isfinite(d) else float(d)) for key, d in
+                                         zip(self.keys, drivers)},
+            "wear_drivers_importance": None if classifier is None else {
+                key: float(d) for key, d in zip(self.keys, classifier["importance"])},
+            "wear_drivers_classifier": None if classifier is None else {
+                "held_out_auc": classifier["auc"], "n_fit": classifier["n_fit"], "n_test": classifier["n_test"]},
+            "wear_distances_scale_as": "1/k_e",
+        }
 
     def _dataset(self):
         """Every car: sampled parameters, outputs, status and path (``fleet_spec_json`` attr)."""
@@ -680,8 +722,9 @@ def _pilot_progress(progress: Progress | None, done: int, samples: int) -> Progr
 def fleet(params: Params, spec: FleetSpec, *, backend: str | None = None, workers: int | None = None,
           scheduler: str | None = None, batch_size: int | None = None, executor: Executor | None = None,
           checkpoint_dir: str | Path | None = None, resume: bool = False, progress: Progress | None = None,
-          reference: BandReference | None = None, pilot: bool = True) -> FleetResult:
-    """Evaluate the fleet; with ``checkpoint_dir`` save every ``spec.checkpoint_every`` cars
+          reference: BandReference | None = None, pilot: bool = True, wear_km: float | None = None) -> FleetResult:
+    """Evaluate the fleet; ``wear_km`` [km] sets ``spec.wear_km`` (the wear risk within that
+    distance: every car's wear evolved on the usage cycle). With ``checkpoint_dir`` save every ``spec.checkpoint_every`` cars
     (``resume`` continues from the checkpoint, which must belong to the same params and spec).
     The cars run on ``executor`` (:class:`~polywear.parallel.Executor`), or on the one made of
     ``backend`` (default ``"processes"``), ``workers``, ``scheduler`` and ``batch_size`` (give
@@ -695,6 +738,8 @@ def fleet(params: Params, spec: FleetSpec, *, backend: str | None = None, worker
     from .fast_band import FastBand, pilot_stage
 
     executor = Executor.from_options(backend, workers, scheduler, batch_size, executor)
+    if wear_km is not None:
+        spec = FleetSpec.model_validate(spec.model_dump() | {"wear_km": wear_km})
     keys = tuple(q.key for q in spec.parameter)
     X = sample_fleet(spec)
     digest = _spec_hash(params, spec)
@@ -723,7 +768,7 @@ def fleet(params: Params, spec: FleetSpec, *, backend: str | None = None, worker
         raise ParameterError(f"{ckpt}: checkpoint with other pilot cars; remove it or drop --resume")
     solver = FastBand(stage.references, speed_range_kmh=tuple(spec.speed_range_kmh))
     usage = tuple(u.speed_kmh for u in spec.usage if u.share > 0)
-    evaluator = FleetEvaluator(params, keys, solver, usage, wear=spec.mileage_km is not None,
+    evaluator = FleetEvaluator(params, keys, solver, usage, wear_km=spec.wear_km, usage_cycle=spec.usage_cycle(),
                                band_every=spec.band_every, simulate_gaps=spec.simulate_gaps,
                                pilot={i: r.band for i, r in stage.samples.items()})
     values = np.full((spec.samples, len(OUTPUTS)), np.nan)

@@ -1,0 +1,110 @@
+"""Fleet wear risk (``fleet(..., wear_km=D)``, ``polywear fleet --wear-km``) against a closed
+form: with only k_e varied (lognormal), every car's visible distance is the nominal car's
+times k_nom / k_e (the wear per revolution scales with k_e, the dynamics do not see it), so
+the risk P(visible < D) is P(k_e > k*), k* = k_nom visible_nom / D, a normal probability in
+ln k_e. The nominal distance comes from an independent evolution; the run is interrupted
+after its first checkpoint and resumed."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from polywear.dynamics.bifurcation import bifurcation
+from polywear.params import Params, with_updates
+from polywear.studies.fast_band import _FIXED_RANGE, band_reference
+from polywear.studies.fleet import OUTPUTS, fleet, load_fleet_spec
+from polywear.wear.evolution import evolve
+
+from .cli_runner import run_main
+
+K_NOM, K_STD = 1.0e-2, 3.0e-3
+"""Mean and std of k_e [mm^3/J] over the fleet (ten times the default: the same polygon
+after a tenth of the distance, so each evolution is short)."""
+D_KM = 3000.0
+SPEC = """
+[fleet]
+samples = {samples}
+seed = 5
+checkpoint_every = {every}
+speed_range_kmh = [10.0, 600.0]
+[[fleet.parameter]]
+key = "wear.energetic_rate_mm3_per_j"
+distribution = "lognormal"
+mean = {mean}
+std = {std}
+[[fleet.usage]]
+speed_kmh = 110
+share = 1.0
+"""
+
+
+def _spec(tmp_path, samples, every):
+    path = tmp_path / "fleet.toml"
+    path.write_text(SPEC.format(samples=samples, every=every, mean=K_NOM, std=K_STD))
+    return load_fleet_spec(path, Params())
+
+
+@pytest.mark.slow
+def test_wear_risk_against_the_lognormal_closed_form(tmp_path):
+    nominal = evolve(with_updates(Params(), {"wear.energetic_rate_mm3_per_j": K_NOM}), D_KM, ((110.0, 1.0),))
+    visible_nom = nominal.visible_km
+    assert visible_nom is not None and 0.5 * D_KM < visible_nom < 1.5 * D_KM  # the threshold inside the fleet
+    at = int(np.flatnonzero(nominal.depth_mm >= 0.1)[0])
+    order_nom = int(nominal.dominant_order[at])
+
+    spec = _spec(tmp_path, samples=24, every=12)
+    reference = band_reference(bifurcation(Params(), (10.0, 600.0), **_FIXED_RANGE))
+
+    def interrupt(done, total, message=""):
+        if done > 12:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        fleet(Params(), spec, backend="processes", workers=2, batch_size=2, reference=reference, pilot=False,
+              checkpoint_dir=tmp_path, progress=interrupt, wear_km=D_KM)
+    assert int(np.load(tmp_path / "fleet_checkpoint.npz")["done"]) == 12
+    result = fleet(Params(), spec, backend="processes", workers=2, reference=reference, pilot=False,
+                   checkpoint_dir=tmp_path, resume=True, wear_km=D_KM)
+    assert result.ok.all()
+    k_e = result.samples[:, 0]
+    visible = result.values[:, OUTPUTS.index("wear_visible_km")]
+    seen = np.isfinite(visible)
+    # the scaling, car by car: visible * k_e / k_nom is the nominal distance (up to the distance step)
+    np.testing.assert_allclose(visible[seen] * k_e[seen] / K_NOM, visible_nom, rtol=0.01)
+    k_star = K_NOM * visible_nom / D_KM
+    clear = np.abs(np.log(k_e / k_star)) > 0.01  # cars not at the threshold within the 1 % of the steps
+    np.testing.assert_array_equal(seen[clear], (k_e > k_star)[clear])
+    assert np.all(result.values[seen, OUTPUTS.index("wear_order")] == order_nom)
+
+    s = result.summary()
+    s2 = math.log1p((K_STD / K_NOM) ** 2)
+    closed = stats.norm.sf((math.log(k_star) - (math.log(K_NOM) - 0.5 * s2)) / math.sqrt(s2))
+    assert s["wear_risk_probability"] == pytest.approx(np.mean(visible < D_KM), abs=1e-12)
+    lo, hi = s["wear_risk_ci"]
+    assert lo <= closed <= hi
+    assert lo <= s["wear_risk_probability"] <= hi
+    assert s["wear_most_dangerous_order"] == order_nom
+    assert s["wear_orders"] == {str(order_nom): int(seen.sum())}
+    assert s["risk_probability"] == 1.0  # every car vibrates at 110 km/h: counted in the wear risk all the same
+
+
+@pytest.mark.slow
+def test_cli_wear_risk_json(tmp_path):
+    """``--wear-km`` adds the wear risk, its interval, the order and the drivers to --json;
+    without it the keys are null."""
+    path = tmp_path / "fleet.toml"
+    path.write_text(SPEC.format(samples=2, every=2, mean=K_NOM, std=K_STD))
+    code, out, err = run_main(["fleet", "--spec", str(path), "--backend", "serial", "--json", "-q",
+                               "--wear-km", f"{D_KM:g}"])
+    assert code == 0, err
+    s = json.loads(out)
+    assert 0.0 <= s["wear_risk_probability"] <= 1.0 and len(s["wear_risk_ci"]) == 2
+    assert set(s["wear_drivers_main_effect"]) == {"wear.energetic_rate_mm3_per_j"}
+    assert s["wear_km"] == D_KM and s["wear_cycle"] == [{"speed_kmh": 110.0, "share": 1.0}]
+    code, out, err = run_main(["fleet", "--spec", str(path), "--wear-km", "-5"])
+    assert code != 0 and "--wear-km" in err
