@@ -14,6 +14,7 @@ __all__ = [
     "DEFAULT_SPEED_RANGE_KMH",
     "DEFAULT_OPERATING_RANGE_KMH",
     "STABILITY_SPEED_RANGE_KMH",
+    "FLEET_SPEED_RANGE_KMH",
     "KMH",
     "KMH_PER_MS",
     "kmh_to_ms",
@@ -28,13 +29,24 @@ MAX_SPEED_KMH = 1000.0
 """Highest speed any key or option accepts [km/h]."""
 
 DEFAULT_SPEED_RANGE_KMH: tuple[float, float] = (20.0, 300.0)
-"""Speeds searched by default (diagrams, maps, sensitivities, studies, CLI) [km/h]."""
+"""Speeds searched by default by the analyses of cycles and wear (bifurcation, report, wear map,
+design, sensitivities, stability maps, studies) [km/h]. From 20 km/h up, the tread mode
+(130-150 Hz at the defaults) lies within the default 60 polygon orders of the wear map
+(150 Hz is order 51 at 20 km/h, 204 at 5 km/h); the diagram uses the same range so that
+``bifurcation`` and ``report`` draw the same one."""
 
 DEFAULT_OPERATING_RANGE_KMH: tuple[float, float] = (80.0, 130.0)
 """Operating speeds of a study's largest-amplitude output by default [km/h]."""
 
 STABILITY_SPEED_RANGE_KMH: tuple[float, float] = (5.0, 300.0)
-"""Speeds of steady-rolling stability analyses (``stability``, ``calibrate``) by default [km/h]."""
+"""Speeds of the linear analyses of steady rolling (``stability``, ``calibrate``) by default [km/h]:
+eigenvalues only, no cycle and no wear order to resolve, so they start near standstill, where a
+measured run-up starts and a linear onset below 20 km/h would otherwise go unseen."""
+
+FLEET_SPEED_RANGE_KMH: tuple[float, float] = (10.0, 600.0)
+"""Speeds of a fleet study by default (``fleet``, ``[fleet] speed_range_kmh``) [km/h]: the cars
+spread over wide parameter ranges, and a bifurcation speed beyond the range is censored
+(``n_at_range_end``) in the quantiles, so the range is wider than one car's."""
 
 
 KMH_PER_MS = 3.6
