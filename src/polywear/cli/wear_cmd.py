@@ -8,6 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
+from ..params import MAX_WEAR_KM, MAX_WEAR_ORDER
 from ..units import DEFAULT_SPEED_RANGE_KMH
 from .common import Inputs, JsonOpt, Outputs, PlotOpt, QuietOpt, SpeedRangeOpt
 from .common import (
@@ -32,8 +33,10 @@ app = typer.Typer(
     rich_markup_mode=None,
 )
 
-MAX_ORDER_LIMIT = 500
-"""Highest polygon order a command accepts."""
+MAX_ORDER_LIMIT = MAX_WEAR_ORDER
+"""Highest polygon order a command accepts (the bound of wear.max_order)."""
+DEFAULT_STEP_KM = 1000.0
+"""First distance step of ``wear evolve`` when --step-km is not given (clipped to the distance) [km]."""
 
 
 def parse_speeds(text: str, option: str = "--speeds") -> list[float]:
@@ -173,7 +176,10 @@ def evolve_(
     speed: Annotated[
         Optional[float], typer.Option("--speed", help="One speed for the whole distance [km/h] (instead of a cycle).")
     ] = None,
-    step_km: Annotated[float, typer.Option("--step-km", help="Distance step between simulated windows [km].")] = 1000.0,
+    step_km: Annotated[
+        Optional[float], typer.Option("--step-km", help="Distance step between simulated windows [km] "
+                                      "(default: 1000, or the distance if shorter).")
+    ] = None,
     revolutions: Annotated[int, typer.Option("--revolutions", help="Simulated revolutions per window where the tread vibrates (at least; lengthened up to 64 to separate the vibration from its nearest integer order).")] = 16,
     json_: JsonOpt = False,
     plot: PlotOpt = None,
@@ -194,8 +200,10 @@ def evolve_(
     outputs.check()
     for path, option in ((polar, "--polar"), (waterfall, "--waterfall")):
         output_file(path, option, PLOT_SUFFIXES)
-    if not (math.isfinite(distance_km) and 0.0 < distance_km <= 1e7):
-        raise UserError(f"--distance-km {distance_km:g}: must be in (0, 1e7]")
+    if not (math.isfinite(distance_km) and 0.0 < distance_km <= MAX_WEAR_KM):
+        raise UserError(f"--distance-km {distance_km:g}: must be in (0, {MAX_WEAR_KM:g}]")
+    if step_km is None:
+        step_km = min(DEFAULT_STEP_KM, distance_km)
     if not (math.isfinite(step_km) and 0.0 < step_km <= distance_km):
         raise UserError(f"--step-km {step_km:g}: must be positive and at most --distance-km")
     if distance_km / step_km > 10_000:
@@ -267,40 +275,72 @@ def design_(
     cycle: CycleOpt = None,
     max_factor: Annotated[float, typer.Option("--max-factor", help="Largest change searched: x or / this factor.")] = 4.0,
     verify_km: Annotated[
-        Optional[float], typer.Option("--verify-km", help="Verify the best option by evolution over this distance [km] (minutes).")
+        Optional[float], typer.Option("--verify-km", help="Verify the best option found by the map by evolution over this distance [km] (minutes).")
     ] = None,
+    judge: Annotated[
+        str, typer.Option("--judge", help="What judges an option: map (linear wear map), evolution (nonlinear evolution "
+                                          "over --target-km, minutes), auto (the evolution where the tread vibrates at a "
+                                          "cycle speed, else the map).")
+    ] = "auto",
+    workers: Annotated[
+        int, typer.Option("--workers", "-w", min=1, max=64, help="Processes that search the keys side by side (same result).")
+    ] = 1,
     outputs: Outputs = Outputs(takes_plot=False),
 ) -> None:
-    """Least change (toe, camber, damping, stiffness, adhesion) that stops polygonal wear over the drive cycle."""
+    """Least change (toe, camber, damping, stiffness, adhesion) that stops polygonal wear over the drive cycle, vibrating or not."""
     if target_km is not None and not (math.isfinite(target_km) and target_km > 0):
         raise UserError(f"--target-km {target_km:g}: must be positive")
     if not (math.isfinite(max_factor) and 1.0 < max_factor <= 100.0):
         raise UserError(f"--max-factor {max_factor:g}: must be in (1, 100]")
     if verify_km is not None and not (math.isfinite(verify_km) and 0 < verify_km <= 1e6):
         raise UserError(f"--verify-km {verify_km:g}: must be in (0, 1e6]")
+    from ..wear.design import JUDGES, verify_option, wear_design
+
+    if judge not in JUDGES:
+        raise UserError(f"--judge {judge!r}: one of {', '.join(JUDGES)}")
+    if judge == "evolution" and target_km is None:
+        raise UserError("--judge evolution needs --target-km")
     params = inputs.load()
     pairs = parse_cycle(cycle) if cycle else None
-    from ..wear.design import verify_option, wear_design
-
     check_param_keys(keys or (), "--key")
-    outputs.note("wear design: searching with the linear wear map ...")
-    result = wear_design(params, keys or None, target_km, pairs, max_factor)
-    if verify_km is not None and result.options:
+    from ..parallel import Executor
+
+    outputs.note("wear design: searching (where the evolution judges, each probe is an evolution: minutes) ...")
+    with user_errors(ValueError, RuntimeError, ArithmeticError, prefix="wear design: "):
+        result = wear_design(params, keys or None, target_km, pairs, max_factor, judge=judge,
+                             executor=Executor("processes", workers) if workers > 1 else None)
+    if verify_km is not None and result.options and result.judge == "map":
         outputs.note(f"wear design: verifying '{result.options[0].label}' by evolution over {verify_km:,.0f} km ...")
         verify_option(params, result.options[0], verify_km, pairs)
     outputs.show(result.summary(), _print_design)
+
+
+def _evolution_text(ev: dict) -> str:
+    """One evolution of the wear design in words."""
+    return (f"evolution over {ev['distance_km']:,.0f} km: depth {ev['depth_mm']:.4f} mm, order {ev['dominant_order']}, "
+            + ("not visible" if ev["visible_km"] is None else f"visible after {ev['visible_km']:,.0f} km"))
 
 
 def _print_design(summary: dict) -> None:
     """The nominal growth and each option as text on stdout (growth per 1000 km)."""
     n = summary["nominal"]
     typer.echo(f"model {summary['model']}: {summary['criterion']}; distances scale as 1/k_e")
-    typer.echo("nominal: " + (f"fastest order {n['order']} grows {n['growth_per_1000km']:+.4f}/1000 km over the cycle"
-                              if n["rolling_stable_at_every_cycle_speed"] else
-                              "the tread vibrates at a cycle speed (linear band): an option must move the band"))
+    ev = summary["nominal_evolution"]
+    if ev is not None:
+        typer.echo("nominal: " + ("the tread vibrates at a cycle speed; " if not n["rolling_stable_at_every_cycle_speed"]
+                                  else "") + _evolution_text(ev))
+    else:
+        typer.echo("nominal: " + (f"fastest order {n['order']} grows {n['growth_per_1000km']:+.4f}/1000 km over the cycle"
+                                  if n["rolling_stable_at_every_cycle_speed"] else
+                                  "the tread vibrates at a cycle speed (linear band): an option must move the band"))
     for o in summary["options"]:
-        line = (f"  {o['label']}: {o['nominal']:.4g} -> {o['value']:.4g} ({o['relative_change']:+.1%}), "
-                f"fastest order {o['order']} at {o['growth_per_1000km']:+.4f}/1000 km")
+        line = f"  {o['label']}: {o['nominal']:.4g} -> {o['value']:.4g} ({o['relative_change']:+.1%}), "
+        if o["evolution"] is not None:
+            line += _evolution_text(o["evolution"])
+        elif o["growth_per_1000km"] is None:
+            line += "the tread vibrates at a cycle speed"
+        else:
+            line += f"fastest order {o['order']} at {o['growth_per_1000km']:+.4f}/1000 km"
         v = o["verification"]
         if v:
             line += (f"; evolution over {v['distance_km']:,.0f} km: depth {v['depth_mm']:.4f} mm "

@@ -16,8 +16,19 @@ to ``max_factor``; the first step that meets the criterion is refined by bisecti
 ``ln f`` to 1 %. Parameter handling (keys,
 ``adhesion_scale``, categories) is that of :mod:`polywear.dynamics.design`.
 
-Verification. Each option found can be checked by the nonlinear evolution over the
-target distance (:func:`verify_option`): the depth it reaches and whether the polygon
+Judged by the evolution (``judge="evolution"``, the default with a target distance when
+the tread vibrates at a cycle speed, where the map does not apply). Every probe of the
+search runs the nonlinear evolution (:func:`~polywear.wear.evolution.evolve`) over the
+target distance on the cycle; it meets the criterion when no polygon becomes visible
+within it, vibrating or not. The same search on a coarser grid (:data:`EVOLUTION_GRID`
+steps, bisection to :data:`EVOLUTION_REFINE`); a direction whose largest change
+(``max_factor``) does not meet it is not searched further (the search assumes the criterion
+holds beyond the least change). A probe where rolling is stable at every cycle speed and
+the linear map alone makes the polygon :data:`CLEARLY_VISIBLE` times the visible depth
+fails without an evolution. Each option keeps the evolution at its least change.
+
+Verification. Each option found by the map can be checked by the nonlinear evolution over
+the target distance (:func:`verify_option`): the depth it reaches and whether the polygon
 becomes visible, with the original parameters beside it.
 """
 
@@ -29,6 +40,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..parallel import Executor
+
 from ..models import model_for
 from ..results import Result
 from ..params import Params
@@ -39,10 +52,23 @@ from .evolution import EvolutionSettings, evolve
 from .map import wear_map
 
 __all__ = ["WearDesignOption", "WearDesignResult", "cycle_rates", "cycle_growth", "linear_depth_mm", "wear_design",
-           "verify_option"]
+           "verify_option", "JUDGES"]
 
 _REFINE = 0.01
 """Relative accuracy of the least change [-]."""
+JUDGES = ("auto", "map", "evolution")
+"""What judges an option: ``map`` (linear wear map), ``evolution`` (nonlinear evolution over
+the target distance), ``auto`` (the evolution with a target distance where the nominal
+tread vibrates at a cycle speed, else the map)."""
+EVOLUTION_GRID = 8
+"""Grid steps per direction where the evolution judges (each probe is one evolution) [-]."""
+EVOLUTION_REFINE = 0.02
+"""Relative accuracy of the least change judged by the evolution [-] (its error-controlled
+distance steps move the visible distance by about 1 %)."""
+CLEARLY_VISIBLE = 2.0
+"""A probe with stable rolling at every cycle speed whose linear-map depth at the target
+exceeds this many visible depths fails without an evolution (the nonlinear evolution
+follows the linear one while the profile is small) [-]."""
 
 
 def cycle_rates(params: Params, cycle=None) -> np.ndarray | None:
@@ -87,12 +113,17 @@ class WearDesignOption:
     value: float
     relative_change: float
     growth_per_1000km: float
-    """max_n of the share-weighted growth with the change [e-folds per 1000 km]"""
+    """max_n of the share-weighted growth with the change [e-folds per 1000 km] (inf: the
+    tread vibrates at a cycle speed)"""
     order: int
+    """fastest-growing order of the map, or the dominant order of the evolution where it judged"""
     verification: dict | None = None
+    evolution: dict | None = None
+    """where the evolution judged: ``{"distance_km", "depth_mm", "visible_km", "dominant_order"}``
+    at the least change"""
 
     def summary(self) -> dict:
-        return dict(self.__dict__)
+        return dict(self.__dict__) | {"growth_per_1000km": _finite(self.growth_per_1000km)}
 
 
 @dataclass
@@ -107,14 +138,21 @@ class WearDesignResult(Result):
     nominal_rolling_stable: bool
     options: list[WearDesignOption]
     not_found: list[str] = field(default_factory=list)
+    judge: str = "map"
+    """``map`` or ``evolution`` (:data:`JUDGES`)"""
+    nominal_evolution: dict | None = None
+    """where the evolution judged: the nominal car's (as :attr:`WearDesignOption.evolution`)"""
 
     def summary(self) -> dict:
         return {
             "model": self.params.model,
             "cycle": [{"speed_kmh": v, "share": s} for v, s in self.cycle],
             "target_km": self.target_km,
+            "judge": self.judge,
             "criterion": "every order stable over the cycle" if self.target_km is None else
-            f"visible polygon beyond {self.target_km:g} km (linear evolution)",
+            f"visible polygon beyond {self.target_km:g} km (" +
+            ("nonlinear evolution" if self.judge == "evolution" else "linear evolution") + ")",
+            "nominal_evolution": self.nominal_evolution,
             "nominal_depth_at_target_mm": _finite(self.nominal_depth_at_target_mm)
             if self.nominal_depth_at_target_mm is not None else None,
             "nominal": {"growth_per_1000km": _finite(self.nominal_growth_per_1000km), "order": self.nominal_order,
@@ -141,7 +179,8 @@ class WearDesignResult(Result):
         if ax is None:
             _, ax = plt.subplots(figsize=(7, 3.5))
         labels = [f"{o.label} {o.relative_change * 100:+.0f} %" for o in self.options]
-        bars = ax.barh(range(len(labels)), [o.growth_per_1000km for o in self.options], color="tab:blue")
+        growth = [o.growth_per_1000km if math.isfinite(o.growth_per_1000km) else np.nan for o in self.options]
+        bars = ax.barh(range(len(labels)), growth, color="tab:blue")
         artists = [bars, ax.axvline(self.nominal_growth_per_1000km, color="tab:red", ls="--", label="nominal"),
                    ax.axvline(0.0, color="k", lw=0.8)]
         ax.set_yticks(range(len(labels)), labels, fontsize=8)
@@ -155,62 +194,139 @@ def _finite(x: float):
     return x if math.isfinite(x) else None
 
 
-def _meets(params: Params, key: str, nominal: float, factor: float, cycle, target_km: float | None):
+def _evolved(params: Params, target_km: float, cycle, settings: EvolutionSettings) -> dict:
+    """The evolution over ``target_km`` [km] on ``cycle``: depth at its end [mm], visible
+    distance [km] (None: not within it) and dominant order at its end."""
+    worn = evolve(params, target_km, cycle, settings)
+    return {"distance_km": target_km, "depth_mm": float(worn.depth_mm[-1]), "visible_km": worn.visible_km,
+            "dominant_order": int(worn.dominant_order[-1])}
+
+
+def _meets(params: Params, key: str, nominal: float, factor: float, cycle, target_km: float | None,
+           judge: str = "map", settings: EvolutionSettings = EvolutionSettings()):
+    """(criterion met, growth [e-folds per 1000 km], order, the evolution or None) with
+    ``key`` at ``nominal * factor``; None where it cannot be evaluated."""
     try:
         changed = perturbed(params, key, nominal * factor)
     except ValueError:
         return None
+    visible = params.wear.visible_depth_mm
+    evolved = None
     try:
         g, order, stable = cycle_growth(changed, cycle)
         if target_km is None:
             ok = stable and g <= 0.0
+        elif judge == "map":
+            ok = stable and linear_depth_mm(changed, target_km, cycle) < visible
+        elif stable and linear_depth_mm(changed, target_km, cycle) > CLEARLY_VISIBLE * visible:
+            ok = False
         else:
-            ok = stable and linear_depth_mm(changed, target_km, cycle) < params.wear.visible_depth_mm
+            evolved = _evolved(changed, target_km, cycle, settings)
+            ok = evolved["visible_km"] is None
+            order = evolved["dominant_order"]
     except (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError):
         return None
-    return ok, g, order
+    return ok, g, order, evolved
+
+
+@dataclass(frozen=True)
+class _KeySearch:
+    """The least change of one key (a picklable task of :func:`wear_design`): its
+    :class:`WearDesignOption`, or the note why there is none."""
+
+    params: Params
+    cycle: tuple
+    target_km: float | None
+    judge: str
+    max_factor: float
+    grid: int
+    settings: EvolutionSettings
+
+    def __call__(self, key: str) -> WearDesignOption | str:
+        nominal = nominal_value(self.params, key)
+        cache: dict[float, tuple | None] = {}
+
+        def probe(factor: float):
+            if factor not in cache:
+                cache[factor] = _meets(self.params, key, nominal, factor, self.cycle, self.target_km, self.judge,
+                                       self.settings)
+            return cache[factor]
+
+        evolution = self.judge == "evolution"
+        grid = EVOLUTION_GRID if evolution else self.grid
+        refine = EVOLUTION_REFINE if evolution else _REFINE
+        closed = set()  # directions (True: more) whose largest change fails: not searched
+        if evolution:
+            end = float(np.exp(np.linspace(0.0, math.log(self.max_factor), grid + 1)[-1]))
+            for up, extreme in ((True, end), (False, float(np.exp(-math.log(end))))):
+                hit = probe(extreme)
+                if hit is not None and not hit[0]:
+                    closed.add(up)
+
+        def meets(factor: float):
+            if (factor > 1.0) in closed:
+                return None
+            hit = probe(factor)
+            return hit if hit is not None and hit[0] else None
+
+        best = least_factor(meets, self.max_factor, grid, refine)
+        if best is None:
+            return f"{key}: no change within x{self.max_factor:g} meets the criterion"
+        factor, (_, g, order, evolved) = best
+        return WearDesignOption(
+            key=key, label=parameter_label(key), category=parameter_category(key), nominal=nominal,
+            value=nominal * factor, relative_change=factor - 1.0, growth_per_1000km=g, order=order,
+            evolution=evolved)
 
 
 def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: float | None = None,
                 cycle: Sequence[tuple[float, float]] | None = None, max_factor: float = 4.0,
-                grid: int = 24) -> WearDesignResult:
+                grid: int = 24, judge: str = "auto", settings: EvolutionSettings = EvolutionSettings(),
+                executor: Executor | None = None) -> WearDesignResult:
     """Least relative change of each key (both directions) that meets the wear criterion.
 
     ``keys`` default :data:`polywear.dynamics.design.DEFAULT_KEYS` (those that enter the
     model); ``target_km``: visible-polygon distance to exceed (None: every order stable);
-    ``max_factor``: largest change searched (p0 * f or p0 / f).
+    ``max_factor``: largest change searched (p0 * f or p0 / f); ``grid``: grid steps per
+    direction where the map judges; ``judge``: :data:`JUDGES`; ``settings``: those of the
+    evolutions; ``executor`` (:class:`~polywear.parallel.Executor`, default in this
+    process): where the keys are searched, one task per key.
     """
+    if judge not in JUDGES:
+        raise ValueError(f"judge = {judge!r}: must be one of {', '.join(JUDGES)}")
+    if judge == "evolution" and target_km is None:
+        raise ValueError("judge = 'evolution' needs a target distance")
     cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
     g0, order0, stable0 = cycle_growth(params, cycle)
-    options, not_found = [], []
+    if judge == "auto":
+        judge = "evolution" if target_km is not None and not stable0 else "map"
+    not_found = []
     model = model_for(params)
     depth0 = None if target_km is None else linear_depth_mm(params, target_km, cycle)
-    nominal_ok = stable0 and (g0 <= 0.0 if target_km is None else depth0 < params.wear.visible_depth_mm)
+    nominal_evolution = None
+    if judge == "evolution":
+        nominal_evolution = _evolved(params, target_km, cycle, settings)
+        nominal_ok = nominal_evolution["visible_km"] is None
+    else:
+        nominal_ok = stable0 and (g0 <= 0.0 if target_km is None else depth0 < params.wear.visible_depth_mm)
     if nominal_ok:
         not_found.append("no change needed: the nominal parameters already meet the criterion")
         keys = ()
+    entries = []  # per key in order: the note why it is not searched, or the key to search
     for key in DEFAULT_KEYS if keys is None else keys:
         wear_key = key.startswith("tire.")  # the load coupling and the patch: every model
         if not wear_key and not np.any(parameter_direction(model, params, key)):
             if keys:
-                not_found.append(f"{key}: does not enter the {params.model} model")
-            continue
-        nominal = nominal_value(params, key)
-        if nominal == 0.0:
-            not_found.append(f"{key}: nominal value 0 (no relative change)")
-            continue
-        def meets(factor, key=key, nominal=nominal):
-            hit = _meets(params, key, nominal, factor, cycle, target_km)
-            return hit if hit is not None and hit[0] else None
-
-        best = least_factor(meets, max_factor, grid, _REFINE)
-        if best is None:
-            not_found.append(f"{key}: no change within x{max_factor:g} meets the criterion")
-            continue
-        factor, (_, g, order) = best
-        options.append(WearDesignOption(
-            key=key, label=parameter_label(key), category=parameter_category(key), nominal=nominal,
-            value=nominal * factor, relative_change=factor - 1.0, growth_per_1000km=g, order=order))
+                entries.append(f"{key}: does not enter the {params.model} model")
+        elif nominal_value(params, key) == 0.0:
+            entries.append(f"{key}: nominal value 0 (no relative change)")
+        else:
+            entries.append((key,))
+    search = _KeySearch(params, cycle, target_km, judge, max_factor, grid, settings)
+    found = iter((executor or Executor("serial")).map(search, [e[0] for e in entries if isinstance(e, tuple)]))
+    entries = [next(found) if isinstance(e, tuple) else e for e in entries]
+    options = [o for o in entries if isinstance(o, WearDesignOption)]
+    not_found += [o for o in entries if isinstance(o, str)]
     if target_km is None and not options and not nominal_ok:
         not_found.append("every order stable is out of reach while the tire damping c_z > 0: the high orders "
                          "grow slowly through it in this model (docs/wear.md); give a target distance instead")
@@ -218,7 +334,7 @@ def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: fl
     options.sort(key=lambda o: (o.category not in ENGINEERING, abs(math.log1p(o.relative_change))))
     return WearDesignResult(params=params, cycle=cycle, target_km=target_km, nominal_depth_at_target_mm=depth0,
                             nominal_growth_per_1000km=g0, nominal_order=order0, nominal_rolling_stable=stable0,
-                            options=options, not_found=not_found)
+                            options=options, not_found=not_found, judge=judge, nominal_evolution=nominal_evolution)
 
 
 def verify_option(params: Params, option: WearDesignOption, distance_km: float, cycle=None,
