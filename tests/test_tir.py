@@ -322,3 +322,39 @@ def test_cli_from_tir_and_tir_option_agree(tmp_path):
     code, stdout, _ = run_main(["params", "from-tir", str(EXAMPLE), "-s", "friction.mu_static=0.7", "-q"])
     line = next(s for s in stdout.splitlines() if s.startswith("friction.mu_static"))
     assert "--set (overrides the file" in line
+
+
+@pytest.mark.parametrize("key, value, message", [
+    ("UNLOADED_RADIUS", "308", r"UNLOADED_RADIUS = 308 \(line \d+\) is 308 m, not what a tire can be \(0.15 to 0.8 m.*LENGTH"),
+    ("UNLOADED_RADIUS", "1e308", r"UNLOADED_RADIUS = 1e\+308 \(line \d+\).*0.15 to 0.8 m"),
+    ("FNOMIN", "4000000", r"FNOMIN = 4e\+06 \(line \d+\) is 4e\+06 N, not what a tire can be \(500 to 60000 N.*FORCE"),
+])
+def test_implausible_file_fields_are_refused_by_their_own_name(tmp_path, key, value, message):
+    path = _write(tmp_path, _set(TEXT, key, value))
+    with pytest.raises(TirError, match=message):
+        load_with_tir(path)
+    code, out, err = run_main(["simulate", "--tir", str(path), "--json"])
+    assert code == 2 and out == "" and key in err and "contact_length" not in err and len(err.splitlines()) == 1
+
+
+def test_kilonewton_file_with_values_in_newtons_is_refused(tmp_path):
+    text = TEXT.replace("FORCE                    ='newton'", "FORCE = 'kilonewton'")
+    with pytest.raises(TirError, match=r"FNOMIN = 4000 .*is 4e\+06 N.*check the \[UNITS\] of the file \(FORCE\)"):
+        load_with_tir(_write(tmp_path, text))
+
+
+def test_implausible_derived_value_names_the_file_fields(tmp_path):
+    # a plausible radius, an absurd contact-patch coefficient: the patch length comes from the file
+    path = _write(tmp_path, _set(TEXT, "Q_RA2", "500"))
+    with pytest.raises(TirError, match=r"tire.contact_length_m = .* m from the file's 2 R0 \(Q_RA2.*0.01 to 0.5 m"):
+        load_with_tir(path)
+
+
+def test_missing_pdy1_is_noted_and_the_friction_is_the_default(tmp_path):
+    result = load_with_tir(_write(tmp_path, _drop(TEXT, "PDY1")))
+    assert any(note.startswith("no PDY1") for note in result.mapping.notes)
+    rows = {row["key"]: row for row in result.sources()}
+    assert rows["friction.mu_static"]["source"] == "default"
+    assert rows["friction.mu_static"]["value"] == Params().friction.mu_static
+    assert rows["operating.vertical_load_n"]["source"] == "file: FNOMIN"
+    assert not any(note.startswith("no PDY1") for note in load_with_tir(EXAMPLE).mapping.notes)

@@ -82,8 +82,8 @@ class Operating(_Table):
     speed_kmh: float = _f(110.0, "vehicle (drum) speed V [km/h]", gt=0.0, le=MAX_SPEED_KMH)
     toe_deg: float = _f(0.5, "static toe-in per wheel [deg]", gt=-20.0, lt=20.0)
     camber_deg: float = _f(-1.0, "static camber, positive top outward [deg]", gt=-20.0, lt=20.0)
-    vertical_load_n: float = _f(4000.0, "static vertical load N0 [N]", gt=0.0)
-    rolling_radius_m: float = _f(0.30, "effective rolling radius R_e [m]", gt=0.0)
+    vertical_load_n: float = _f(4000.0, "static vertical load N0 [N]", ge=500.0, le=60_000.0)
+    rolling_radius_m: float = _f(0.30, "effective rolling radius R_e [m]", ge=0.15, le=0.8)
 
 
 class Tread(_Table):
@@ -147,9 +147,9 @@ class Axle(_Table):
     )
     pitch_stiffness_nm_per_rad: float = _f(5.06e3, "pitch (vertical) spring at O [N m/rad]", gt=0.0)
     pitch_damping_nms_per_rad: float = _f(304.0, "pitch (vertical) damping at O [N m s/rad]", ge=0.0)
-    arm_length_m: float = _f(0.45, "arm length L, O to contact point along -x [m]", ge=0.0)
-    lateral_offset_m: float = _f(0.0, "lateral offset b of the contact point along -y [m]")
-    pivot_height_m: float = _f(0.30, "pivot height H of O above the road [m]", ge=0.0)
+    arm_length_m: float = _f(0.45, "arm length L, O to contact point along -x [m]", ge=0.0, le=2.0)
+    lateral_offset_m: float = _f(0.0, "lateral offset b of the contact point along -y [m]", ge=-0.5, le=0.5)
+    pivot_height_m: float = _f(0.30, "pivot height H of O above the road [m]", ge=0.0, le=1.5)
     camber_thrust_factor: float = _f(0.1, "camber-thrust factor eps [-]", ge=0.0, le=1.0)
     wheel_spin_inertia_kgm2: float = _f(0.0, "wheel spin inertia I_w (0 = paper) [kg m^2]", ge=0.0)
     reference: Literal["running", "unloaded"] = Field(
@@ -162,10 +162,12 @@ class Axle(_Table):
 class Tire(_Table):
     """Radial (vertical) tire stiffness and damping at the contact point."""
 
-    vertical_stiffness_n_per_m: float = _f(2.0e5, "tire vertical stiffness k_z [N/m]", ge=0.0)
-    vertical_damping_ns_per_m: float = _f(100.0, "tire vertical damping c_z [N s/m]", ge=0.0)
-    contact_length_m: float = _f(0.11, "contact patch length 2a along the circumference [m]", gt=0.0)
-    tread_width_m: float = _f(0.16, "tread (contact patch) width b_w [m]", gt=0.0)
+    vertical_stiffness_n_per_m: float = _f(2.0e5, "tire vertical stiffness k_z [N/m]", ge=0.0, le=1.0e7)
+    vertical_damping_ns_per_m: float = _f(100.0, "tire vertical damping c_z [N s/m]", ge=0.0, le=1.0e5)
+    contact_length_m: float = _f(
+        0.11, "contact patch length 2a along the circumference [m]", ge=0.01, le=0.5
+    )
+    tread_width_m: float = _f(0.16, "tread (contact patch) width b_w [m]", ge=0.03, le=0.6)
 
 
 ADHESION_SCALE = "adhesion_scale"
@@ -217,6 +219,14 @@ def _integral(value: Any) -> Any:
     return value
 
 
+MAX_WEAR_ORDER = 500
+"""Highest polygon order of a wear profile (``wear.max_order``, ``--max-order``) [-]."""
+MAX_PROFILE_POINTS = 8192
+"""Most samples of a worn profile (``wear.profile_points``) [-]."""
+MAX_WEAR_KM = 1.0e6
+"""Longest wear distance (``wear.report_km``, ``--distance-km``, ``--wear-km``): ten times
+what any tire lasts [km]."""
+
 CYCLE_SHARE_TOLERANCE = 0.01
 """``[[wear.cycle]]`` shares must sum to 1 within this (rounding); they are then normalised."""
 
@@ -243,20 +253,24 @@ class Wear(_Table):
     """Polygonal wear: wear law, initial roughness, profile resolution, drive cycle."""
 
     energetic_rate_mm3_per_j: float = _f(
-        1.0e-3, "energetic wear rate k_e: worn volume per friction energy [mm^3/J]", gt=0.0
+        1.0e-3, "energetic wear rate k_e: worn volume per friction energy [mm^3/J]", ge=1.0e-6, le=0.1
     )
     initial_roughness_um: float = _f(
-        1.0, "RMS of the seeded initial roughness over orders 1..max_order [um]", gt=0.0
+        1.0, "RMS of the seeded initial roughness over orders 1..max_order [um]", gt=0.0, le=1000.0
     )
-    max_order: int = Field(60, description="highest harmonic (polygon order) of the profile [-]", ge=1)
-    profile_points: int = Field(720, description="samples of the worn profile around the tire [-]", ge=8)
+    max_order: int = Field(
+        60, description="highest harmonic (polygon order) of the profile [-]", ge=1, le=MAX_WEAR_ORDER
+    )
+    profile_points: int = Field(
+        720, description="samples of the worn profile around the tire [-]", ge=8, le=MAX_PROFILE_POINTS
+    )
     seed: int = Field(0, description="seed of the initial roughness (numpy SeedSequence) [-]", ge=0)
     visible_depth_mm: float = _f(
-        0.1, "peak-to-valley depth at which the polygon counts as visible [mm]", gt=0.0
+        0.1, "peak-to-valley depth at which the polygon counts as visible [mm]", gt=0.0, le=10.0
     )
     report_km: float = _f(
         100_000.0, "distance of the wear evolutions in the main job, polywear report [km] (0: not run)",
-        ge=0.0, le=1.0e6,
+        ge=0.0, le=MAX_WEAR_KM,
     )
     cycle: tuple[WearCycleEntry, ...] = Field(
         default_factory=_default_cycle,

@@ -7,6 +7,7 @@ from typing import Annotated, Optional
 
 import typer
 
+from ..params import MAX_WEAR_KM
 from ..units import DEFAULT_SPEED_RANGE_KMH
 from .common import (
     ConfigOpt,
@@ -48,8 +49,8 @@ def report(
     speed_range = check_speed_range(speed_range)
     if operating_range is not None:
         operating_range = check_speed_range(operating_range, "--operating-range")
-    if wear_km is not None and not (0.0 <= wear_km <= 1e6):
-        raise UserError(f"--wear-km {wear_km:g}: must be in [0, 1e6] (0: no evolution)")
+    if wear_km is not None and not (0.0 <= wear_km <= MAX_WEAR_KM):
+        raise UserError(f"--wear-km {wear_km:g}: must be in [0, {MAX_WEAR_KM:g}] (0: no evolution)")
     params = load(config, set_)
     from ..io import fresh_directory
     from ..report.main import run_report, text_summary

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputError
-from ..keys import study_keys
+from ..keys import KEYS, KeyInfo, study_keys
 from ..params import ParameterError, Params, flat_items, get_value, load_params, parse_override
 from ..results import Result
 from ..units import kmh_to_ms
@@ -322,6 +322,50 @@ def _put(values: dict, sources: dict, key: str, value: float, source: str, known
         sources[key] = source
 
 
+_FILE_FIELDS = {"FNOMIN": "operating.vertical_load_n", "UNLOADED_RADIUS": "operating.rolling_radius_m"}
+"""File fields held to the bounds of the key they stand for (docs/model.md section 6): a
+nominal load is a wheel load, a free radius a tire's radius."""
+
+_UNIT_HINT = {"force": "FORCE", "length": "LENGTH", "mass": "MASS", "pressure": "PRESSURE",
+              "stiffness": "FORCE, LENGTH", "damping": "FORCE, LENGTH", "speed": "LENGTH"}
+
+
+def _within(info: KeyInfo, value: float) -> bool:
+    """True when ``value`` keeps the validation bounds of the key ``info``."""
+    low = value >= info.lower if info.lower_inclusive else value > info.lower
+    high = value <= info.upper if info.upper_inclusive else value < info.upper
+    return math.isfinite(value) and low and high
+
+
+def _bounds(info: KeyInfo) -> str:
+    """``"0.15 to 0.8 m"``: the plausible range of a key, as said in an error."""
+    return f"{info.lower:g} to {info.upper:g} {info.unit}"
+
+
+def _check_field(tir: TirFile, name: str, key: str) -> None:
+    """A :class:`TirError` naming the file's field ``name`` when its SI value is outside
+    what a tire can be (the bounds of ``key``), with a hint at the file's ``[UNITS]``."""
+    value = tir.number(name)
+    info = KEYS[key]
+    if value is None or _within(info, value):
+        return
+    entry = tir.find(name)
+    units = _UNIT_HINT.get(_UNIT_KIND.get(name, ""), "")
+    hint = f": check the [UNITS] of the file ({units})" if units else ""
+    raise TirError(f"{tir.path}: {name} = {entry.value:g} (line {entry.line}) is {value:g} {info.unit}, "
+                   f"not what a tire can be ({_bounds(info)}, the bounds of {key}){hint}")
+
+
+def _check_mapped(mapping: TirMapping) -> None:
+    """A :class:`TirError` when a value the file determines is outside its key's bounds,
+    naming the file's fields it came from (a value from the file, not a default)."""
+    for key, value in mapping.values.items():
+        info = KEYS.get(key)
+        if info is not None and not _within(info, value):
+            raise TirError(f"{mapping.tir.path}: {key} = {value:.4g} {info.unit} from the file's "
+                           f"{mapping.sources[key]}: not what a tire can be ({_bounds(info)})")
+
+
 def tir_parameters(
     tir: TirFile,
     *,
@@ -367,6 +411,8 @@ def tir_parameters(
     r0 = num("UNLOADED_RADIUS")
     if fz0 is None or fz0 <= 0.0:
         raise TirError(f"{tir.path}: FNOMIN (nominal load) missing or not positive: needed for every load-dependent value")
+    for name, key in _FILE_FIELDS.items():
+        _check_field(tir, name, key)
     fz = fz0 if load_n is None else float(load_n)
     if load_n is None:
         _put(values, sources, "operating.vertical_load_n", fz0, "FNOMIN", known)
@@ -428,6 +474,9 @@ def tir_parameters(
             c = num("PCY1") * num("LCY", 1.0)
             notes.append(f"MF large-slip level sin(PCY1 LCY pi/2) = {math.sin(c * math.pi / 2):.3f} of the peak "
                          "(information only: not the LuGre Coulomb level)")
+    else:
+        notes.append("no PDY1 (peak lateral friction) in the file: friction.mu_static and friction.mu_coulomb "
+                     "are not from the file (the defaults, or the config's and --set values, stand)")
 
     _map_structure(tir, values, sources, notes, known if belt_mode else set(), dfz, dpi)
     _map_contact(tir, values, sources, notes, known, fz, fz0, cz, r0, mf6)
@@ -598,6 +647,7 @@ def load_with_tir(
     given = user_keys(config, sets)
     load_n = plain.operating.vertical_load_n if "operating.vertical_load_n" in given else None
     mapping = tir_parameters(tir, load_n=load_n, belt_mode=belt_mode, **_condition(plain))
+    _check_mapped(mapping)
     if "friction.mu_static" in given:
         drop = "friction.mu_coulomb"
         mapping = replace(mapping, values={k: v for k, v in mapping.values.items() if k != drop},
