@@ -298,7 +298,7 @@ def sweep_bands(result) -> dict:
     def band(starts):
         on = np.zeros(len(speeds), dtype=bool)
         for start in starts:
-            on |= np.array([r.outcome is SteadyOutcome.CYCLE for r in result.runs[start]])
+            on |= np.array([r.outcome == SteadyOutcome.CYCLE for r in result.runs[start]])
         return runs_of(speeds, on)
 
     sev = band(("large", "up", "down"))
