@@ -481,7 +481,7 @@ def test_option_that_clears_the_band_but_brings_the_polygon_sooner_is_shown_as_s
     (judged,) = v["design_options"]
     km = judged["cycle"]["visible_km"]
     assert judged["sooner"] and judged["text"].startswith("brings the polygon sooner")
-    assert "against none within 100,000 km now" in judged["text"]
+    assert "on the drive cycle" in judged["text"] and "(now none within 100,000 km)" in judged["text"]
     changed = _toe(0.05)
     visible = changed.wear.visible_depth_mm
     assert linear_depth_mm(changed, km) >= visible > linear_depth_mm(changed, km - 2.0)

@@ -76,30 +76,29 @@ def _linear_visible_km(params: Params, rates: np.ndarray, distance_km: float) ->
 
 
 def wear_outlook(params: Params, distance_km: float) -> dict:
-    """What the linear wear map says for ``params``: at the operating speed, the fastest
-    growing order and its e-folding distance [km] (``rolling_stable`` False: the tread
-    vibrates there, the map does not apply); on the drive cycle, the speeds where steady
-    rolling is unstable, else the distance [km] within ``distance_km`` at which the seeded
-    roughness grown at the cycle's share-weighted rates becomes visible (None: not within it)
-    and its order; and the :func:`point_contact` check at the operating speed (None with
-    the patch contact)."""
+    """What the linear wear map says for ``params``, at the operating speed alone
+    (``operating``) and on the drive cycle (``cycle``): the speeds where steady rolling is
+    unstable (the tread vibrates, the map does not apply: ``rolling_stable`` False), else
+    the fastest growing order, its e-folding distance [km] (``efold_km``, at the operating
+    speed) and the distance [km] within ``distance_km`` at which the seeded roughness grown
+    at the (share-weighted) rates becomes visible (``visible_km``, None: not within it); and
+    the :func:`point_contact` check at the operating speed (None with the patch contact)."""
     from ..wear.design import cycle_rates
     from ..wear.map import wear_map
 
     op = params.operating.speed_kmh
     row = wear_map(params, [op]).rows()[0]
-    cycle = params.wear.cycle_shares()
     out = {"operating": {k: row[k] for k in ("speed_kmh", "rolling_stable", "order", "frequency_hz", "efold_km")},
-           "cycle": {"basis": "linear wear map", "distance_km": distance_km}, "point_contact": _check(params)}
-    rates = cycle_rates(params, cycle)
-    if rates is None:
-        stable = wear_map(params, [v for v, _ in cycle]).rolling_stable
-        out["cycle"].update(rolling_stable=False, visible_km=None, order=None,
-                            vibrating_speeds_kmh=[v for (v, _), ok in zip(cycle, stable) if not ok])
-        return out
-    visible = _linear_visible_km(params, rates, distance_km)
-    out["cycle"].update(rolling_stable=True, visible_km=visible, order=int(np.argmax(rates.real)) + 1,
-                        vibrating_speeds_kmh=[])
+           "cycle": {}, "basis": "linear wear map", "distance_km": distance_km, "point_contact": _check(params)}
+    for place, cycle in (("operating", ((op, 1.0),)), ("cycle", params.wear.cycle_shares())):
+        rates = cycle_rates(params, cycle)
+        if rates is None:
+            stable = wear_map(params, [v for v, _ in cycle]).rolling_stable
+            out[place].update(rolling_stable=False, visible_km=None, order=None,
+                              vibrating_speeds_kmh=[v for (v, _), ok in zip(cycle, stable) if not ok])
+        else:
+            out[place].update(rolling_stable=True, visible_km=_linear_visible_km(params, rates, distance_km),
+                              order=int(np.argmax(rates.real)) + 1, vibrating_speeds_kmh=[])
     return out
 
 
@@ -108,12 +107,13 @@ def _check(params: Params) -> dict | None:
     return point_contact(params, params.operating.speed_kmh) if params.friction.contact == "point" else None
 
 
-def judge_options(params: Params, design: dict, distance_km: float, nominal_visible_km: float | None) -> list[dict]:
+def judge_options(params: Params, design: dict, distance_km: float, nominal_visible_km: dict) -> list[dict]:
     """The wear judgement of every computed design option (``design``: the report's design
     summary), in its order: :func:`wear_outlook` with the option's values, ``sooner``
-    (the polygon on the drive cycle becomes visible before ``nominal_visible_km``, the
-    nominal car's visible distance [km] or None; None where the option leaves a cycle speed
-    vibrating) and ``text``. Options not computed (no values) get None."""
+    (on the drive cycle or at the operating speed alone the polygon becomes visible before
+    the nominal car's, ``nominal_visible_km`` {"cycle", "operating"} [km] or None; None where
+    the option leaves the tread vibrating at both, so that the map cannot tell) and ``text``.
+    Options not computed (no values) get None."""
     from ..dynamics.sensitivity import perturbed
 
     out = []
@@ -125,10 +125,10 @@ def judge_options(params: Params, design: dict, distance_km: float, nominal_visi
         for key, value in zip(o["params"], o["values"]):
             changed = perturbed(changed, key, value)
         look = wear_outlook(changed, distance_km)
-        c = look["cycle"]
-        sooner = None if not c["rolling_stable"] else (
-            c["visible_km"] is not None and (nominal_visible_km is None or c["visible_km"] < nominal_visible_km))
-        look["sooner"] = sooner
+        judged = [look[place]["visible_km"] is not None and (nominal_visible_km.get(place) is None
+                                                            or look[place]["visible_km"] < nominal_visible_km[place])
+                  for place in ("cycle", "operating") if look[place]["rolling_stable"]]
+        look["sooner"] = any(judged) if judged else None
         look["text"] = _option_text(look, nominal_visible_km, distance_km)
         out.append(look)
     return out
@@ -140,23 +140,27 @@ def _km(km: float) -> str:
     return f"{round(km, -digits):,.0f}"
 
 
-def _option_text(look: dict, nominal_visible_km: float | None, distance_km: float) -> str:
-    """The wear judgement of one option in words."""
-    c, op = look["cycle"], look["operating"]
-    if not c["rolling_stable"]:
-        text = ("the tread still vibrates on the drive cycle at "
-                + ", ".join(f"{v:g}" for v in c["vibrating_speeds_kmh"]) + " km/h (the wear map does not apply there)")
-    elif c["visible_km"] is None:
-        text = f"no visible polygon within {distance_km:,.0f} km on the drive cycle (linear wear map)"
-    else:
-        text = (f"{c['order']}-sided polygon visible after about {_km(c['visible_km'])} km on the drive cycle "
-                "(linear wear map)")
-        if look["sooner"]:
-            text = "brings the polygon sooner: " + text + (
-                f", against {_km(nominal_visible_km)} km now" if nominal_visible_km is not None
-                else f", against none within {distance_km:,.0f} km now")
+def _option_text(look: dict, nominal_visible_km: dict, distance_km: float) -> str:
+    """The wear judgement of one option in words (linear wear map), on the drive cycle and
+    at the operating speed alone, against the nominal car's visible distances."""
+    parts = []
+    for place, where in (("cycle", "on the drive cycle"),
+                         ("operating", f"at {look['operating']['speed_kmh']:g} km/h alone")):
+        c, now = look[place], nominal_visible_km.get(place)
+        if not c["rolling_stable"]:
+            parts.append(f"{where} the tread still vibrates at "
+                         + ", ".join(f"{v:g}" for v in c["vibrating_speeds_kmh"]) + " km/h (the map does not apply)")
+            continue
+        if c["visible_km"] is None:
+            text = f"{where} no visible polygon within {distance_km:,.0f} km"
+        else:
+            text = f"{where} {c['order']}-sided polygon visible after about {_km(c['visible_km'])} km"
+        text += f" (now {_km(now)} km)" if now is not None else f" (now none within {distance_km:,.0f} km)"
+        parts.append(text)
+    op = look["operating"]
     if op["rolling_stable"] and op["efold_km"] is not None:
-        text += (f"; at {op['speed_kmh']:g} km/h order {op['order']} grows by e every {_km(op['efold_km'])} km")
+        parts.append(f"at {op['speed_kmh']:g} km/h order {op['order']} grows by e every {_km(op['efold_km'])} km")
+    text = ("brings the polygon sooner: " if look["sooner"] else "") + "; ".join(parts) + " (linear wear map)"
     if look["point_contact"] is not None and look["point_contact"]["overstated"]:
         text += "; " + _overstated(look["point_contact"])
     return text
@@ -221,7 +225,9 @@ def verdict(summary: dict, params: Params, vibration: str) -> dict:
                      "distributed contact, for tread1dof).")
     nominal = wear_outlook(params, distance)
     out["wear_outlook"] = nominal
-    nominal_visible = evs["drive cycle"]["visible_km"] if "drive cycle" in evs else None
+    nominal_visible = {place: evs[label]["visible_km"] for place, label in (("cycle", "drive cycle"),
+                                                                            ("operating", "operating speed"))
+                       if label in evs}
     judged = judge_options(params, design, distance, nominal_visible) if (vibrates or visible) else []
     out["design_options"] = judged
     wear_option = None
@@ -229,7 +235,7 @@ def verdict(summary: dict, params: Params, vibration: str) -> dict:
         from ..wear.design import wear_design
 
         cycle = tuple((c["speed_kmh"], c["share"]) for c in first["cycle"])
-        found = wear_design(params, target_km=distance, cycle=cycle)
+        found = wear_design(params, target_km=distance, cycle=cycle, judge="map")  # the linear map, as before
         wear_option = (_where(first), found.options[0] if found.options else None,
                        found.nominal_rolling_stable and not found.options and found.nominal_depth_at_target_mm
                        < params.wear.visible_depth_mm)
@@ -275,7 +281,7 @@ def _what_to_change(vibrates: bool, visible: bool, evolved: bool, design: dict, 
         if not design["options"]:
             return f"What to change: no design option for {lo:g}-{hi:g} km/h: {design['reason']}"
         return f"What to change: no design option clears the SEV band from {lo:g}-{hi:g} km/h (see the design section)."
-    good = [(o, j) for o, j in cleared if j["cycle"]["rolling_stable"] and not j["sooner"]]
+    good = [(o, j) for o, j in cleared if j["sooner"] is False]
     o, j = (good or cleared)[0]
     text = f"What to change: {o['change']} clears the SEV band from {lo:g}-{hi:g} km/h; wear: {j['text']}."
     if not good:
