@@ -34,6 +34,7 @@ from .stability import HopfPoint, StabilityResult, StabilitySettings, stability
 
 __all__ = [
     "BifurcationDiagram",
+    "sev_band",
     "CyclePoint",
     "bifurcation",
     "SPEED_FLOOR_KMH",
@@ -189,11 +190,23 @@ class BifurcationDiagram(Result):
         return union(out, gap=_JOIN_KMH)
 
     @property
-    def sev_band_kmh(self) -> list[tuple[float, float]]:
-        """Where SEV persists after a large disturbance: stable cycles, or steady rolling
-        unstable through an oscillatory mode (a Hopf pair; static divergence excluded)."""
+    def pd_ns_speeds_kmh(self) -> list[float]:
+        """Speeds [km/h] of the period doublings and torus bifurcations of every branch (as
+        located on it, so that an end of a stable run there matches exactly)."""
+        return sorted(ms_to_kmh(pt.orbit.speed) for branch in self.branches for label, pt, _ in branch.special
+                      if PointKind(label) in (PointKind.PD, PointKind.NS))
+
+    @cached_property
+    def _band(self) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
         oscillatory = subtract(self.linear_band_kmh, self.divergence_kmh)
-        return union(self.stable_cycle_intervals_kmh() + oscillatory, gap=_JOIN_KMH)
+        return sev_band(oscillatory, self.stable_cycle_intervals_kmh(), self.pd_ns_speeds_kmh)
+
+    @property
+    def sev_band_kmh(self) -> list[tuple[float, float]]:
+        """Where the tread vibrates after a large disturbance, as far as the branches decide
+        it (:func:`sev_band`): stable period-1 cycles, or steady rolling unstable through an
+        oscillatory mode (a Hopf pair; static divergence excluded)."""
+        return self._band[0]
 
     @property
     def hard_regions_kmh(self) -> list[tuple[float, float]]:
@@ -202,14 +215,11 @@ class BifurcationDiagram(Result):
 
     @property
     def gaps_after_pd_ns_kmh(self) -> list[tuple[float, float]]:
-        """Gaps of the SEV band [km/h] (between two of its intervals) in a diagram with period
-        doublings or torus bifurcations: the band counts period-1 cycles only, and the motion
-        past those bifurcations (period-multiplied, quasi-periodic, chaotic) can persist in
-        such a gap with steady rolling stable; only a simulation tells (the verdict runs one)."""
-        if not any(s.kind in (PointKind.PD, PointKind.NS) for s in self.special):
-            return []
-        sev = self.sev_band_kmh
-        return [(b, c) for (_, b), (c, _) in zip(sev[:-1], sev[1:])]
+        """Gaps of the SEV band [km/h] that a stable run of period-1 cycles ends at, or starts
+        from, at a period doubling or torus bifurcation (:func:`sev_band`): steady rolling is
+        stable there and the motion past that point may survive; only the doubled branch or
+        a simulation tells (the verdict and the fleet's ``simulate_gaps`` run one)."""
+        return self._band[1]
 
     @property
     def open_edges(self) -> list[str]:
@@ -496,6 +506,31 @@ class BifurcationDiagram(Result):
         return artists
 
 
+def sev_band(oscillatory_kmh, stable_cycles_kmh, pd_ns_kmh) -> tuple[list[tuple[float, float]],
+                                                                     list[tuple[float, float]]]:
+    """The SEV band [km/h] from a diagram's branches, the one definition of the single car,
+    the report and the studies: the speeds where the tread can vibrate, i.e. where steady
+    rolling is unstable through an oscillatory mode (``oscillatory_kmh``), or a stable
+    vibration coexists with stable rolling. Returns (band, undecided).
+
+    * Where rolling is unstable the tread vibrates whatever the stability of the period-1
+      cycles, so a period doubling (PD) or torus bifurcation (NS) there ends nothing.
+    * ``stable_cycles_kmh``: where a stable period-1 cycle exists; with stable rolling,
+      these are the hard regions.
+    * A stable run ending at a PD/NS (``pd_ns_kmh``, its speeds) where rolling is stable
+      leaves open whether the period-doubled or quasi-periodic motion survives: the gap of
+      the band that starts or ends at such a point is returned as undecided, for the doubled
+      branch or a simulation to decide there alone. Every other gap is decided: rolling is
+      stable and no vibration exists.
+
+    Intervals closer than ``_JOIN_KMH`` are one; a gap's end matches a PD/NS within it.
+    """
+    band = union(list(stable_cycles_kmh) + list(oscillatory_kmh), gap=_JOIN_KMH)
+    at_pd_ns = lambda v: any(abs(v - w) <= _JOIN_KMH for w in pd_ns_kmh)
+    undecided = [(b, c) for (_, b), (c, _) in zip(band[:-1], band[1:]) if at_pd_ns(b) or at_pd_ns(c)]
+    return band, undecided
+
+
 def statically_divergent(eigenvalues: np.ndarray) -> bool:
     """True if steady rolling is unstable through a real eigenvalue that crossed zero, not
     through an oscillatory (Hopf) pair: an odd number of real positive eigenvalues (det J
@@ -757,17 +792,33 @@ def _extended_diagram(params, speed_range_kmh, settings, stability_settings, pro
             break
         diagram = wider
         cut = _cut_ends(diagram)
+        below = lo > SPEED_FLOOR_KMH and "lower" not in cut and _unstable_below(params, lo, spacing, stability_settings)
+        if below:
+            cut.add("lower")
         new_lo = SPEED_FLOOR_KMH if "lower" in cut and lo > SPEED_FLOOR_KMH else lo
         new_hi = min(round(2.0 * hi, 6), SPEED_CEILING_KMH) if "upper" in cut and hi < SPEED_CEILING_KMH else hi
         if (new_lo, new_hi) == (lo, hi):
             break
         ends = " and ".join(f"{lo:g}" if e == "lower" else f"{hi:g}" for e in sorted(cut) if
-                            (e == "lower" and new_lo != lo) or (e == "upper" and new_hi != hi))
-        notes.append(f"range widened to {new_lo:g}-{new_hi:g} km/h: the SEV band or a cycle branch ran into {ends} km/h")
+                            (e == "lower" and new_lo != lo and not below) or (e == "upper" and new_hi != hi))
+        why = [f"the SEV band or a cycle branch ran into {ends} km/h"] if ends else []
+        why += [f"steady rolling has a Hopf point or is unstable below {lo:g} km/h"] if below else []
+        notes.append(f"range widened to {new_lo:g}-{new_hi:g} km/h: {'; '.join(why)}")
         lo, hi = new_lo, new_hi
     diagram.requested_range_kmh = requested
     diagram.range_notes = notes
     return diagram
+
+
+def _unstable_below(params: Params, lo: float, spacing: float, stability_settings: StabilitySettings) -> bool:
+    """True when steady rolling has a Hopf point or is unstable between ``SPEED_FLOOR_KMH``
+    and ``lo`` [km/h] (grid ``spacing`` [km/h]): a band below the analysed range."""
+    n = min(max(3, int(np.ceil((lo - SPEED_FLOOR_KMH) / spacing)) + 1), 4 * stability_settings.n_speeds)
+    try:
+        below = stability(params, (SPEED_FLOOR_KMH, lo), replace(stability_settings, n_speeds=n))
+    except (RuntimeError, ValueError, ArithmeticError):
+        return False  # e.g. no equilibrium at walking pace: the range is not widened down
+    return bool(below.hopf_points or below.linear_band_kmh)
 
 
 def _cut_ends(diagram: BifurcationDiagram) -> set[str]:
