@@ -56,6 +56,10 @@ class Report:
     files: dict = field(default_factory=dict)
     overall: dict = field(default_factory=dict)
     """The one verdict on vibration and wear together (:func:`.verdict.verdict`)."""
+    wear_design: dict | None = None
+    """Where the tread vibrates on the drive cycle: the least change of the first design
+    option's keys after which no polygon is visible within the report's distance, judged by
+    the evolution (:func:`polywear.wear.design.wear_design` summary); else None."""
 
     @property
     def stability(self) -> StabilityResult:
@@ -77,6 +81,7 @@ class Report:
             "design": self.design.summary(),
             "wear": self.wear.summary(),
             "verdict": self.overall,
+            "wear_design": self.wear_design,
         }
 
 
@@ -337,10 +342,17 @@ def run_report(
                         sev_band_kmh=(sev[0][0], sev[-1][1]) if sev and None not in (sev[0][0], sev[-1][1]) else None,
                         progress=stage.detail(""))
 
+    from ..wear.design import cycle_growth, wear_design
+
+    stops = None
+    if km and options.best is not None and not cycle_growth(params)[2]:  # the tread vibrates on the drive cycle
+        say("what stops the polygon: the least change judged by the evolution")
+        stops = wear_design(params, keys=options.best.keys, target_km=km).summary()
+
     say("one verdict: vibration and wear together, design options judged by the wear")
     from .verdict import verdict as overall_verdict
 
-    report = Report(params, diagram, verdict, runs, sens, options, wear, portraits, files)
+    report = Report(params, diagram, verdict, runs, sens, options, wear, portraits, files, wear_design=stops)
     report.overall = overall_verdict(report.summary(), params, _sentence(verdict))
     summary = report.summary()
     write_text(out_dir / "summary.json", json.dumps(summary, indent=2, default=float))
@@ -407,7 +419,7 @@ figure{{margin:1.5em 0}}img{{max-width:100%}}.verdict{{background:#fff4e0;paddin
 <table><tr><th>point</th><th>speed [km/h]</th><th>frequency [Hz]</th><th></th></tr>{rows or "<tr><td colspan='4'>no Hopf point, fold or other bifurcation in the analysed range</td></tr>"}</table>
 <h2>Sensitivities</h2><ul>{sens_notes or "<li>see sensitivity.png and sensitivity.csv</li>"}</ul>
 <h2>Design options for {summary['design']['operating_range_kmh'][0]:.0f}-{summary['design']['operating_range_kmh'][1]:.0f} km/h</h2>
-{_design_html(summary["design"], summary["verdict"])}
+{_design_html(summary["design"], summary["verdict"])}{_wear_design_html(summary["wear_design"])}
 {wear_html(summary.get("wear"))}
 {figures}
 <h2>Files</h2><ul>{file_list}</ul>
@@ -415,6 +427,26 @@ figure{{margin:1.5em 0}}img{{max-width:100%}}.verdict{{background:#fff4e0;paddin
 <p>polywear {e(__version__)}</p>
 </body></html>
 """
+
+
+def _wear_design_html(found: dict | None) -> str:
+    """What stops the polygon for a car that vibrates on the drive cycle (the least change
+    judged by the evolution), or nothing."""
+    if found is None:
+        return ""
+    e = html.escape
+    head = (f"<p>What stops the polygon, judged by the nonlinear evolution over {found['target_km']:,.0f} km on the "
+            "drive cycle (the tread vibrates there, so the linear wear map does not apply): ")
+    ev = found["nominal_evolution"]
+    if ev is not None and ev["visible_km"] is None:
+        return head + "nothing to change: no polygon becomes visible within that distance.</p>"
+    lines = [f"{e(o['label'])} {o['nominal']:.4g} &rarr; {o['value']:.4g} ({o['relative_change'] * 100:+.1f} %): "
+             f"depth {o['evolution']['depth_mm']:.3f} mm after {found['target_km']:,.0f} km, no visible polygon"
+             for o in found["options"] if o["evolution"] is not None]
+    if not lines:
+        return head + e("; ".join(found["not_found"]) or "no option found") + ".</p>"
+    return head + "the least change of the first design option's parameters:</p><ul>" + \
+        "".join(f"<li>{line}</li>" for line in lines) + "</ul>"
 
 
 def _design_html(design: dict, verdict: dict) -> str:
