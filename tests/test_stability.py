@@ -61,7 +61,7 @@ def test_hopf_speeds_scale_exactly_as_one_over_sin_toe(toe):
 
 
 @settings(max_examples=8, deadline=None)
-@given(scale=st.floats(0.1, 10.0))
+@given(scale=st.floats(0.125, 10.0))  # the load stays a wheel load: 500 N to 40 kN
 def test_hopf_speeds_invariant_when_m_k_c_n_scale_together(scale):
     base = Params()
     scaled = with_updates(

@@ -31,6 +31,22 @@ def stability(
     outputs.show(result.summary(), lambda summary: _print_summary(result, summary))
 
 
+def _band_text(lo: float, hi: float, result, open_ends: list[str]) -> str:
+    """One unstable interval [km/h] in words; an end at the analysed range is no onset."""
+    below = lo == float(result.speeds_kmh[0]) and "lower" in open_ends
+    above = hi == float(result.speeds_kmh[-1]) and "upper" in open_ends
+    if below and above:
+        return (f"steady rolling unstable over the whole analysed range {lo:.3f} .. {hi:.3f} km/h "
+                "(the band begins below it and ends above it)")
+    if below:
+        return (f"steady rolling unstable up to {hi:.3f} km/h; the onset lies below the analysed range "
+                f"(which starts at {lo:.3f} km/h: widen it with --speed-range)")
+    if above:
+        return (f"steady rolling unstable from {lo:.3f} km/h to beyond the analysed range "
+                f"(which ends at {hi:.3f} km/h: widen it with --speed-range)")
+    return f"steady rolling unstable from {lo:.3f} to {hi:.3f} km/h"
+
+
 def _print_summary(result, summary: dict) -> None:
     """The summary as text on stdout (the Hopf points from ``result``)."""
     typer.echo(f"model {summary['model']}")
@@ -46,7 +62,7 @@ def _print_summary(result, summary: dict) -> None:
     for v in summary["real_eigenvalue_crossings_kmh"]:
         typer.echo(f"real eigenvalue crosses zero at {v:9.3f} km/h (static divergence / fold of equilibria)")
     for lo, hi in summary["linear_band_kmh"]:
-        typer.echo(f"steady rolling unstable from {lo:.3f} to {hi:.3f} km/h")
+        typer.echo(_band_text(lo, hi, result, summary["linear_band_open_ends"]))
     if "running_alignment" in summary:
         a = summary["running_alignment"]
         typer.echo(

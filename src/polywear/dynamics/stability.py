@@ -212,6 +212,13 @@ class StabilityResult(Result):
     """(n_speeds, 2) running toe and camber [deg] of the equilibria, for models whose
     alignment comes out of the equilibrium solve (axle4dof); None otherwise."""
 
+    def open_ends(self) -> list[str]:
+        """Ends of the analysed range (``"lower"``, ``"upper"``) where steady rolling is
+        unstable: there an interval of ``linear_band_kmh`` ends at the range, not at an onset."""
+        lo, hi = float(self.speeds_kmh[0]), float(self.speeds_kmh[-1])
+        return [end for end, v in (("lower", lo), ("upper", hi))
+                if any(v in (a, b) for a, b in self.linear_band_kmh)]
+
     def summary(self) -> dict:
         """The JSON summary of ``polywear stability``."""
         out = {
@@ -221,6 +228,7 @@ class StabilityResult(Result):
             "linear_band_kmh": [list(iv) for iv in self.linear_band_kmh],
             "hopf_points": [h.summary() for h in self.hopf_points],
             "real_eigenvalue_crossings_kmh": list(self.real_crossings_kmh),
+            "linear_band_open_ends": self.open_ends(),
         }
         out = with_deprecated_keys(out, RENAMED_KEYS)
         if self.alignment_deg is not None:
