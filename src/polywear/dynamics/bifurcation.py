@@ -7,9 +7,11 @@ LP, period doubling PD, torus NS), and from these the speed bands of docs/model.
 section 5:
 
 * linear band: where steady rolling is unstable (between Hopf speeds);
-* SEV band: where self-excited vibration persists after a large disturbance, i.e.
-  where a stable cycle exists or steady rolling is unstable; its bounds are the
-  paper's first and second bifurcation speeds;
+* SEV band (:func:`sev_band`, the one definition): where the tread can vibrate, i.e.
+  where steady rolling is unstable or a stable cycle exists; a period doubling or torus
+  bifurcation where rolling is stable leaves the gap after it undecided
+  (``gaps_after_pd_ns_kmh``, for a simulation); its bounds are the paper's first and
+  second bifurcation speeds;
 * hard regions: SEV band minus linear band, where a stable cycle coexists with stable
   steady rolling; the unstable cycle there is the trigger amplitude.
 """

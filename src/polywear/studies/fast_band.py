@@ -154,9 +154,10 @@ class Band(Result):
     reason: FallbackReason | None = None
     detail: str = ""
     gaps_after_pd_ns_kmh: tuple[tuple[float, float], ...] = ()
-    """Gaps of the SEV band [km/h] in a diagram with period doublings or torus bifurcations,
-    where motions past those can persist with steady rolling stable (full path only:
-    ``BifurcationDiagram.gaps_after_pd_ns_kmh``; the fast path's references have none)."""
+    """Gaps of the SEV band [km/h] that start or end at a period doubling or torus
+    bifurcation with steady rolling stable, where the motion past it may persist (full path
+    only: ``BifurcationDiagram.gaps_after_pd_ns_kmh``, by :func:`~polywear.dynamics.bifurcation.sev_band`;
+    the fast path's references have none)."""
 
     def _dataset(self):
         """Hopf points, folds and amplitudes [m] along their own dimensions; bands [km/h] as (n, 2)."""
