@@ -39,7 +39,8 @@ from ..params import Params
 from ..progress import Progress, StepCounter
 from ..settings import check_positive
 from ..units import DEFAULT_SPEED_RANGE_KMH, ms_to_kmh
-from .bifurcation import BifurcationDiagram, bifurcation
+from .bifurcation import SPEED_CEILING_KMH, SPEED_FLOOR_KMH, BifurcationDiagram, bifurcation
+from .stability import stability
 from .sensitivity import (
     PARAMETER_LABELS,
     sensitivity,
@@ -368,6 +369,25 @@ def _outcome(band, low: float, high: float) -> DesignOutcome:
     return DesignOutcome.BOTH_SIDES
 
 
+def _band_over_all_speeds(params: Params, option: DesignOption, low: float, high: float) -> None:
+    """Before an option is said to make the band vanish: steady rolling at every speed from
+    ``SPEED_FLOOR_KMH`` to ``SPEED_CEILING_KMH``. Where it has a Hopf point or is unstable
+    outside the analysed range, the diagram over those speeds replaces the option's band,
+    diagram and outcome (the band moved, it did not vanish)."""
+    p = params
+    for k, v in zip(option.keys, option.values):
+        p = perturbed(p, k, v)
+    whole = stability(p, (SPEED_FLOOR_KMH, SPEED_CEILING_KMH))
+    speeds = [h.speed_kmh for h in whole.hopf_points] + [v for band in whole.linear_band_kmh for v in band]
+    if not speeds:
+        return
+    diagram = bifurcation(p, (max(min(speeds) / 1.1, SPEED_FLOOR_KMH), min(max(speeds) * 1.1, SPEED_CEILING_KMH)))
+    if not diagram.sev_band_kmh:
+        return
+    option.diagram, option.sev_band_kmh = diagram, diagram.sev_band_kmh
+    option.outcome = _outcome(diagram.sev_band_kmh, low, high)
+
+
 @dataclass
 class _Search:
     """Everything one option search needs (one key or one combination)."""
@@ -617,6 +637,11 @@ def design(
         g1 = np.array([grad.get(("first_bifurcation", k), 0.0) for k in group])
         g2 = np.array([grad.get(("second_bifurcation", k), 0.0) for k in group])
         options.append(_best_option(search, g1, g2, band))
+    for option in options:
+        if option.outcome is DesignOutcome.VANISHES:
+            step.begin(f"{option.change_text()}: every speed")
+            _band_over_all_speeds(params, option, low, high)
+            step()
     options.sort(key=lambda o: (_CATEGORY_RANK[o.category], not o.achieved, not o.within_bound,
                                 o.values == o.nominal, o.relative_change))  # computed before not searched
     return result(options)
