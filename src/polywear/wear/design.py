@@ -257,8 +257,8 @@ class _KeySearch:
         refine = EVOLUTION_REFINE if evolution else _REFINE
         closed = set()  # directions (True: more) whose largest change fails: not searched
         if evolution:
-            end = float(np.exp(np.linspace(0.0, math.log(self.max_factor), grid + 1)[-1]))
-            for up, extreme in ((True, end), (False, float(np.exp(-math.log(end))))):
+            last = np.linspace(0.0, math.log(self.max_factor), grid + 1)[-1]  # the grid's last step, as least_factor's
+            for up, extreme in ((True, float(np.exp(last))), (False, float(np.exp(-last)))):
                 hit = probe(extreme)
                 if hit is not None and not hit[0]:
                     closed.add(up)
