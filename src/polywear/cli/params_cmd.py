@@ -65,11 +65,12 @@ def from_tir(
         header += [f"#   {r['key']} <- {r['source']}" for r in rows if r["source"] != "default"]
         text = "\n".join(header) + "\n" + to_toml(params, study=load_study(inputs.config))  # --config's [study] kept
         write_output(out, save_text(text), outputs.quiet)
-    outputs.show(summary, lambda _: _print_sources(tir, mapping, rows, outputs.quiet))
+    outputs.show(summary, lambda _: _print_sources(tir, mapping, rows, summary["file_values"], outputs.quiet))
 
 
-def _print_sources(tir: Path, mapping, rows: list[dict], quiet: bool) -> None:
-    """Each key's value and source as text on stdout, the mapping's notes on stderr."""
+def _print_sources(tir: Path, mapping, rows: list[dict], file_values: list[dict], quiet: bool) -> None:
+    """Each key's value and source as text on stdout; the mapping's notes and the file's values
+    used, noted or ignored on stderr."""
     typer.echo(f"{tir}: {mapping.tir.family} ({mapping.tir.format_label}); evaluated at "
                f"Fz = {mapping.conditions['load_n']:g} N, camber {mapping.conditions['camber_deg']:g} deg, "
                f"{mapping.conditions['speed_kmh']:g} km/h")
@@ -80,3 +81,6 @@ def _print_sources(tir: Path, mapping, rows: list[dict], quiet: bool) -> None:
         typer.echo(f"{r['key']:<{width}}  {shown:>12}  {r['source']}")
     for note in mapping.notes:
         info(f"note: {note}", quiet)
+    for use in ("used", "noted", "ignored"):
+        keys = [v["key"] for v in file_values if v["use"] == use]
+        info(f"file values {use}: {', '.join(keys) if keys else 'none'}", quiet)

@@ -121,6 +121,9 @@ _HOME = {
     "NOMPRES": "OPERATING_CONDITIONS", "INFLPRES": "OPERATING_CONDITIONS",
     "PDY1": "LATERAL_COEFFICIENTS", "PDY2": "LATERAL_COEFFICIENTS", "PDY3": "LATERAL_COEFFICIENTS",
     "PPY3": "LATERAL_COEFFICIENTS", "PPY4": "LATERAL_COEFFICIENTS", "PCY1": "LATERAL_COEFFICIENTS",
+    "PKY1": "LATERAL_COEFFICIENTS", "PKY2": "LATERAL_COEFFICIENTS", "PKY3": "LATERAL_COEFFICIENTS",
+    "PKY4": "LATERAL_COEFFICIENTS", "PKY5": "LATERAL_COEFFICIENTS", "PPY1": "LATERAL_COEFFICIENTS",
+    "PPY2": "LATERAL_COEFFICIENTS", "LKY": "SCALING_COEFFICIENTS",
     "LFZO": "SCALING_COEFFICIENTS", "LMUY": "SCALING_COEFFICIENTS", "LGAY": "SCALING_COEFFICIENTS",
     "LCZ": "SCALING_COEFFICIENTS", "LCY": "SCALING_COEFFICIENTS",
     "Q_RA1": "CONTACT_PATCH", "Q_RA2": "CONTACT_PATCH", "Q_RB1": "CONTACT_PATCH", "Q_RB2": "CONTACT_PATCH",
@@ -444,7 +447,7 @@ def tir_parameters(
         rho = fz / fz0
         re = r_omega - fz0 / cz * (num("DREFF") * math.atan(num("BREFF") * rho) + num("FREFF") * rho)
         _put(values, sources, "operating.rolling_radius_m", re,
-             "UNLOADED_RADIUS, Q_RE0, Q_V1, BREFF, DREFF, FREFF, FNOMIN, VERTICAL_STIFFNESS", known)
+             "UNLOADED_RADIUS, Q_RE0, Q_V1, LONGVL, BREFF, DREFF, FREFF, FNOMIN, VERTICAL_STIFFNESS", known)
     elif r0 is not None:
         notes.append("no BREFF/DREFF/FREFF: operating.rolling_radius_m not set (UNLOADED_RADIUS is the free radius, "
                      "not the effective rolling radius)")
@@ -467,20 +470,63 @@ def tir_parameters(
         if not mu > 0.0:
             raise TirError(f"{tir.path}: peak lateral friction at {fz:g} N evaluates to {mu:g} (PDY1, PDY2, LMUY)")
         _put(values, sources, "friction.mu_static", mu, formula + ", dfz = (Fz - LFZO FNOMIN)/(LFZO FNOMIN)", known)
-        if coulomb_ratio is not None:
+        large_slip = math.sin(num("PCY1") * num("LCY", 1.0) * math.pi / 2.0) if tir.has("PCY1") else None
+        if large_slip is not None and 0.0 < large_slip <= 1.0:
+            _put(values, sources, "friction.mu_coulomb", large_slip * mu,
+                 "mu_static sin(PCY1 LCY pi/2) (the MF force at large slip: full sliding)", known)
+        elif coulomb_ratio is not None:
+            if large_slip is not None:
+                notes.append(f"PCY1: large-slip level sin(PCY1 LCY pi/2) = {large_slip:.3f} not in (0, 1]: not used")
             _put(values, sources, "friction.mu_coulomb", coulomb_ratio * mu,
                  f"mu_static * {coulomb_ratio:.4g} (ratio mu_c/mu_s of the set without the file)", known)
-        if tir.has("PCY1"):
-            c = num("PCY1") * num("LCY", 1.0)
-            notes.append(f"MF large-slip level sin(PCY1 LCY pi/2) = {math.sin(c * math.pi / 2):.3f} of the peak "
-                         "(information only: not the LuGre Coulomb level)")
     else:
         notes.append("no PDY1 (peak lateral friction) in the file: friction.mu_static and friction.mu_coulomb "
                      "are not from the file (the defaults, or the config's and --set values, stand)")
 
+    if tir.has("PKY1", "PKY2"):
+        conditions["cornering_stiffness_n_per_rad"] = _cornering_stiffness(tir, fz, fz0s, math.radians(camber_deg), dpi)
     _map_structure(tir, values, sources, notes, known if belt_mode else set(), dfz, dpi)
     _map_contact(tir, values, sources, notes, known, fz, fz0, cz, r0, mf6)
     return TirMapping(tir, values, sources, conditions, tuple(notes))
+
+
+CORNERING_SOURCE = "PKY1, PKY2 (PKY3, PKY4, PKY5, PPY1, PPY2, LKY), FNOMIN, LFZO: the file's cornering stiffness"
+
+
+def _cornering_stiffness(tir: TirFile, fz: float, fz0s: float, gamma: float, dpi: float) -> float:
+    """MF cornering stiffness K_ya [N/rad] at the load ``fz`` [N] (magnitude; ``fz0s`` = LFZO FNOMIN).
+
+    MF 5.2: ``PKY1 Fz0' sin(2 atan(Fz/(PKY2 Fz0'))) (1 - PKY3 |gamma|) LKY``; MF 6.x:
+    ``PKY1 Fz0' (1 + PPY1 dpi) (1 - PKY3 |gamma|) sin(PKY4 atan(Fz/((PKY2 + PKY5 gamma^2)(1 + PPY2 dpi) Fz0'))) LKY``."""
+    num = tir.number
+    if tir.family == "MF 5.2":
+        kya = num("PKY1") * fz0s * math.sin(2.0 * math.atan(fz / (num("PKY2") * fz0s))) * (1.0 - num("PKY3", 0.0) * abs(gamma))
+    else:
+        den = (num("PKY2") + num("PKY5", 0.0) * gamma**2) * (1.0 + num("PPY2", 0.0) * dpi) * fz0s
+        kya = (num("PKY1") * fz0s * (1.0 + num("PPY1", 0.0) * dpi) * (1.0 - num("PKY3", 0.0) * abs(gamma))
+               * math.sin(num("PKY4", 2.0) * math.atan(fz / den)))
+    kya = abs(kya * num("LKY", 1.0))
+    if not (math.isfinite(kya) and kya > 0.0):
+        raise TirError(f"{tir.path}: cornering stiffness at {fz:g} N evaluates to {kya:g} N/rad (PKY1, PKY2)")
+    return kya
+
+
+def _patch_stiffness(params: Params, c_alpha: float) -> float | None:
+    """Tread lateral stiffness k [N/m] whose patch contact has the cornering stiffness
+    ``c_alpha`` [N/rad] at the operating speed and load (the other keys as they are);
+    None when even a rigid tread (k = 1e10 N/m) stays below it (the bristle limits it)."""
+    from scipy.optimize import brentq
+
+    from ..models.patch import steady_lateral_force
+
+    def excess(log_k: float) -> float:
+        trial = params.with_updates({"tread.lateral_stiffness_n_per_m": math.exp(log_k)})
+        return steady_lateral_force(trial, [])["cornering_stiffness_n_per_rad"] - c_alpha
+
+    lo, hi = math.log(1.0e3), math.log(1.0e10)
+    if excess(hi) < 0.0:
+        return None
+    return math.exp(brentq(excess, lo, hi, xtol=1e-10, rtol=1e-12))
 
 
 def _map_structure(tir, values, sources, notes, known, dfz, dpi) -> None:
@@ -503,7 +549,8 @@ def _map_structure(tir, values, sources, notes, known, dfz, dpi) -> None:
         return
     c = 2.0 * num("DAMP_LAT", 0.0) * math.sqrt(k * mass)
     if not known:
-        notes.append(f"belt lateral mode in the file (m = {mass:.4g} kg, k = {k:.4g} N/m, c = {c:.4g} N s/m, "
+        notes.append(f"belt lateral mode in the file ({k_source}, DAMP_LAT: "
+                     f"m = {mass:.4g} kg, k = {k:.4g} N/m, c = {c:.4g} N s/m, "
                      f"{math.sqrt(k / mass) / (2 * math.pi):.1f} Hz): not applied to tread.* (belt mode option)")
         return
     _put(values, sources, "tread.mass_kg", mass, "BELT_MASS", known)
@@ -583,8 +630,27 @@ class TirParameterSet(Result):
                          "from_file": tir_source is not None and not user})
         return rows
 
+    def file_values(self) -> list[dict]:
+        """Every value of the file (``[UNITS]`` aside) and what polywear does with it: ``"used"``
+        (in the formula of a value it sets), ``"noted"`` (reported in a note only) or
+        ``"ignored"``; file order."""
+        used = " ".join(self.mapping.sources.values())
+        if "dpi" in used:
+            used += " NOMPRES INFLPRES"  # dpi = (INFLPRES - NOMPRES)/NOMPRES
+        noted = " ".join(self.mapping.notes)
+        rows = []
+        for section, entries in self.mapping.tir.entries.items():
+            if section == "UNITS":
+                continue
+            for entry in sorted(entries.values(), key=lambda e: e.line):
+                word = re.compile(rf"\b{re.escape(entry.key)}\b")
+                use = "used" if word.search(used) else "noted" if word.search(noted) else "ignored"
+                rows.append({"key": entry.key, "section": section, "value": entry.value, "line": entry.line, "use": use})
+        return sorted(rows, key=lambda r: r["line"])
+
     def summary(self) -> dict:
-        """File, format, operating point, every key's value and source, notes (``polywear params from-tir --json``)."""
+        """File, format, operating point, every key's value and source, notes, and every value
+        of the file with its use (``polywear params from-tir --json``)."""
         return {
             "file": self.file,
             "format": self.mapping.tir.family,
@@ -592,6 +658,7 @@ class TirParameterSet(Result):
             "conditions": self.mapping.conditions,
             "parameters": self.sources(),
             "notes": list(self.mapping.notes),
+            "file_values": self.file_values(),
         }
 
     def to_dataframe(self):
@@ -653,5 +720,26 @@ def load_with_tir(
         mapping = replace(mapping, values={k: v for k, v in mapping.values.items() if k != drop},
                           sources={k: v for k, v in mapping.sources.items() if k != drop})
     base = {key: value for key, value in mapping.values.items() if key not in given}
-    return TirParameterSet(str(tir_path), load_params(config, sets, base=base), mapping,
+    params = load_params(config, sets, base=base)
+    c_alpha = mapping.conditions.get("cornering_stiffness_n_per_rad")
+    stiffness = "tread.lateral_stiffness_n_per_m"
+    if c_alpha is not None:
+        note = None
+        if params.friction.contact != "patch":
+            note = (f"cornering stiffness {c_alpha / 1e3:.4g} kN/rad at {mapping.conditions['load_n']:g} N "
+                    "(PKY1, PKY2): used by the patch contact only (friction.contact = patch)")
+        elif stiffness in given or stiffness in mapping.values:
+            note = f"cornering stiffness {c_alpha / 1e3:.4g} kN/rad not mapped: {stiffness} is given"
+        else:
+            k = _patch_stiffness(params, c_alpha)
+            if k is None:
+                note = (f"cornering stiffness {c_alpha / 1e3:.4g} kN/rad: above what the patch reaches with a rigid "
+                        "tread (raise friction.sigma0_per_m or tire.contact_length_m): tread.* not set")
+            else:
+                mapping = replace(mapping, values={**mapping.values, stiffness: k},
+                                  sources={**mapping.sources, stiffness: CORNERING_SOURCE + ", through the patch model"})
+                params = load_params(config, sets, base={**base, stiffness: k})
+        if note:
+            mapping = replace(mapping, notes=(*mapping.notes, note))
+    return TirParameterSet(str(tir_path), params, mapping,
                            frozenset(user_keys(config)), frozenset(user_keys(None, sets)))
