@@ -77,8 +77,8 @@ EVOLUTION_FIELDS = {"label", "distance_km", "cycle", "final_depth_mm", "dominant
 
 @pytest.mark.slow
 def test_report_writes_everything(tmp_path):
-    """The defaults, the evolutions by default (wear.report_km, here shortened by the key)."""
-    code, out, err = run_main(["report", "--out", str(tmp_path), "--json", "-q", "--set", "wear.report_km=20000"])
+    """The defaults, with the evolutions by default (wear.report_km, here shortened by the key)."""
+    code, out, err = run_main(["report", "--out", str(tmp_path), "--json", "-q", "--set", "wear.report_km=30000"])
     assert code == 0, err
     s = json.loads(out)
     assert s["operating"]["regime"] == "unstable rolling (soft SEV)"
@@ -93,7 +93,7 @@ def test_report_writes_everything(tmp_path):
     operating, cycle = s["wear"]["evolutions"]
     assert (operating["label"], cycle["label"]) == ("operating speed", "drive cycle")
     assert EVOLUTION_FIELDS <= set(operating) and EVOLUTION_FIELDS <= set(cycle)
-    assert operating["distance_km"] == cycle["distance_km"] == 20000.0
+    assert operating["distance_km"] == cycle["distance_km"] == 30000.0
     # the default car wears into an 8-sided polygon after about 20 000 km on the default cycle (docs/wear.md)
     verdict = s["verdict"]
     assert verdict["vibrates"] and verdict["polygon_visible"] and verdict["sides"] == cycle["dominant_order"] == 8

@@ -20,9 +20,10 @@ import numpy as np
 from ..models import model_for
 from ..params import Params
 from ..units import kmh_to_ms, wheel_rotation_frequency_hz
+from .wear import _round_km as _km
 from .wear import _where
 
-__all__ = ["C_ALPHA_N_PER_RAD", "OVERSTATED_FACTOR", "point_contact", "wear_outlook", "judge_options", "verdict"]
+__all__ = ["C_ALPHA_N_PER_RAD", "OVERSTATED_FACTOR", "judge_options", "point_contact", "verdict", "wear_outlook"]
 
 C_ALPHA_N_PER_RAD = 50.0e3
 """Cornering stiffness of a passenger tire [N/rad] (no key gives it yet)."""
@@ -132,12 +133,6 @@ def judge_options(params: Params, design: dict, distance_km: float, nominal_visi
         look["text"] = _option_text(look, nominal_visible_km, distance_km)
         out.append(look)
     return out
-
-
-def _km(km: float) -> str:
-    """A distance to two significant figures, '20,000'."""
-    digits = max(0, int(math.floor(math.log10(max(km, 1.0)))) - 1)
-    return f"{round(km, -digits):,.0f}"
 
 
 def _option_text(look: dict, nominal_visible_km: dict, distance_km: float) -> str:

@@ -12,7 +12,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..params import Params
-from ..units import wheel_rotation_frequency_hz, kmh_to_ms
 from ..wear.evolution import EvolutionResult, EvolutionSettings, evolve
 
 if TYPE_CHECKING:
@@ -45,9 +44,6 @@ class WearSection:
                "linear_band_kmh": [list(b) for b in self.wear_map.linear_band_kmh],
                "energetic_rate_mm3_per_j": params.wear.energetic_rate_mm3_per_j,
                "initial_roughness_um": params.wear.initial_roughness_um,
-               "operating_speed_kmh": params.operating.speed_kmh,
-               "rotation_hz_per_order": wheel_rotation_frequency_hz(kmh_to_ms(params.operating.speed_kmh),
-                                                                    params.operating.rolling_radius_m),
                "evolutions": [evolution_entry(label, result) for label, result in self.evolutions]}
         out["sentences"] = wear_sentences(out)
         out["headline"] = wear_headline(out)
