@@ -26,15 +26,22 @@ import numpy as np
 from polywear.dynamics.bifurcation import bifurcation
 from polywear.dynamics.sweep import sweep, sweep_bands
 from polywear.params import Params, load_params
+from polywear.solvers.continuation import ContinuationSettings
 
 
 def best_of(repeat, fn):
-    times, result = [], None
+    """(best wall time [s], result); the best CPU time [s] of this process is in ``CPU[fn]``."""
+    times, cpu, result = [], [], None
     for _ in range(repeat):
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         result = fn()
         times.append(time.perf_counter() - start)
+        cpu.append(time.process_time() - start_cpu)
+    CPU[fn] = min(cpu)
     return min(times), result
+
+
+CPU = {}
 
 
 def main() -> None:
@@ -44,12 +51,20 @@ def main() -> None:
     args = parser.parse_args()
     params = Params()
     bifurcation(params)  # compile / load caches
-    t_ours, ours = best_of(args.repeat, lambda: bifurcation(params, (20.0, 300.0)))
+    fn_ours = lambda: bifurcation(params, (20.0, 300.0))
+    t_ours, ours = best_of(args.repeat, fn_ours)
     hopf = [h.speed_kmh for h in ours.hopf_points]
     fold = [f.speed_kmh for f in ours.folds]
     n_points = sum(len(b.points) for b in ours.branches)
     print(f"polywear continuation, tread1dof 20-300 km/h: {t_ours:.3f} s ({n_points} cycles)")
     print(f"  Hopf {', '.join(f'{v:.6f}' for v in hopf)} km/h, fold {', '.join(f'{v:.6f}' for v in fold)} km/h")
+    # the same diagram in steps of full length (no turn limit), timed in this process: the
+    # turn limit's cost as a load-independent ratio of CPU times, and its cycle count
+    free = lambda: bifurcation(params, (20.0, 300.0), ContinuationSettings(max_turn=None))
+    t_free, unlimited = best_of(args.repeat, free)
+    n_free = sum(len(b.points) for b in unlimited.branches)
+    print(f"  CPU {CPU[fn_ours]:.3f} s; without the turn limit {CPU[free]:.3f} s CPU ({n_free} cycles): "
+          f"turn-limited / unlimited = {CPU[fn_ours] / CPU[free]:.3f} (CPU), {t_ours / t_free:.3f} (wall)")
 
     try:
         from polywear.validation.auto07p import auto07p_available, tread1dof_diagram
@@ -66,7 +81,7 @@ def main() -> None:
         print(f"AUTO-07p (bifpy native): {t_auto:.3f} s wall, {solver:.3f} s in AUTO's solver; "
               f"largest relative difference of Hopf/fold speeds {err:.1e}")
         print(f"  ratio AUTO wall / polywear = {t_auto / t_ours:.1f}x; AUTO solver only / polywear = "
-              f"{solver / t_ours:.1f}x")
+              f"{solver / t_ours:.1f}x; AUTO solver only / polywear CPU = {solver / CPU[fn_ours]:.1f}x")
     else:
         print(f"AUTO-07p skipped: {why}")
 
@@ -86,8 +101,10 @@ def main() -> None:
 
     axle = load_params(overrides=["model=axle4dof"])
     bifurcation(axle)
-    t_axle, d = best_of(args.repeat, lambda: bifurcation(axle, (20.0, 300.0)))
-    print(f"polywear continuation, axle4dof 20-300 km/h: {t_axle:.3f} s (goal < 3 s); SEV band "
+    whole_axle = lambda: bifurcation(axle, (20.0, 300.0))
+    t_axle, d = best_of(args.repeat, whole_axle)
+    print(f"polywear continuation, axle4dof 20-300 km/h: {t_axle:.3f} s, {CPU[whole_axle]:.3f} s CPU "
+          f"({sum(len(b.points) for b in d.branches)} cycles; goal < 3 s); SEV band "
           f"{d.sev_band_kmh[0][0]:.2f}-{d.sev_band_kmh[-1][1]:.2f} km/h")
 
 

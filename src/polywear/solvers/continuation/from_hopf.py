@@ -66,6 +66,7 @@ def continue_from_hopf(
     prev: BranchPoint | None = None
     prev_harmonic = None
     steps_since_adapt = 0
+    curvature = None  # turn per unit step [rad] of the last accepted step that turned
 
     def finish(end: BranchEnd, detail: str = "") -> None:
         branch.end, branch.end_detail = end, detail
@@ -153,8 +154,13 @@ def continue_from_hopf(
         prev, prev_harmonic = point, harmonic
         X0, t0, phase_ref = X, t, orbit
         ds_next = next_step(ds, iterations, settings.ds_max, grow=1.5, shrink_after=5)
-        if settings.max_turn is not None and turn > 0.0:  # sized to turn by about max_turn / 2
-            ds_next = min(ds_next, max(0.5 * settings.max_turn * ds / turn, settings.turn_floor))
+        if settings.max_turn is not None and turn > 0.0:
+            # sized to turn by turn_target * max_turn at the turn per unit step [rad] ahead,
+            # extrapolated from the last two steps where it grows (towards the tip of a fold)
+            bend = turn / ds
+            ahead = bend * max(1.0, bend / curvature) if curvature else bend
+            ds_next = min(ds_next, max(settings.turn_target * settings.max_turn / ahead, settings.turn_floor))
+            curvature = bend
         ds = ds_next
         steps_since_adapt += 1
         if settings.adapt_every and steps_since_adapt >= settings.adapt_every:
