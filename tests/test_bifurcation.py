@@ -96,7 +96,11 @@ def test_mesh_refinement_moves_fold_and_amplitude_by_little():
     fine = bifurcation(Params(), (20.0, 300.0), ContinuationSettings(n_intervals=80))
     assert coarse.folds[0].speed_kmh == pytest.approx(fine.folds[0].speed_kmh, rel=1e-8)
     assert coarse.folds[0].amplitude[0] == pytest.approx(fine.folds[0].amplitude[0], rel=1e-6)
-    assert coarse.cycles_at(150.0)[0].amplitude[0] == pytest.approx(fine.cycles_at(150.0)[0].amplitude[0], rel=1e-8)
+    # cycles_at solves on the adapted mesh of a neighbouring branch point, so the amplitude
+    # moves with where the steps landed: 40/80/160 intervals spread by 9e-10 (relative) with
+    # the steps of half max_turn, by 2.3e-8 with those of turn_target 0.85 (no kink at 150 km/h;
+    # a Newton tolerance of 1e-13 changes nothing)
+    assert coarse.cycles_at(150.0)[0].amplitude[0] == pytest.approx(fine.cycles_at(150.0)[0].amplitude[0], rel=5e-8)
 
 
 @pytest.fixture(scope="module")
