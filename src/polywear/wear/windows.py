@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from ..models import get_model
+from ..models import model_for
 from ..models.profile import coupled_model, patch_sinc, profile_vector
 from ..params import Params
 from ..solvers.integrate import integrate
@@ -172,7 +172,7 @@ def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float,
     With ``max_revolutions``, a window too short to separate the vibration from its nearest
     integer order (``eps * revolutions < SEPARATED_BEATS``) is run again from the same state,
     ``ceil(SEPARATED_BEATS / eps)`` revolutions long (at most ``max_revolutions``)."""
-    base = base or get_model(params.model)
+    base = base or model_for(params)
     coupled = coupled_model(base)
     R = params.operating.rolling_radius_m
     K = W.size
