@@ -1,0 +1,50 @@
+"""Wear design for a car that vibrates (wear/design.py, judged by the nonlinear evolution):
+the least change returned is checked by independent evolutions, at that change (no
+visible polygon within the target) and at 3 % less of it (visible before the target)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from polywear.dynamics.sensitivity import perturbed
+from polywear.params import Params, with_updates
+from polywear.wear.design import EVOLUTION_REFINE, cycle_growth, wear_design
+from polywear.wear.evolution import evolve
+
+CYCLE = ((110.0, 1.0),)  # the default car vibrates at 110 km/h
+TARGET = 4000.0
+KEY = "tread.lateral_damping_ns_per_m"
+
+
+def _car():
+    """The default car with k_e = 0.01 mm^3/J: the default's polygon after a tenth of the distance."""
+    return with_updates(Params(), {"wear.energetic_rate_mm3_per_j": 0.01})
+
+
+@pytest.mark.slow
+def test_least_change_for_a_vibrating_car_checked_by_evolution():
+    params = _car()
+    assert not cycle_growth(params, CYCLE)[2]  # rolling unstable at 110 km/h: the linear map does not apply
+    result = wear_design(params, keys=(KEY,), target_km=TARGET, cycle=CYCLE)
+    assert result.judge == "evolution"
+    nominal = result.nominal_evolution
+    assert nominal["visible_km"] is not None and nominal["visible_km"] < TARGET  # something must change
+    (option,) = result.options
+    assert option.evolution["visible_km"] is None
+    factor = option.value / option.nominal
+    # independent evolutions (the default settings, as the search's) at the change and at 3 % less of it
+    at = evolve(perturbed(params, KEY, option.value), TARGET, CYCLE)
+    assert at.visible_km is None and at.depth_mm[-1] < params.wear.visible_depth_mm
+    step = 1.5 * EVOLUTION_REFINE
+    less = math.exp(math.log(factor) - math.copysign(step, math.log(factor)))
+    before = evolve(perturbed(params, KEY, option.nominal * less), TARGET, CYCLE)
+    assert before.visible_km is not None and before.visible_km < TARGET
+
+
+def test_judge_is_checked():
+    with pytest.raises(ValueError, match="needs a target"):
+        wear_design(Params(), keys=(KEY,), judge="evolution", cycle=CYCLE)
+    with pytest.raises(ValueError, match="judge"):
+        wear_design(Params(), keys=(KEY,), judge="nonsense", target_km=1.0, cycle=CYCLE)
