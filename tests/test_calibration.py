@@ -194,3 +194,61 @@ def test_cli_json_shape(tmp_path):
     code, _, err = run_main(["calibrate", "--observed", str(path), "--vary", KEYS[0], "--vary", KEYS[1],
                              "--vary", "tread.mass_kg", "--vary", "friction.mu_static"])
     assert code == 2 and "3 observations cannot determine 4 parameters" in err
+
+
+@pytest.mark.parametrize(("old", "new", "message"), [
+    ("value = 60.2", "value = -60.0", "first_hopf_kmh value = -60.0: a speed must be in (0, 1000] km/h"),
+    ("value = 60.2", "value = 1e9", "first_hopf_kmh value = 1000000000.0: a speed must be in (0, 1000] km/h"),
+    ("value = 60.2", "value = 1000.5", "a speed must be in (0, 1000] km/h"),
+])
+def test_observed_speeds_outside_what_a_car_drives_are_refused(tmp_path, old, new, message):
+    path = tmp_path / "obs.toml"
+    path.write_text(OBS_TOML.replace(old, new, 1))
+    with pytest.raises(CalibrationError, match=message.replace("(", r"\(").replace("]", r"\]")):
+        read_observations(path, Params())
+    code, out, err = run_main(["calibrate", "--observed", str(path), "--vary", KEYS[0], "--json"])
+    assert code == 2 and out == "" and err.count("\n") == 1
+
+
+def test_friction_observation_outside_what_rubber_gives_is_refused(tmp_path):
+    path = tmp_path / "obs.toml"
+    path.write_text('[[observation]]\nquantity = "friction_mu"\nvalue = 5.0\nsigma = 0.1\n'
+                    "at_sliding_speed_m_per_s = 0.25\n")
+    with pytest.raises(CalibrationError, match=r"friction_mu value = 5.0: must be in \(0, 3\]"):
+        read_observations(path, Params())
+
+
+def test_value_on_its_validation_bound_is_a_warning_not_a_result(tmp_path):
+    """mu = 2.9 at v = 0.5 m/s needs mu_s = 0.5 + 2.4 / exp(-4) (about 131) on the default curve:
+    the fit stops at the key's bound 5, and says so."""
+    obs = [Observation("friction_mu", 2.9, 0.01, at_sliding_speed_m_per_s=0.5)]
+    result = calibrate(Params(), obs, ["friction.mu_static"], profile=False)
+    entry = result.parameters[0]
+    assert entry["value"] == pytest.approx(5.0, rel=1e-6) and entry["at_bound"]
+    [warning] = result.identifiability["warnings"]
+    assert warning.startswith("friction.mu_static = 5 is at its validation bound 5: the data do not fit")
+    fine = calibrate(Params(), [Observation("friction_mu", 0.7, 0.01, at_sliding_speed_m_per_s=0.2)],
+                     ["friction.mu_static"], profile=False)
+    assert not fine.parameters[0]["at_bound"] and fine.identifiability["warnings"] == []
+    path = tmp_path / "obs.toml"
+    path.write_text('[[observation]]\nquantity = "friction_mu"\nvalue = 2.9\nsigma = 0.01\n'
+                    "at_sliding_speed_m_per_s = 0.5\n")
+    code, out, err = run_main(["calibrate", "--observed", str(path), "--vary", "friction.mu_static", "--no-profile"])
+    assert code == 0 and "warning: friction.mu_static = 5 is at its validation bound" in err
+
+
+def test_interrupted_calibrate_leaves_none_of_its_outputs(tmp_path, monkeypatch):
+    """Ctrl-C while the figure is drawn (the last output): neither --out nor --fitted is left."""
+    from polywear.measured.calibration import CalibrationResult
+
+    def interrupted(self, ax=None):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(CalibrationResult, "plot", interrupted)
+    path = tmp_path / "obs.toml"
+    path.write_text(OBS_TOML)
+    outputs = [tmp_path / "fit.json", tmp_path / "fitted.toml", tmp_path / "fit.png"]
+    code, _, _ = run_main(["calibrate", "--observed", str(path), "--vary", KEYS[0], "--no-profile", "-q",
+                           "--out", str(outputs[0]), "--fitted", str(outputs[1]), "--plot", str(outputs[2])])
+    assert code == 130
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["obs.toml"]

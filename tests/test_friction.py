@@ -483,6 +483,10 @@ def test_fit_result_always_satisfies_the_parameter_rules(seed, noise):
     rng = np.random.default_rng(seed)
     v = rng.uniform(0.01, 4.0, 20) * rng.choice([-1, 1], 20)
     mu = synthetic_steady_data(TRUE, v, noise, seed)
+    if np.any((v > 0.0) & (mu <= 0.0)):  # noise drove a point against the sliding direction: refused
+        with pytest.raises(FrictionDataError, match="mu > 0 where v > 0"):
+            fit_steady_curve(v, mu)
+        return
     try:
         fit = fit_steady_curve(v, mu)
     except FrictionDataError as exc:  # allowed only for a value driven onto a bound of 0
@@ -727,3 +731,45 @@ def test_cli_bad_csv_end_to_end_without_traceback(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.startswith("error: ") and proc.stderr.count("\n") == 1
     assert "Traceback" not in proc.stderr and proc.stdout == ""
+
+
+@pytest.mark.parametrize(("v", "mu", "fragment"), [
+    (-1e9, 0.8, "|v| at most 1000 m/s"),
+    (2000.0, 0.8, "|v| at most 1000 m/s"),
+    (0.3, 5.0, "0 < |mu| <= 3"),
+    (0.3, -3.0, "mu > 0 where v > 0"),
+    (0.3, 0.0, "0 < |mu| <= 3"),
+])
+def test_fit_refuses_points_no_tire_gives(v, mu, fragment, tmp_path):
+    velocity = np.append(V_DATA, v)
+    values = np.append(synthetic_steady_data(TRUE, V_DATA, 0.0, seed=1), mu)
+    with pytest.raises(FrictionDataError, match=re.escape(fragment)):
+        fit_steady_curve(velocity, values)
+    path = tmp_path / "d.csv"
+    path.write_text("sliding_velocity_m_per_s,friction_coefficient\n"
+                    + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(velocity, values)))
+    code, out, err = run_main(["friction", "fit", str(path)])
+    assert code == 2 and out == "" and err.count("\n") == 1 and fragment in err
+
+
+def test_fit_pinned_at_a_bound_warns():
+    """Falling data whose Stribeck exponent would lie above 10: delta stops at its bound 10, with a warning."""
+    steep = Friction(mu_static=0.9, mu_coulomb=0.5, stribeck_velocity_m_per_s=0.25, stribeck_exponent=10.0)
+    v = np.geomspace(0.01, 2.0, 40)
+    mu = synthetic_steady_data(steep, v, 0.0, seed=1)
+    mu = np.where(v > 0.25, 0.5 + steep.sigma2_s_per_m * v, mu)  # a step: steeper than any delta
+    fit = fit_steady_curve(v, mu)
+    assert "stribeck_exponent" in fit.at_bound
+    [warning] = [w for w in fit.warnings() if w.startswith("stribeck_exponent")]
+    assert "at the bound of the fit" in warning
+    assert fit.summary()["warnings"] == fit.warnings()
+    clean = fit_steady_curve(V_DATA, synthetic_steady_data(TRUE, V_DATA, 0.0, seed=1))
+    assert clean.at_bound == () and clean.warnings() == []
+
+
+@pytest.mark.parametrize("frequencies", ["1e12", "0.5,2e4", "0", "-1"])
+def test_loop_frequencies_beyond_a_tire_are_refused(frequencies):
+    code, out, err = run_main(["friction", "loops", "--frequencies", frequencies])
+    assert code == 2 and out == "" and "(0, 10000] Hz" in err
+    with pytest.raises(ValueError, match=r"\(0, 10000\] Hz"):
+        hysteresis_loops(Friction(), 0.3, 0.2, [float(f) for f in frequencies.split(",")])

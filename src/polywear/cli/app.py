@@ -147,7 +147,11 @@ def main() -> None:
     if "ignore:resource_tracker:UserWarning" not in sys.warnoptions:
         sys.warnoptions.append("ignore:resource_tracker:UserWarning")
     try:
-        app(standalone_mode=False)
+        code = app(standalone_mode=False)  # typer returns an Exit's code here (a KeyboardInterrupt: 130)
+        if code == 130:
+            typer.echo("interrupted", err=True)
+        if isinstance(code, int) and code:
+            sys.exit(code)
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
     except (KeyboardInterrupt, typer.Abort) as exc:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from contextlib import ExitStack
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -9,7 +10,7 @@ import typer
 
 from ..units import STABILITY_SPEED_RANGE_KMH
 from .common import Inputs, JsonOpt, Outputs, PlotOpt, QuietOpt, SpeedRangeOpt
-from .common import check_speed_range, one_axes, out_option, output_file, save_text, write_output
+from .common import check_speed_range, info, one_axes, out_option, output_file, save_figure, save_text
 
 JsonOutOpt = out_option("Write the result (JSON).")
 
@@ -32,12 +33,13 @@ def calibrate(
 ) -> None:
     """Weighted least squares of --vary keys to observed onset speeds, frequencies, band edges
     and friction points; identifiability report, linearized and profile-likelihood intervals."""
-    outputs = Outputs(json_=json_, plot=plot, quiet=quiet)  # --out is written with --fitted, before the figure
+    outputs = Outputs(json_=json_, plot=plot, quiet=quiet)  # --out, --fitted and --plot are written together, below
     output_file(out, "--out", (".json",))
     output_file(fitted, "--fitted", (".toml",))
     outputs.check()
     lo, hi = check_speed_range(speed_range)
     params = inputs.load()
+    from ..io import atomic_path
     from ..measured.calibration import calibrate as fit, read_observations
     from ..params import to_toml
 
@@ -45,14 +47,19 @@ def calibrate(
     outputs.note(f"calibrate: {len(vary)} parameter(s) to {len(observations)} observation(s) ...")
     with outputs.progress("model evaluations") as update:
         result = fit(params, observations, vary, (lo, hi), profile=profile, progress=update)
-    if out:
-        write_output(out, result.save, quiet)
-    if fitted:
-        write_output(fitted, save_text(to_toml(result.fitted)), quiet)
-    outputs.write(make_figure=lambda: one_axes(result.plot, (7, 1.0 + 0.4 * len(observations))))
+    figure = save_figure(lambda: one_axes(result.plot, (7, 1.0 + 0.4 * len(observations))))
+    written = [(path, save) for path, save in ((out, result.save), (fitted, save_text(to_toml(result.fitted))),
+                                               (plot, figure)) if path is not None]
+    with ExitStack() as stack:  # all or none: each file is renamed into place only once every one is written
+        for path, save in written:
+            save(stack.enter_context(atomic_path(path)))
+    for path, _ in written:
+        info(f"wrote {path}", quiet)
     for p in result.parameters:
         if not p["identifiable"]:
             outputs.note(f"refused: {p['key']}: {p['reason']}")
+    for warning in result.identifiability["warnings"]:
+        typer.echo(f"warning: {warning}", err=True)
     outputs.show(result.summary(), lambda _: _print_fit(result))
 
 

@@ -463,18 +463,28 @@ def progress(description: str, enabled: bool = True) -> Iterator[Any]:
         yield update
 
 
+def save_figure(make_figure) -> Callable[[Path], Any]:
+    """A ``save(path)`` that builds a figure with ``make_figure()`` on the Agg backend,
+    writes it to ``path`` and closes it."""
+
+    def save(path: Path) -> None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig = make_figure()
+        try:
+            fig.savefig(path, dpi=150, bbox_inches="tight")
+        finally:
+            plt.close(fig)
+
+    return save
+
+
 def write_figure(path: Path, make_figure, quiet: bool = False) -> None:
     """Build a figure with ``make_figure()`` on the Agg backend, write it to ``path``, close it."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig = make_figure()
-    try:
-        write_output(path, lambda tmp: fig.savefig(tmp, dpi=150, bbox_inches="tight"), quiet)
-    finally:
-        plt.close(fig)
+    write_output(path, save_figure(make_figure), quiet)
 
 
 def one_axes(draw, figsize=(8.0, 4.5)):

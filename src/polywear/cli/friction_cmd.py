@@ -163,8 +163,10 @@ def _parse_frequencies(text: str) -> list[float]:
         values = [float(item) for item in text.split(",") if item.strip()]
     except ValueError:
         raise UserError(f"--frequencies {text!r}: expected comma-separated numbers, e.g. 0.5,5,50") from None
-    if not values or any(not math.isfinite(x) or x <= 0.0 for x in values):
-        raise UserError(f"--frequencies {text!r}: need one or more finite frequencies > 0 [Hz]")
+    from ..friction.loops import MAX_LOOP_FREQUENCY_HZ
+
+    if not values or any(not (math.isfinite(x) and 0.0 < x <= MAX_LOOP_FREQUENCY_HZ) for x in values):
+        raise UserError(f"--frequencies {text!r}: need one or more frequencies in (0, {MAX_LOOP_FREQUENCY_HZ:g}] Hz")
     if len(values) > 100:
         raise UserError(f"--frequencies: {len(values)} given, at most 100")
     return values
@@ -241,6 +243,8 @@ def _report_fit(result, params, path: Path, outputs: Outputs) -> None:
 
         save = save_text(to_toml(result.updated_params(params), comments=True))
     outputs.write(save, lambda: _figure(result))
+    for warning in result.warnings():
+        typer.echo(f"warning: {warning}", err=True)
     outputs.show(result.summary(), lambda summary: _print_fit(result, path, summary))
 
 

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from ..params import Friction
+from ..params import Friction, _toml_value
 from ..physics.lugre import steady_friction, steady_friction_slope
 from ..results import Result
 
@@ -40,7 +40,7 @@ def _friction_toml(friction: Friction, notes: dict[str, str] | None = None) -> s
     notes = notes or {}
     lines = ["[friction]"]
     for name in type(friction).model_fields:
-        entry = f"{name} = {float(getattr(friction, name))!r}"
+        entry = f"{name} = {_toml_value(getattr(friction, name))}"  # words (contact) and integers too
         lines.append(f"{entry:<42} # {notes[name]}" if name in notes else entry)
     return "\n".join(lines) + "\n"
 

@@ -16,9 +16,10 @@ from ..results import Result
 from ..settings import check_count, check_positive
 from .curve import STEADY_PARAMETERS, _axes, _friction_toml, _steady_args, steady_curve
 from .data import FrictionDataError
-from .loops import _periodic_orbit
+from .loops import MAX_SLIDING_SPEED_M_PER_S, _periodic_orbit
 
 __all__ = [
+    "MAX_FRICTION_COEFFICIENT",
     "LOOP_PARAMETERS",
     "FrictionFit",
     "LoopFit",
@@ -27,6 +28,24 @@ __all__ = [
     "fit_steady_curve",
     "steady_friction_jacobian",
 ]
+
+
+MAX_FRICTION_COEFFICIENT = 3.0
+"""Largest |mu| a measured point may have [-]: rubber on the stickiest surface stays below."""
+
+
+def _check_points(v: np.ndarray, y: np.ndarray) -> None:
+    """Refuse points no tire measurement gives: |v| beyond ``MAX_SLIDING_SPEED_M_PER_S``,
+    |mu| zero or beyond ``MAX_FRICTION_COEFFICIENT``, mu against the sliding direction at v > 0."""
+    for name, bad, rule in (
+        ("sliding velocity", np.abs(v) > MAX_SLIDING_SPEED_M_PER_S, f"|v| at most {MAX_SLIDING_SPEED_M_PER_S:g} m/s"),
+        ("friction coefficient", (np.abs(y) > MAX_FRICTION_COEFFICIENT) | (y == 0.0),
+         f"0 < |mu| <= {MAX_FRICTION_COEFFICIENT:g}"),
+        ("friction coefficient", (v > 0.0) & (y < 0.0), "mu > 0 where v > 0 (friction opposes sliding)"),
+    ):
+        if np.any(bad):
+            i = int(np.flatnonzero(bad)[0])
+            raise FrictionDataError(f"point {i + 1} (v = {v[i]:g} m/s, mu = {y[i]:g}): {name} out of range, need {rule}")
 
 
 # -- fitting the static curve --------------------------------------------------------------
@@ -102,7 +121,7 @@ class _ParameterFit(Result):
 
     def updated_params(self, params):
         """``params`` with this fit's ``[friction]`` values."""
-        return with_updates(params, {f"friction.{n}": self.value(n) for n in type(self.friction).model_fields})
+        return with_updates(params, {f"friction.{n}": getattr(self.friction, n) for n in type(self.friction).model_fields})
 
     def summary(self) -> dict[str, Any]:
         finite = lambda x: float(x) if math.isfinite(x) else None  # noqa: E731
@@ -125,8 +144,14 @@ class _ParameterFit(Result):
                 }
                 for name in self.KEYS
             },
+            "warnings": self.warnings(),
             "toml": self.to_toml(),
         }
+
+    def warnings(self) -> list[str]:
+        """One line per fitted key pinned at a bound of the fit: at the bound, the value is no estimate."""
+        return [f"{name} = {self.value(name):.6g} is at the bound of the fit: the data do not fit the model inside "
+                "its range there (at the bound / does not fit); the value is no estimate" for name in self.at_bound]
 
     def _attrs(self, title: str) -> dict[str, Any]:
         return {
@@ -258,6 +283,7 @@ def fit_steady_curve(
         raise FrictionDataError("data contain NaN or infinite values")
     if np.any(v == 0.0):
         raise FrictionDataError("data contain v = 0, where steady friction is not defined")
+    _check_points(v, y)
     if v.size <= len(fit):
         raise FrictionDataError(f"{v.size} points cannot determine {len(fit)} parameters (need more points)")
     if not 0.0 < confidence < 1.0:

@@ -28,7 +28,13 @@ from ..results import Result
 from ..settings import check_count, check_positive
 from .curve import SteadyCurve, _axes, _friction_toml, _steady_args, steady_curve
 
-__all__ = ["BristleResponse", "HysteresisLoops", "LoopSettings", "bristle_response", "hysteresis_loops"]
+__all__ = ["BristleResponse", "HysteresisLoops", "LoopSettings", "bristle_response", "hysteresis_loops",
+           "MAX_LOOP_FREQUENCY_HZ", "MAX_SLIDING_SPEED_M_PER_S"]
+
+MAX_LOOP_FREQUENCY_HZ = 1.0e4
+"""Highest excitation frequency of a loop [Hz]: far above the tread (100-150 Hz) and belt modes."""
+MAX_SLIDING_SPEED_M_PER_S = 1000.0
+"""Largest sliding velocity accepted in data and loops [m/s] (far beyond any tire)."""
 
 
 # -- bristle dynamics for a prescribed sliding velocity ------------------------------------
@@ -296,8 +302,9 @@ def hysteresis_loops(
         Progress callback (:mod:`polywear.progress`), once per finished frequency.
     """
     freqs = np.atleast_1d(np.asarray(frequencies_hz, dtype=float))
-    if freqs.size == 0 or not np.all(np.isfinite(freqs)) or np.any(freqs <= 0.0):
-        raise ValueError(f"frequencies_hz = {freqs.tolist()}: need one or more finite frequencies > 0")
+    if freqs.size == 0 or not np.all(np.isfinite(freqs)) or np.any(freqs <= 0.0) or np.any(freqs > MAX_LOOP_FREQUENCY_HZ):
+        raise ValueError(f"frequencies_hz = {freqs.tolist()}: need one or more frequencies in "
+                         f"(0, {MAX_LOOP_FREQUENCY_HZ:g}] Hz")
     if not (math.isfinite(v_mean) and math.isfinite(v_amplitude)) or v_amplitude <= 0.0:
         raise ValueError(f"v_amplitude = {v_amplitude!r}, v_mean = {v_mean!r}: need finite values, amplitude > 0")
     points_per_period = settings.points_per_period

@@ -26,13 +26,14 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..friction.fits import MAX_FRICTION_COEFFICIENT
 from ..models import model_for
 from ..results import Result
 from ..keys import KEYS, study_keys
 from ..params import ParameterError, Params, get_value, with_updates
 from ..progress import Progress, StepCounter
 from ..settings import check_count, check_positive
-from ..units import STABILITY_SPEED_RANGE_KMH, frequency_order, kmh_to_ms, ms_to_kmh
+from ..units import MAX_SPEED_KMH, STABILITY_SPEED_RANGE_KMH, frequency_order, kmh_to_ms, ms_to_kmh
 
 __all__ = [
     "QUANTITIES",
@@ -169,8 +170,13 @@ def read_observations(path: str | Path, params: Params | None = None) -> list[Ob
             raise CalibrationError(f"{where}: sigma = {sigma!r}: must be positive")
         at_v = _number(entry, "at_sliding_speed_m_per_s", where, required=quantity == "friction_mu")
         at_speed = _number(entry, "at_speed_kmh", where, required=quantity in _CYCLE)
-        if at_speed is not None and not at_speed > 0.0:
-            raise CalibrationError(f"{where}: at_speed_kmh = {at_speed!r}: must be positive")
+        if at_speed is not None and not 0.0 < at_speed <= MAX_SPEED_KMH:
+            raise CalibrationError(f"{where}: at_speed_kmh = {at_speed!r}: must be in (0, {MAX_SPEED_KMH:g}] km/h")
+        value = _number(entry, "value", where)
+        if quantity.endswith("_kmh") and not 0.0 < value <= MAX_SPEED_KMH:
+            raise CalibrationError(f"{where}: {quantity} value = {value!r}: a speed must be in (0, {MAX_SPEED_KMH:g}] km/h")
+        if quantity == "friction_mu" and not 0.0 < value <= MAX_FRICTION_COEFFICIENT:
+            raise CalibrationError(f"{where}: friction_mu value = {value!r}: must be in (0, {MAX_FRICTION_COEFFICIENT:g}]")
         if at_v is not None and not at_v > 0.0:
             raise CalibrationError(f"{where}: at_sliding_speed_m_per_s = {at_v!r}: must be positive")
         conditions = entry.get("set", {})
@@ -183,7 +189,7 @@ def read_observations(path: str | Path, params: Params | None = None) -> list[Ob
                 raise CalibrationError(f"{where}: set: {exc}") from None
         out.append(Observation(
             quantity=quantity,
-            value=_number(entry, "value", where),
+            value=value,
             sigma=sigma,
             at_speed_kmh=at_speed,
             at_sliding_speed_m_per_s=at_v,
@@ -392,6 +398,16 @@ def _bounds(key: str) -> tuple[float, float]:
     return KEYS[key].lower, KEYS[key].upper
 
 
+AT_BOUND = 1e-6
+"""A fitted value within this of a validation bound (relative to the starting value, in
+the fit's scaled coordinates) sits on the bound: the data do not fit inside the key's range [-]."""
+
+
+def _at_bound(x: float, low: float, high: float) -> float | None:
+    """The bound (scaled like ``x``, the value over its starting value) ``x`` sits on, or None."""
+    return next((b for b in (low, high) if math.isfinite(b) and abs(x - b) <= AT_BOUND * max(1.0, abs(b))), None)
+
+
 # -- the result -------------------------------------------------------------------------
 @dataclass
 class CalibrationResult(Result):
@@ -598,6 +614,14 @@ def calibrate(
     refused = [p["key"] for p in parameters if not p["identifiable"]]
     if refused:
         report["refused"] = refused
+    report["warnings"] = []
+    for j, entry in enumerate(parameters):
+        bound = _at_bound(x_hat[j], bounds[0][j], bounds[1][j]) if entry["value"] is not None else None
+        entry["at_bound"] = bound is not None
+        if bound is not None:
+            report["warnings"].append(
+                f"{entry['key']} = {entry['value']:.6g} is at its validation bound {bound * scale[j]:g}: the data do "
+                f"not fit within the key's range (chi2 = {chi2:.4g}); the value is no estimate")
     return CalibrationResult(params=params, fitted=fitted, parameters=parameters, residuals=residuals,
                              identifiability=report,
                              settings={"keys": keys, "speed_range_kmh": list(speed_range_kmh), "n_speeds": n_speeds,
