@@ -11,6 +11,7 @@ Sobol and fleet extrapolations, Dask 1 -> 2 workers, cost growth (nothing is ass
     .venv/bin/python benchmarks/bench_fleet.py pilot --model axle4dof --samples 300
     .venv/bin/python benchmarks/bench_fleet.py pilot --model axle4dof --samples 300 --band-every 100
     .venv/bin/python benchmarks/bench_fleet.py dask --samples 200
+    .venv/bin/python benchmarks/bench_fleet.py dask-sobol --samples 8 [--model axle4dof]
     .venv/bin/python benchmarks/bench_fleet.py growth
     .venv/bin/python benchmarks/bench_fleet.py wear --samples 100 [--wear-km 60000]
 
@@ -246,6 +247,61 @@ def dask(n: int) -> None:
     print(f"Dask speed-up 1 -> 2 workers: {times[1] / times[2]:.2f}x")
 
 
+def _noop(x):
+    return x
+
+
+def dask_sobol(n_base: int, model: str, spread: float = 0.1) -> None:
+    """A small Sobol study (first-order layout, ``model``, the paper's 7 parameters within
+    +-spread) on local Dask clusters of 1 and 2 workers (127.0.0.1, one thread each, started
+    and stopped here), wall and CPU time (this process and the workers, reaped at close);
+    the scheduler's cost per task from 400 no-op tasks; and the expected wall time on W
+    free workers, T(W) = R c / W + B(W) o, with c the CPU per run, R the runs, B(W) the
+    tasks (batches) and o the cost per task (the smaller of the two measured). The rest of
+    each measured wall time (start-up, and on a loaded machine the wait for a core) is
+    printed beside it: where it dominates, the wall times do not scale as 1/W here."""
+    from distributed import Client, LocalCluster
+
+    from polywear.parallel import TASKS_PER_SLOT
+    from polywear.studies.global_sensitivity import study
+
+    params = with_updates(Params(), {"model": model})
+    ranges = [sorted((get_value(params, k) * (1 - spread), get_value(params, k) * (1 + spread))) for k in DEFAULT_KEYS]
+    spec = StudySpec().with_updates({"method": "sobol", "outputs": "bifurcation", "n_base": n_base,
+                                     "second_order": False, "bootstrap": 100,
+                                     "parameters": [{"key": k, "low": lo, "high": hi}
+                                                    for k, (lo, hi) in zip(DEFAULT_KEYS, ranges)]})
+    wall, cpu, per_tasks = {}, {}, []
+    for workers in (1, 2):
+        c = _cpu()
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, host="127.0.0.1", dashboard_address=None)
+        try:
+            with Client(cluster.scheduler_address) as client:
+                client.run(bifurcation, params)  # warm the workers (imports, compiled kernels)
+                t = time.perf_counter()
+                client.gather(client.map(_noop, range(400), pure=False))
+                per_tasks.append((time.perf_counter() - t) / 400)
+            t = time.perf_counter()
+            result = study(params, spec, backend="dask", scheduler=cluster.scheduler_address)
+            wall[workers] = time.perf_counter() - t
+        finally:
+            cluster.close()
+        cpu[workers] = _cpu() - c
+        runs = len(result.status)
+        print(f"Dask, {workers} worker(s): Sobol N = {n_base} of {model} ({runs} runs): wall {wall[workers]:.1f} s, "
+              f"CPU {cpu[workers]:.1f} s (workers' warm-up included); scheduler {1e3 * per_tasks[-1]:.1f} ms per no-op task")
+    batches = lambda n, w: int(np.ceil(n / max(1, int(np.ceil(n / (w * TASKS_PER_SLOT))))))
+    per_run = min(cpu.values()) / runs
+    per_task = min(per_tasks)
+    expected = lambda n, w: n * per_run / w + batches(n, w) * per_task
+    print(f"speed-up 1 -> 2 workers {wall[1] / wall[2]:.2f}x (ideal 2); per run {1e3 * per_run:.0f} ms CPU; "
+          f"wall time not explained by R c / W + B o: {wall[1] - expected(runs, 1):.1f} s (1 worker), "
+          f"{wall[2] - expected(runs, 2):.1f} s (2 workers)")
+    for w in (16, 64):
+        print(f"  expected on {w} free workers: {expected(runs, w):.1f} s for these {runs} runs; "
+              f"N = 1024 ({1024 * 9} runs): {expected(1024 * 9, w) / 60:.1f} min")
+
+
 def growth() -> None:
     spec = _fleet_spec(50)
     reference = _fleet_reference(spec)
@@ -283,7 +339,7 @@ def wear(n: int, wear_km: float, target: int = 1000) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("what", choices=("agreement", "sobol", "fleet", "pilot", "dask", "growth", "wear"))
+    parser.add_argument("what", choices=("agreement", "sobol", "fleet", "pilot", "dask", "dask-sobol", "growth", "wear"))
     parser.add_argument("--model", default="tread1dof")
     parser.add_argument("--samples", type=int, default=200)
     parser.add_argument("--seed", type=int, default=20261201)
@@ -308,6 +364,8 @@ def main() -> None:
         pilot(args.samples, args.model, args.band_every)
     elif args.what == "dask":
         dask(args.samples)
+    elif args.what == "dask-sobol":
+        dask_sobol(args.samples, args.model, args.spread)
     elif args.what == "wear":
         wear(args.samples, args.wear_km)
     else:
