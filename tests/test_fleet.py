@@ -7,6 +7,7 @@ a worker in the middle of the run."""
 
 from __future__ import annotations
 
+import json
 import math
 import os
 
@@ -76,7 +77,16 @@ BAD_SPECS = [
     ('[fleet]\n[[fleet.parameter]]\nkey = "operating.toe_deg"\ndistribution = "gamma"\n'
      '[[fleet.usage]]\nspeed_kmh = 100\nshare = 1\n', "fleet.parameter.0.distribution"),
     ('[fleet]\n[[fleet.parameter]]\nkey = "operating.toe_deg"\ndistribution = "uniform"\nlow = 0.2\nhigh = 0.4\n'
-     '[[fleet.usage]]\nspeed_kmh = 100\nshare = 0\n', "positive total share"),
+     '[[fleet.usage]]\nspeed_kmh = 100\nshare = 0\n', "fleet.usage.0.share: Input should be greater than 0"),
+    ('[fleet]\n[[fleet.parameter]]\nkey = "operating.toe_deg"\ndistribution = "uniform"\nlow = 0.2\nhigh = 0.4\n'
+     '[[fleet.usage]]\nspeed_kmh = 100\nshare = 0.9\n[[fleet.usage]]\nspeed_kmh = 120\nshare = 0.4\n',
+     "fleet.usage: shares sum to 1.3: must sum to 1 (within 0.01)"),
+    ('[fleet]\n[[fleet.parameter]]\nkey = "operating.vertical_load_n"\ndistribution = "discrete"\n'
+     'values = [100000, 200000]\nweights = [1, 1]\n[[fleet.usage]]\nspeed_kmh = 100\nshare = 1\n',
+     "fleet.parameter operating.vertical_load_n: discrete value 100000 is not valid for the model"),
+    ('[fleet]\n[[fleet.parameter]]\nkey = "operating.vertical_load_n"\ndistribution = "normal"\nmean = -4000\n'
+     'std = 100\n[[fleet.usage]]\nspeed_kmh = 100\nshare = 1\n',
+     "fleet.parameter operating.vertical_load_n: normal centre -4000 is not valid for the model"),
     ('[fleet]\n[[fleet.parameter]]\nkey = "operating.toe_deg"\ndistribution = "uniform"\nlow = 0.2\nhigh = 0.4\n'
      '[[fleet.parameter]]\nkey = "operating.camber_deg"\ndistribution = "normal"\nmean = -1\nstd = 0.2\n'
      '[fleet.correlation]\nkeys = ["operating.toe_deg", "operating.camber_deg"]\nmatrix = [[1, 1.2], [1.2, 1]]\n'
@@ -572,3 +582,37 @@ def test_a_fleet_takes_an_executor_or_the_separate_options(tmp_path, reference):
     assert keywords.outcomes == executed.outcomes and executed.settings["backend"] == "serial"
     with pytest.raises(ValueError, match="not both"):
         fleet(Params(), spec, workers=2, executor=Executor("serial"), reference=reference)
+
+
+FLEET_SPEC = ('[fleet]\nsamples = 10000\n[[fleet.parameter]]\nkey = "operating.toe_deg"\ndistribution = "uniform"\n'
+              'low = 0.2\nhigh = 0.4\n[[fleet.usage]]\nspeed_kmh = 100\nshare = 1\n')
+
+
+def test_set_changes_the_spec_settings_as_study_does(tmp_path):
+    path = tmp_path / "spec.toml"
+    path.write_text(FLEET_SPEC)
+    spec = load_fleet_spec(path, Params(), ["fleet.samples=3", "fleet.seed=7"])
+    assert (spec.samples, spec.seed) == (3, 7)
+    assert load_fleet_spec(path, Params()).samples == 10000
+    for bad, fragment in (("fleet.samples=0", "fleet.samples"), ("fleet.parameter=1", "not a fleet setting"),
+                          ("fleet.nope=1", "not a fleet setting")):
+        code, out, err = run_main(["fleet", "--spec", str(path), "--set", bad, "--backend", "serial", "-q"])
+        assert code == 2 and out == "" and fragment in err and len(err.strip().splitlines()) == 1, err
+    code, out, err = run_main(["fleet", "--spec", str(path), "--set", "fleet.samples=2", "--set", "operating.speed_kmh=100",
+                               "--backend", "serial", "-q", "--json"])
+    assert code == 0, err
+    assert json.loads(out)["n_samples"] == 2
+
+
+@pytest.mark.parametrize("make, args, fragment", [
+    (lambda d: None, ["--checkpoint", "missing"], "no such folder"),
+    (lambda d: (d / "a_file").write_text("x"), ["--checkpoint", "a_file"], "a file, not a folder"),
+    (lambda d: (d / "empty").mkdir(), ["--checkpoint", "empty", "--resume"], "--resume: no checkpoint in"),
+])
+def test_checkpoint_folder_messages(tmp_path, make, args, fragment):
+    path = tmp_path / "spec.toml"
+    path.write_text(FLEET_SPEC)
+    make(tmp_path)
+    args = [str(tmp_path / a) if not a.startswith("-") else a for a in args]
+    code, out, err = run_main(["fleet", "--spec", str(path), *args, "--backend", "serial", "-q"])
+    assert code == 2 and out == "" and fragment in err and len(err.strip().splitlines()) == 1, err

@@ -8,6 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
+from ..params import MAX_WEAR_KM
 from .common import BackendOpt, ConfigOpt, JsonOpt, PlotOpt, QuietOpt, SchedulerOpt, SetOpt, WorkersOpt, out_option
 from .common import (
     PLOT_SUFFIXES,
@@ -50,17 +51,23 @@ def fleet(
     probability that a polygon becomes visible within that distance (docs/fleet.md)."""
     output_file(out, "--out", (".nc", ".csv", ".json"))
     output_file(plot, "--plot", PLOT_SUFFIXES)
-    if wear_km is not None and not (math.isfinite(wear_km) and 0.0 < wear_km <= 1e7):
-        raise UserError(f"--wear-km {wear_km:g}: must be in (0, 1e7]")
+    if wear_km is not None and not (math.isfinite(wear_km) and 0.0 < wear_km <= MAX_WEAR_KM):
+        raise UserError(f"--wear-km {wear_km:g}: must be in (0, {MAX_WEAR_KM:g}]")
     if resume and checkpoint is None:
         raise UserError("--resume needs --checkpoint FOLDER")
+    if checkpoint is not None and not checkpoint.exists():
+        raise UserError(f"--checkpoint {checkpoint}: no such folder (create it, or name an existing one)")
     if checkpoint is not None and not checkpoint.is_dir():
-        raise UserError(f"--checkpoint {checkpoint}: not a folder")
-    params = load(config, set_)
+        raise UserError(f"--checkpoint {checkpoint}: a file, not a folder")
+    fleet_sets = [item for item in set_ or () if item.strip().startswith("fleet.")]
+    params = load(config, [item for item in set_ or () if item not in fleet_sets])
     from ..parallel import Executor
-    from ..studies.fleet import fleet, load_fleet_spec
+    from ..studies.fleet import CHECKPOINT_FILE, fleet, load_fleet_spec
 
-    fleet_spec = load_fleet_spec(spec, params)
+    if resume and not (checkpoint / CHECKPOINT_FILE).exists():
+        raise UserError(f"--resume: no checkpoint in {checkpoint} (no {CHECKPOINT_FILE}); run without --resume to start")
+
+    fleet_spec = load_fleet_spec(spec, params, fleet_sets)
     chosen = chosen_backend(backend, scheduler, 5.0)
     info(f"fleet of {fleet_spec.samples} {params.model} cars, {len(fleet_spec.parameter)} parameters, on {chosen}",
          quiet)

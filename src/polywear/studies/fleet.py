@@ -56,7 +56,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from ..keys import get_value
-from ..params import ParameterError, Params, to_toml
+from ..params import CYCLE_SHARE_TOLERANCE, MAX_WEAR_KM, ParameterError, Params, parse_override, to_toml, with_updates
 from ..parallel import Executor
 from ..progress import Progress, report, shifted
 from ..results import Result, with_deprecated_keys
@@ -182,7 +182,7 @@ class FleetUsage(_Spec):
     """Share of the distance driven at a speed."""
 
     speed_kmh: float = Field(gt=0.0, le=1000.0)
-    share: float = Field(ge=0.0, le=1.0)
+    share: float = Field(gt=0.0, le=1.0)
 
 
 class FleetCorrelation(_Spec):
@@ -206,7 +206,7 @@ class FleetSpec(_Spec):
     """Every k-th car gets its whole band (both bifurcation speeds); the others only what
     their risk needs: the Hopf points, and the folds only where a fold's position decides
     whether a usage speed lies in the band. Risk and hard share stay exact for every car."""
-    wear_km: float | None = Field(None, gt=0.0, le=1e7)
+    wear_km: float | None = Field(None, gt=0.0, le=MAX_WEAR_KM)
     """With it, every car's wear is evolved over this distance [km] on the usage cycle:
     the wear risk is the share of cars whose polygon becomes visible within it."""
     simulate_gaps: bool = False
@@ -222,8 +222,14 @@ class FleetSpec(_Spec):
             raise ParameterError("fleet.parameter: give at least one [[fleet.parameter]]")
         if len(set(keys)) != len(keys):
             raise ParameterError("fleet.parameter: a key is given twice")
-        if not self.usage or not sum(u.share for u in self.usage) > 0.0:
-            raise ParameterError("fleet.usage: give [[fleet.usage]] speeds with a positive total share")
+        if not self.usage:
+            raise ParameterError("fleet.usage: give [[fleet.usage]] speeds with their shares")
+        total = math.fsum(u.share for u in self.usage)
+        if abs(total - 1.0) > CYCLE_SHARE_TOLERANCE:
+            raise ParameterError(f"fleet.usage: shares sum to {total:.6g}: must sum to 1 (within {CYCLE_SHARE_TOLERANCE})")
+        speeds = [u.speed_kmh for u in self.usage]
+        if len(set(speeds)) != len(speeds):
+            raise ParameterError("fleet.usage: a speed_kmh is given more than once")
         lo, hi = self.speed_range_kmh
         if not 0.0 < lo < hi:
             raise ParameterError(f"fleet.speed_range_kmh = [{lo}, {hi}]: need 0 < low < high")
@@ -260,8 +266,38 @@ class FleetSpec(_Spec):
         return R
 
 
-def load_fleet_spec(path: str | Path, params: Params) -> FleetSpec:
-    """Read and validate the ``[fleet]`` table; every problem is one ParameterError line."""
+SPEC_SETTINGS = ("samples", "seed", "checkpoint_every", "band_every", "wear_km", "simulate_gaps", "speed_range_kmh")
+"""Keys of the ``[fleet]`` table that ``--set fleet.KEY=VALUE`` may change."""
+
+
+def _spec_overrides(overrides: tuple[str, ...] | list[str]) -> dict:
+    """``{"samples": 1000}`` from ``["fleet.samples=1000"]`` (one ParameterError line for a bad one)."""
+    out = {}
+    for item in overrides:
+        key, value = parse_override(item)
+        table, _, name = key.partition(".")
+        if table != "fleet" or name not in SPEC_SETTINGS:
+            raise ParameterError(f"{key}: not a fleet setting (fleet.{', fleet.'.join(SPEC_SETTINGS)})")
+        out[name] = value
+    return out
+
+
+def _check_values(spec: FleetSpec, params: Params) -> None:
+    """Refuse a parameter whose nominal car, or any of whose discrete values, the model
+    cannot take (a car that would fail for certain, found up front)."""
+    for q in spec.parameter:
+        values = q.values if q.distribution == "discrete" else (q.center,)
+        for value in values:
+            try:
+                with_updates(params, {q.key: float(value)})
+            except ParameterError as exc:
+                what = "discrete value" if q.distribution == "discrete" else f"{q.distribution} centre"
+                raise ParameterError(f"fleet.parameter {q.key}: {what} {value:g} is not valid for the model ({exc})") from None
+
+
+def load_fleet_spec(path: str | Path, params: Params, overrides: tuple[str, ...] | list[str] = ()) -> FleetSpec:
+    """Read and validate the ``[fleet]`` table, with ``fleet.KEY=VALUE`` overrides of its
+    settings (:data:`SPEC_SETTINGS`); every problem is one ParameterError line."""
     import tomllib
 
     try:
@@ -273,7 +309,7 @@ def load_fleet_spec(path: str | Path, params: Params) -> FleetSpec:
     if "fleet" not in data:
         raise ParameterError(f"fleet spec {path}: no [fleet] table")
     try:
-        spec = FleetSpec.model_validate(data["fleet"])
+        spec = FleetSpec.model_validate({**data["fleet"], **_spec_overrides(overrides)})
     except ValidationError as exc:
         err = exc.errors()[0]
         where = "fleet." + ".".join(str(x) for x in err["loc"])
@@ -284,6 +320,7 @@ def load_fleet_spec(path: str | Path, params: Params) -> FleetSpec:
             get_value(params, q.key)
         except ParameterError:
             raise ParameterError(f"fleet.parameter: unknown key {q.key}") from None
+    _check_values(spec, params)
     return spec
 
 
@@ -703,8 +740,12 @@ class FleetResult(Result):
         return fig
 
 
+CHECKPOINT_FILE = "fleet_checkpoint.npz"
+"""The checkpoint's file in the checkpoint folder."""
+
+
 def _checkpoint_path(out_dir: Path) -> Path:
-    return Path(out_dir) / "fleet_checkpoint.npz"
+    return Path(out_dir) / CHECKPOINT_FILE
 
 
 def _pilot_progress(progress: Progress | None, done: int, samples: int) -> Progress | None:
