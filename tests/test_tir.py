@@ -426,3 +426,18 @@ def test_every_file_value_is_listed_as_used_noted_or_ignored(tmp_path):
     assert uses["BELT_MASS"] == "noted" and uses["PEY1"] == "ignored" and uses["PDXP1"] == "ignored"
     code, _, err = run_main(["params", "from-tir", str(path)])
     assert code == 0 and "file values ignored:" in err and "PEY1" in err
+
+
+def test_file_without_pressure_gives_json_without_nan(tmp_path):
+    """An MF 5.2 file has no NOMPRES/INFLPRES: the pressure of the conditions is null, not NaN."""
+    text = MF52.replace("q_a1 = 0.6", "q_a1 = 0.1").replace("q_a2 = 1.2", "q_a2 = 0.05")
+    code, out, err = run_main(["params", "from-tir", str(_write(tmp_path, text)), "--json", "-q"])
+    assert code == 0, err
+    assert json.loads(out, parse_constant=lambda c: pytest.fail(c))["conditions"]["pressure_pa"] is None
+
+
+def test_overflowing_coefficient_is_one_line(tmp_path):
+    """PPY4 = 3e159 with a pressure off the nominal one: dpi^2 PPY4 overflows; one line, not a traceback."""
+    text = _set(_set(TEXT, "PPY4", "2.9497177445873714e+159"), "INFLPRES", "1e300")
+    with pytest.raises(TirError, match="out of range for the Magic Formula"):
+        load_with_tir(_write(tmp_path, text))

@@ -655,7 +655,7 @@ class TirParameterSet(Result):
             "file": self.file,
             "format": self.mapping.tir.family,
             "format_declared": self.mapping.tir.format_label,
-            "conditions": self.mapping.conditions,
+            "conditions": {k: v if math.isfinite(v) else None for k, v in self.mapping.conditions.items()},
             "parameters": self.sources(),
             "notes": list(self.mapping.notes),
             "file_values": self.file_values(),
@@ -713,7 +713,13 @@ def load_with_tir(
     plain = load_params(config, sets)
     given = user_keys(config, sets)
     load_n = plain.operating.vertical_load_n if "operating.vertical_load_n" in given else None
-    mapping = tir_parameters(tir, load_n=load_n, belt_mode=belt_mode, **_condition(plain))
+    try:
+        mapping = tir_parameters(tir, load_n=load_n, belt_mode=belt_mode, **_condition(plain))
+    except TirError:
+        raise
+    except (ArithmeticError, ValueError) as exc:  # e.g. 1e159 squared, or a math domain error
+        raise TirError(f"{tir.path}: the file's values are out of range for the Magic Formula at the operating "
+                       f"point ({exc})") from None
     _check_mapped(mapping)
     if "friction.mu_static" in given:
         drop = "friction.mu_coulomb"
