@@ -1,0 +1,50 @@
+"""The fuzz harness of the command line run longer than in CI (tests/test_cli_fuzz.py).
+
+Runs every property of tests/test_cli_fuzz.py with ``--examples`` generated cases each
+(CI runs 40) in a child pytest, and prints per property the outcome, the wall time and
+the child's CPU time (user + system; less sensitive to other jobs on a shared machine).
+A failing case is printed by hypothesis as the smallest example it found; the exit code
+is pytest's.
+
+    .venv/bin/python benchmarks/bench_fuzz.py [--examples 2000] [-k input_file_kind]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--examples", type=int, default=2000, help="generated cases per property")
+    parser.add_argument("-k", default="", help="only the properties whose name contains this (pytest -k)")
+    args = parser.parse_args()
+    cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--durations=0",
+           "tests/test_cli_fuzz.py", *(["-k", args.k] if args.k else [])]
+    env = {**os.environ, "POLYWEAR_FUZZ_EXAMPLES": str(args.examples)}
+    c0, t0 = _cpu(), time.perf_counter()
+    run = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
+    wall, cpu = time.perf_counter() - t0, _cpu() - c0
+    lines = run.stdout.splitlines()
+    print("\n".join(line for line in lines if " call " in line or "passed" in line or "failed" in line
+                    or line.startswith(("E ", "FAILED"))))
+    print(f"{args.examples} examples per property: wall {wall:.1f} s, CPU {cpu:.1f} s "
+          f"(load average {os.getloadavg()[0]:.1f}), exit {run.returncode}")
+    return run.returncode
+
+
+if __name__ == "__main__":
+    sys.exit(main())
