@@ -8,10 +8,18 @@ command or option is fuzzed without touching this file. Two properties:
   with exit code 2 and one line ``error: ...`` on stderr, no traceback, before computing
   anything (so the run stays fast), and writes no file;
 * cheap commands with random values, valid or not: exit 0 or 2, never a traceback, no
-  partial file left.
+  partial file left;
+* a value of a numeric key just past, or far past, its plausibility bound (the key
+  registry, docs/model.md section 6): exit 2, one line naming the key, on every command
+  that takes ``--set``;
+* every kind of input file (a .tir file, a friction CSV, an observation file, a fleet
+  spec) with one number replaced by an extreme one, or the whole file by a bad one:
+  exit 0, 2 or 130, no traceback, no NaN or Infinity in the JSON, no partial file, and
+  at most ``CALL_CPU_S`` of CPU per call.
 
 The exit code 130 (Ctrl-C) is tested with real signals in test_cli_robustness.py.
-Examples per property: 40 by default (about half a minute in all); ``POLYWEAR_FUZZ_EXAMPLES=2000`` for a longer run.
+Examples per property: 40 by default (a few minutes in all); ``POLYWEAR_FUZZ_EXAMPLES=2000`` for a longer
+run (benchmarks/bench_fuzz.py).
 """
 
 from __future__ import annotations
@@ -221,3 +229,143 @@ def test_cheap_commands_exit_0_or_2_without_traceback(folder, data, name):
     assert leftovers == [], leftovers
     for written in set(folder.iterdir()) - {folder / f for f in FIXTURES}:
         written.unlink()
+
+
+# -- plausibility bounds of every numeric key ---------------------------------------------------
+def _past_bounds() -> list[tuple[str, str]]:
+    """(key, value) just past and far past every finite bound of the key registry."""
+    import math
+
+    from polywear.keys import KEYS
+
+    out = []
+    for key, info in KEYS.items():
+        if info.kind != "stored":
+            continue
+        for bound, inclusive, sign in ((info.lower, info.lower_inclusive, -1.0), (info.upper, info.upper_inclusive, 1.0)):
+            if not math.isfinite(bound):
+                continue
+            step = max(abs(bound), 1.0) * (1e-6 if inclusive else 0.0)
+            just = bound + sign * step if inclusive else bound
+            if info.integer:
+                just = bound + sign * (1 if inclusive else 0)
+            out += [(key, repr(int(just) if info.integer else float(just))),
+                    (key, repr(int(bound + sign * 10 ** 9) if info.integer else float(bound + sign * 1e12)))]
+    return out
+
+
+PAST_BOUNDS = _past_bounds()
+WITH_SET = sorted(name for name, params in COMMANDS.items() if any("--set" in getattr(p, "opts", []) for p in params))
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory) -> dict[str, list[str]]:
+    """Valid inputs of the commands that need one (command -> arguments), so that the bad
+    key, not a missing file, is what is refused; commands with no valid input here get a
+    missing file (their message then names the file)."""
+    folder = tmp_path_factory.mktemp("inputs")
+    (folder / "obs.toml").write_text(OBSERVATIONS)
+    (folder / "fleet.toml").write_text(FLEET)
+    return {"calibrate": ["--observed", str(folder / "obs.toml"), "--vary", "friction.mu_static"],
+            "fleet": ["--spec", str(folder / "fleet.toml")],
+            "params from-tir": [str(DATA / "mf62_example.tir")],
+            "friction fit": ["--sample"], "friction fit-loops": ["--sample"]}
+
+
+@FUZZ
+@given(name=st.sampled_from(WITH_SET), case=st.sampled_from(PAST_BOUNDS))
+def test_a_value_past_its_bound_is_refused_naming_the_key(folder, inputs, name, case):
+    key, value = case
+    arguments = [p for p in COMMANDS[name] if p.param_type_name == "argument"]
+    args = inputs.get(name, [str(folder / "missing" / "input.csv")] if arguments else [])
+    code, out, err = run_main([*name.split(), *args, "--set", f"{key}={value}"])
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code == 2 and out == "", (name, key, value, code, err[-2000:])
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "Traceback" not in err, (name, err)
+    named = key in lines[0] or (name not in inputs and arguments and "input.csv" in lines[0])
+    assert named, (name, key, value, lines[0])
+    _no_files_written(folder)
+
+
+# -- every kind of input file, good and bad --------------------------------------------------
+CALL_CPU_S = 120.0
+"""Most CPU time one fuzzed call may take [s] (in this process)."""
+
+DATA = Path(__file__).parent / "data"
+OBSERVATIONS = ('[[observation]]\nquantity = "first_hopf_kmh"\nvalue = 58.1\nsigma = 1.0\n\n'
+                '[[observation]]\nquantity = "friction_mu"\nvalue = 0.7\nsigma = 0.02\nat_sliding_speed_m_per_s = 0.2\n')
+FLEET = ('[fleet]\nsamples = 2\n[[fleet.parameter]]\nkey = "operating.toe_deg"\ndistribution = "uniform"\n'
+         'low = 0.45\nhigh = 0.55\n[[fleet.usage]]\nspeed_kmh = 100\nshare = 1\n')
+
+
+def _input_kinds() -> dict[str, tuple[str, list[str]]]:
+    """Kind -> (a valid file's text, the command that reads it; ``{file}`` stands for the path)."""
+    from polywear.friction import sample_path
+
+    return {
+        "tir": (DATA.joinpath("mf62_example.tir").read_text(), ["params", "from-tir", "{file}", "--json", "-q"]),
+        "tir option": (DATA.joinpath("mf62_example.tir").read_text(),
+                       ["stability", "--tir", "{file}", "--n-speeds", "20", "--json", "-q"]),
+        "friction csv": (sample_path("steady").read_text(), ["friction", "fit", "{file}", "--json", "-q"]),
+        "observations": (OBSERVATIONS, ["calibrate", "--observed", "{file}", "--vary", "friction.mu_static",
+                                        "--no-profile", "--json", "-q"]),
+        "fleet spec": (FLEET, ["fleet", "--spec", "{file}", "--backend", "serial", "--json", "-q"]),
+    }
+
+
+INPUT_KINDS = _input_kinds()
+NUMBER_IN_TEXT = r"(?<![A-Za-z_0-9.])-?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?"
+EXTREME = st.one_of(st.sampled_from(["0", "-0", "-1", "1e308", "-1e308", "1e-308", "1e9", "-1e9", "nan", "inf",
+                                     "1e999", "5", "3.5", "60001", "0.1"]),
+                    st.floats(allow_nan=False, allow_infinity=False).map(repr))
+BAD_FILES = [b"", bytes(range(256)), b"\xef\xbb\xbf", b"x = \n", b"[[[", "ä=ü\n".encode("latin-1")]
+
+
+def _no_nan_json(text: str) -> None:
+    """The output parses as strict JSON: NaN and Infinity are refused."""
+    import json
+
+    def refuse(constant):
+        raise AssertionError(f"{constant} in the JSON")
+
+    json.loads(text, parse_constant=refuse)
+
+
+@FUZZ
+@given(data=st.data(), kind=st.sampled_from(sorted(INPUT_KINDS)))
+def test_every_input_file_kind_with_extreme_or_bad_content(folder, data, kind):
+    import re
+    import time
+
+    text, command = INPUT_KINDS[kind]
+    path = folder / "input.fuzz"
+    if data.draw(st.booleans(), label="bad file"):
+        path.write_bytes(data.draw(st.sampled_from(BAD_FILES), label="content"))
+    else:
+        numbers = list(re.finditer(NUMBER_IN_TEXT, text))
+        hit = numbers[data.draw(st.integers(0, len(numbers) - 1), label="number")]
+        value = data.draw(EXTREME, label="value")
+        path.write_text(text[:hit.start()] + value + text[hit.end():])
+    out_file = folder / "out.json"
+    args = [a.replace("{file}", str(path)) for a in command]
+    if kind in ("friction csv", "observations"):
+        args += ["--out", str(out_file)]
+    start = time.process_time()
+    try:
+        code, out, err = run_main(args)
+    finally:
+        path.unlink()
+    spent = time.process_time() - start
+    assert code in (0, 2, 130), (kind, args, code, err[-2000:])
+    assert "Traceback" not in err, (kind, err[-2000:])
+    assert spent < CALL_CPU_S, (kind, spent)
+    if code == 0:
+        _no_nan_json(out)
+        if out_file.exists():
+            _no_nan_json(out_file.read_text())
+    else:
+        lines = [line for line in err.splitlines() if line.strip() and not line.startswith("warning: ")]
+        assert lines and lines[-1].startswith("error: "), (kind, err[-2000:])
+        assert not out_file.exists()
+    out_file.unlink(missing_ok=True)
+    _no_files_written(folder)
