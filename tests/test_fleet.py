@@ -616,3 +616,15 @@ def test_checkpoint_folder_messages(tmp_path, make, args, fragment):
     args = [str(tmp_path / a) if not a.startswith("-") else a for a in args]
     code, out, err = run_main(["fleet", "--spec", str(path), *args, "--backend", "serial", "-q"])
     assert code == 2 and out == "" and fragment in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_a_derived_key_passes_the_value_check(tmp_path):
+    """adhesion_scale is no field of the parameters but a key of the fleet: its values are checked as a factor."""
+    path = tmp_path / "spec.toml"
+    path.write_text(FLEET_SPEC.replace('key = "operating.toe_deg"\ndistribution = "uniform"\nlow = 0.2\nhigh = 0.4',
+                                       'key = "adhesion_scale"\ndistribution = "discrete"\nvalues = [0.9, 1.1]\n'
+                                       'weights = [1, 1]'))
+    assert load_fleet_spec(path, Params()).parameter[0].key == "adhesion_scale"
+    path.write_text(path.read_text().replace("values = [0.9, 1.1]", "values = [0.9, 10.0]"))
+    with pytest.raises(ParameterError, match="discrete value 10 is not valid for the model"):
+        load_fleet_spec(path, Params())

@@ -55,8 +55,8 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from ..keys import get_value
-from ..params import CYCLE_SHARE_TOLERANCE, MAX_WEAR_KM, ParameterError, Params, parse_override, to_toml, with_updates
+from ..keys import get_value, with_updates
+from ..params import CYCLE_SHARE_TOLERANCE, MAX_WEAR_KM, ParameterError, Params, parse_override, to_toml
 from ..parallel import Executor
 from ..progress import Progress, report, shifted
 from ..results import Result, with_deprecated_keys
