@@ -120,7 +120,7 @@ def test_operating_speed_outside_the_requested_range_is_analysed():
     assert narrow.speed_range_kmh[1] >= 110.0 and narrow.range_notes
     v_narrow, v_full = operating_verdict(narrow, params, 110.0), operating_verdict(full, params, 110.0)
     assert v_narrow["regime"] == v_full["regime"] == "unstable rolling (soft SEV)"
-    assert v_narrow["sev_amplitude_x_m"] == pytest.approx(v_full["sev_amplitude_x_m"], rel=1e-8)
+    assert v_narrow["sev_amplitude_x_mm"] == pytest.approx(v_full["sev_amplitude_x_mm"], rel=1e-8)
     assert narrow.summary()["second_bifurcation_speed_kmh"] == pytest.approx(
         full.summary()["second_bifurcation_speed_kmh"], rel=1e-8)
 
@@ -145,7 +145,7 @@ def test_stick_slip_past_period_doubling_is_named_with_amplitude_and_frequency()
     assert again.steady.amplitude[0] == pytest.approx(found.amplitude[0], rel=1e-3)
     assert again.steady.period == pytest.approx(st.period, rel=1e-4)
     verdict = operating_verdict(diagram, params, 110.0)
-    assert verdict["regime"] == Regime.PERIOD_MULTIPLIED and verdict["sev_amplitude_x_m"] == found.amplitude[0]
+    assert verdict["regime"] == Regime.PERIOD_MULTIPLIED and verdict["sev_amplitude_x_mm"] == 1e3 * found.amplitude[0]
     assert verdict["frequency_hz"] == found.dominant_frequency_hz
     assert Regime.PERIOD_MULTIPLIED in _sentence(verdict)
 
@@ -176,7 +176,7 @@ def test_static_divergence_is_not_sev(divergent_axle):
     assert s["real_eigenvalue_crossings_kmh"] == [v_div] and s["divergence_kmh"] == [[v_div, None]]
     verdict = operating_verdict(diagram, params, 50.0)
     assert verdict["regime"] == "static divergence" and verdict["divergence"]
-    assert not verdict["steady_rolling_stable"] and "sev_amplitude_x_m" not in verdict
+    assert not verdict["steady_rolling_stable"] and "sev_amplitude_x_mm" not in verdict and "sev_amplitude_x_m" not in verdict
     assert "not SEV" in _sentence(verdict)
 
 
@@ -219,7 +219,7 @@ def test_period_doublings_listed_in_text_and_the_verdict_is_not_blank(capsys):
     verdict = operating_verdict(diagram, params, 90.0)
     a = verdict["attractor"]
     assert a["start"].startswith("the stable cycle") and a["regime"] != "no SEV"
-    assert verdict["sev_amplitude_x_m"] > 0.0 and verdict["frequency_hz"] > 0.0
+    assert verdict["sev_amplitude_x_mm"] > 0.0 and verdict["frequency_hz"] > 0.0
 
 
 def test_divergence_listed_in_bifurcation_text(divergent_axle, capsys):
@@ -304,7 +304,7 @@ def test_sustained_irregular_oscillation_is_quasi_periodic_or_chaotic():
     last = other.t >= 4.0
     assert 2.0 * found.amplitude[0] == pytest.approx(np.ptp(other.u[last, 0]), rel=0.02)
     verdict = operating_verdict(diagram, params, 90.0)
-    assert verdict["regime"] == Regime.QUASI_PERIODIC and verdict["sev_amplitude_x_m"] == found.amplitude[0]
+    assert verdict["regime"] == Regime.QUASI_PERIODIC and verdict["sev_amplitude_x_mm"] == 1e3 * found.amplitude[0]
 
 
 # an axle4dof car with four Hopf points (+-10 % around the defaults): its period-1 cycles
@@ -340,7 +340,7 @@ def test_gap_of_the_band_after_a_period_doubling_is_decided_by_simulation(cascad
     assert np.linalg.eigvals(model.jacobian(model.equilibrium(V, p), V, p)).real.max() < 0.0
     verdict = operating_verdict(diagram, params, 58.0)
     assert verdict["steady_rolling_stable"] and not verdict["in_sev_band"] and verdict["in_band_gap_after_pd_ns"]
-    assert verdict["regime"] == Regime.QUASI_PERIODIC and 0.4e-3 < verdict["sev_amplitude_x_m"] < 0.8e-3
+    assert verdict["regime"] == Regime.QUASI_PERIODIC and 0.4 < verdict["sev_amplitude_x_mm"] < 0.8
     assert [a["regime"] for a in verdict["other_attractors"]] == ["no SEV"]
     x = model.index("x")
     start = np.array(min((c for c in diagram.cycles if c.stable), key=lambda c: abs(c.speed_kmh - 58.0)).orbit.nodes[0])
@@ -409,7 +409,7 @@ def test_stable_rolling_car_with_a_visible_polygon_gets_a_wear_warning_not_safe(
                "design": NO_BAND}
     v = verdict(summary, params, _sentence(STABLE_ROLLING))
     text = " ".join(v["lines"])
-    assert v["polygon_visible"] and v["sides"] == 10 and v["source"] == "forced resonance" and not v["vibrates"]
+    assert v["polygon_visible"] and v["dominant_order"] == 10 == v["sides"] and v["source"] == "forced resonance" and not v["vibrates"]
     f_rot = 110.0 / 3.6 / (2.0 * math.pi * params.operating.rolling_radius_m)
     assert f"forced resonance of the tread at order 10 ({10 * f_rot:.0f} Hz at 110 km/h)" in text
     assert "a 10-sided polygon becomes visible (0.1 mm) after about 26,000 km" in text
@@ -473,7 +473,7 @@ def test_option_that_clears_the_band_but_brings_the_polygon_sooner_is_shown_as_s
               "change": "toe angle 0.5° → 0.05° (−90.0 %)"}
     design = {"operating_range_kmh": [80.0, 130.0], "options": [option], "reason": ""}
     vibrating = {"speed_kmh": 110.0, "steady_rolling_stable": False, "regime": "unstable rolling (soft SEV)",
-                 "sev_amplitude_x_m": 2.7e-4}
+                 "sev_amplitude_x_mm": 0.27}
     quiet = _alone(110.0, None, 9, vibration_order=8.52)
     summary = {"operating": vibrating, "wear": _wear_summary(quiet, {**quiet, "label": "drive cycle"}),
                "design": design}
@@ -493,7 +493,7 @@ def test_hard_region_says_the_evolution_starts_from_steady_rolling_and_names_the
     from polywear.report.verdict import verdict
 
     hard = {"speed_kmh": 230.0, "steady_rolling_stable": True, "regime": "hard SEV region",
-            "sev_amplitude_x_m": 4e-4, "trigger_amplitude_x_m": 2e-4, "wear": {"frequency_order": 4.31, "frequency_hz": 153.0}}
+            "sev_amplitude_x_mm": 0.4, "trigger_amplitude_x_mm": 0.2, "wear": {"frequency_order": 4.31, "frequency_hz": 153.0}}
     ev = _alone(230.0, None, 5)
     summary = {"operating": hard, "wear": _wear_summary(ev, {**ev, "label": "drive cycle"}), "design": NO_BAND}
     v = verdict(summary, with_updates(Params(), {"operating.speed_kmh": 230.0}), "At 230 km/h: hard excitation.")

@@ -20,6 +20,7 @@ from .. import __version__
 from ..io import atomic_path, write_text
 from ..params import Params, to_toml
 from ..progress import Progress, StepCounter
+from ..results import with_deprecated_keys
 from ..units import DEFAULT_SPEED_RANGE_KMH
 
 if TYPE_CHECKING:
@@ -131,7 +132,7 @@ def operating_verdict(diagram, params: Params, speed_kmh: float) -> dict:
     if stable:
         big = stable[-1]
         verdict["regime"] = "hard SEV region" if rolling_stable else "unstable rolling (soft SEV)"
-        verdict["sev_amplitude_x_m"] = float(big.amplitude[x])
+        verdict["sev_amplitude_x_mm"] = 1e3 * float(big.amplitude[x])
         verdict["frequency_hz"] = 1.0 / big.period
         verdict["wear"] = wear_indicators(model, p, big.orbit, params.operating.rolling_radius_m).summary()
     elif in_sev or not rolling_stable or in_gap:
@@ -140,17 +141,18 @@ def operating_verdict(diagram, params: Params, speed_kmh: float) -> dict:
         verdict["attractor"] = found.summary()
         verdict["other_attractors"] = [a.summary() for a in others]
         if found.oscillating:
-            verdict["sev_amplitude_x_m"] = float(found.amplitude[x])
+            verdict["sev_amplitude_x_mm"] = 1e3 * float(found.amplitude[x])
             verdict["frequency_hz"] = found.dominant_frequency_hz
     else:
         verdict["regime"] = "no SEV"
-    if unstable and rolling_stable and "sev_amplitude_x_m" in verdict:
-        verdict["trigger_amplitude_x_m"] = float(min(c.amplitude[x] for c in unstable))
+    if unstable and rolling_stable and "sev_amplitude_x_mm" in verdict:
+        verdict["trigger_amplitude_x_mm"] = 1e3 * float(min(c.amplitude[x] for c in unstable))
     open_at = diagram.open_edges
     if sev:
         verdict["margin_to_first_bifurcation_kmh"] = None if "lower" in open_at else sev[0][0] - speed_kmh
         verdict["margin_to_second_bifurcation_kmh"] = None if "upper" in open_at else sev[-1][1] - speed_kmh
-    return verdict
+    return with_deprecated_keys(verdict, {"sev_amplitude_x_mm": ("sev_amplitude_x_m", 1e-3),
+                                          "trigger_amplitude_x_mm": ("trigger_amplitude_x_m", 1e-3)})
 
 
 def _sentence(v: dict) -> str:
@@ -170,14 +172,14 @@ def _sentence(v: dict) -> str:
         return s
     w = v["wear"]
     s += (
-        f"self-excited vibration of {v['sev_amplitude_x_m'] * 1e3:.3f} mm at {w['frequency_hz']:.1f} Hz "
-        f"(polygon order {w['polygon_order']:.2f}, RMS tread acceleration {w['rms_acceleration']:.0f} m/s^2, "
+        f"self-excited vibration of {v['sev_amplitude_x_mm']:.3f} mm at {w['frequency_hz']:.1f} Hz "
+        f"(frequency order {w['frequency_order']:.2f}, RMS tread acceleration {w['rms_acceleration']:.0f} m/s^2, "
         f"uneven-wear index {w['uneven_wear_index']:.3f})"
     )
     if v["steady_rolling_stable"]:  # a stable cycle with stable rolling: the hard SEV region
         s += (
             f"; steady rolling is stable, but a disturbance of the tread above "
-            f"{v.get('trigger_amplitude_x_m', float('nan')) * 1e3:.3f} mm starts it (hard excitation)."
+            f"{v.get('trigger_amplitude_x_mm', float('nan')):.3f} mm starts it (hard excitation)."
         )
     else:
         s += "; steady rolling is unstable, so any disturbance starts it."
@@ -215,12 +217,12 @@ def text_summary(summary: dict) -> list[str]:
 def _motion(a: dict) -> str:
     """One attractor (an ``Attractor.summary()``) in words."""
     if a["regime"] == "static divergence":
-        return (f"static divergence, not SEV: no oscillation, {a['offset_x_m'] * 1e3:+.3f} mm away from "
+        return (f"static divergence, not SEV: no oscillation, {a['offset_x_mm']:+.3f} mm away from "
                 "steady rolling")
     if a["regime"] == "no SEV":
         return "steady rolling: no self-excited vibration"
     mpp = f", {a['maxima_per_period']} maxima of x per period" if a["maxima_per_period"] > 1 else ""
-    return (f"{a['regime']}: {a['amplitude_x_m'] * 1e3:.3f} mm at a dominant frequency of "
+    return (f"{a['regime']}: {a['amplitude_x_mm']:.3f} mm at a dominant frequency of "
             f"{a['dominant_frequency_hz']:.1f} Hz{mpp}")
 
 
@@ -383,7 +385,7 @@ def _html(params: Params, summary: dict, files: dict) -> str:
         f"<tr><td>Hopf</td><td>{h['speed_kmh']:.2f}</td><td>{h['frequency_hz']:.1f}</td><td>{e(h['criticality'])}, mode {e(h['mode'])}</td></tr>"
         for h in b["hopf_points"]
     ) + "".join(
-        f"<tr><td>fold of cycles</td><td>{f['speed_kmh']:.2f}</td><td>{f['frequency_hz']:.1f}</td><td>amplitude {f['amplitude_x_m'] * 1e3:.3f} mm</td></tr>"
+        f"<tr><td>fold of cycles</td><td>{f['speed_kmh']:.2f}</td><td>{f['frequency_hz']:.1f}</td><td>amplitude {f['amplitude_x_mm']:.3f} mm</td></tr>"
         for f in b["folds"]
     ) + "".join(
         f"<tr><td>{label}</td><td>{v:.2f}</td><td></td><td>{note}</td></tr>"

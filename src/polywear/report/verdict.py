@@ -19,6 +19,7 @@ import numpy as np
 
 from ..models import model_for
 from ..params import Params
+from ..results import with_deprecated_keys
 from ..units import kmh_to_ms, wheel_rotation_frequency_hz
 from .wear import _round_km as _km
 from .wear import _where
@@ -170,19 +171,19 @@ def _overstated(pc: dict) -> str:
 def verdict(summary: dict, params: Params, vibration: str) -> dict:
     """The one verdict from the report's summary (``operating``, ``wear``, ``design``):
     ``lines`` (vibration, polygon, what the distances assume, what to change),
-    ``vibrates``, ``polygon_visible`` (None: no evolution run), ``sides``, ``visible_km``
+    ``vibrates``, ``polygon_visible`` (None: no evolution run), ``dominant_order`` (sides), ``visible_km``
     per evolution, ``source`` of the polygon, the :func:`point_contact` check and the
     wear judgement of every design option (:func:`judge_options`). ``vibration`` is the
     sentence on the vibration at the operating speed."""
     v, wear, design = summary["operating"], summary["wear"], summary["design"]
     evs = {ev["label"]: ev for ev in wear["evolutions"]}
     distance = max((ev["distance_km"] for ev in evs.values()), default=params.wear.report_km)
-    vibrates = "sev_amplitude_x_m" in v
+    vibrates = "sev_amplitude_x_mm" in v
     visible = [ev for ev in evs.values() if ev["visible_km"] is not None]
     first = min(visible, key=lambda ev: ev["visible_km"]) if visible else None
     pc = _check(params)
     out = {"vibrates": vibrates, "polygon_visible": bool(visible) if evs else None,
-           "sides": first["dominant_order"] if first else None,
+           "dominant_order": first["dominant_order"] if first else None,
            "visible_km": {label: ev["visible_km"] for label, ev in evs.items()},
            "source": None, "point_contact": pc}
     lines = [vibration]
@@ -212,7 +213,7 @@ def verdict(summary: dict, params: Params, vibration: str) -> dict:
     if v.get("regime") == "hard SEV region" and evs:
         w = v["wear"]
         lines.append(f"Steady rolling is stable at {v['speed_kmh']:g} km/h, so the evolutions start from it, as a car "
-                     f"drives; after a disturbance above {v['trigger_amplitude_x_m'] * 1e3:.3f} mm (a pothole) the "
+                     f"drives; after a disturbance above {v['trigger_amplitude_x_mm']:.3f} mm (a pothole) the "
                      f"tread vibrates at order {w['frequency_order']:.2f} ({w['frequency_hz']:.0f} Hz) instead, and the "
                      "wear from that vibration is not evolved here.")
     if pc is not None and pc["overstated"]:
@@ -237,7 +238,7 @@ def verdict(summary: dict, params: Params, vibration: str) -> dict:
     out["wear_design_option"] = wear_option[1].summary() if wear_option and wear_option[1] else None
     lines.append(_what_to_change(vibrates, bool(visible), bool(evs), design, judged, distance, wear_option))
     out["lines"] = lines
-    return out
+    return with_deprecated_keys(out, {"dominant_order": "sides"})
 
 
 def _what_to_change(vibrates: bool, visible: bool, evolved: bool, design: dict, judged: list,
