@@ -51,7 +51,7 @@ def _check_features(result, hopf):
     assert sev[0]["frequency_from_hz"] <= hopf.frequency_hz * 1.02
     orders = [f for f in result.features if f["kind"] == "order"]
     for n in ORDERS:
-        assert any(abs(f["order"] - n) < 0.05 for f in orders), n
+        assert any(abs(f["frequency_order"] - n) < 0.05 for f in orders), n
     assert not any(f["sev"] for f in orders)
     assert result.sev["frequency_hz"] == pytest.approx(hopf.frequency_hz, rel=0.01)
     assert result.sev["orders_removed"]
@@ -230,7 +230,7 @@ def test_a_mode_present_all_along_is_named_as_such():
     mode = [f for f in result.features if f["kind"] == "constant_frequency" and 44.0 < f["frequency_from_hz"] < 46.0]
     assert len(mode) == 1 and mode[0]["speed_from_kmh"] > 36.0  # the ridge starts inside the run
     assert "does not switch on or off" in mode[0]["not_sev"] and "45.0 Hz" in result.no_sev
-    orders = [f["order"] for f in result.features if f["kind"] == "order"]
+    orders = [f["frequency_order"] for f in result.features if f["kind"] == "order"]
     assert any(abs(n - 8.0) < 0.05 for n in orders)
 
 

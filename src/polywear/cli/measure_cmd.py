@@ -78,7 +78,7 @@ def campbell(
 def _print_run(result) -> None:
     """The spectral features and the SEV found in the run as text on stdout."""
     for f in result.features:
-        label = {"order": f"order {f.get('order', 0):.2f}", "constant_frequency": "constant frequency"}.get(
+        label = {"order": f"order {f.get('frequency_order', 0):.2f}", "constant_frequency": "constant frequency"}.get(
             f["kind"], f["kind"])
         extra = " <- SEV" if f["sev"] else (f" (harmonic {f['harmonic_of_sev']} of SEV)" if "harmonic_of_sev" in f
                                             else " (not SEV)" if "not_sev" in f else "")

@@ -279,7 +279,7 @@ def campbell(
     for f, r in strong:
         if (f, r) not in candidates:
             f["not_sev"] = "present over the whole run"
-    orders = [f["order"] for f, _ in classified if f["kind"] == "order"]
+    orders = [f["frequency_order"] for f, _ in classified if f["kind"] == "order"]
     cleaned: dict[str, np.ndarray] = {}  # channel -> without the order features
     found = {}  # id(ridge) -> (channel, frequency, envelope analysis) of the candidates with evidence
     for feature, ridge in candidates:

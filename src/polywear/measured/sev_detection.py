@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..params import Params
+from ..results import with_deprecated_keys
 from ..units import frequency_order, kmh_to_ms, order_frequency_hz
 
 
@@ -192,7 +193,8 @@ def classify_ridge(ridge: _Ridge, speeds, radius_m, min_segments) -> dict | None
     slope = float(np.polyfit(np.log(v), np.log(f), 1)[0])
     feature["slope"] = slope
     if abs(slope - 1.0) < 0.25:
-        feature.update(kind="order", order=float(np.median(frequency_order(f, kmh_to_ms(v), radius_m))))
+        feature.update(kind="order", frequency_order=float(np.median(frequency_order(f, kmh_to_ms(v), radius_m))))
+        feature = with_deprecated_keys(feature, {"frequency_order": "order"})  # "order" until the next release
     elif abs(slope) < 0.5:  # an SEV cycle's frequency drifts with speed (slopes up to about 0.3 seen)
         feature["kind"] = "constant_frequency"
     else:
