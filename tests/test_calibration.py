@@ -252,3 +252,18 @@ def test_interrupted_calibrate_leaves_none_of_its_outputs(tmp_path, monkeypatch)
                            "--out", str(outputs[0]), "--fitted", str(outputs[1]), "--plot", str(outputs[2])])
     assert code == 130
     assert sorted(p.name for p in tmp_path.iterdir()) == ["obs.toml"]
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ('[[observation]]\nquantity = "friction_mu"\nvalue = 0.7\nsigma = 0.02\nat_sliding_speed_m_per_s = 1e308\n',
+     "at_sliding_speed_m_per_s = 1e+308: must be in (0, 1000] m/s"),
+    ('[[observation]]\nquantity = "hopf_frequency_hz"\nvalue = 1e308\nsigma = 1e-300\n',
+     "the residuals over their sigma overflow"),
+])
+def test_observations_out_of_scale_are_one_line_without_nan(tmp_path, text, message):
+    """Found by the fuzz harness: these ended in an OverflowError or Infinity in the JSON."""
+    path = tmp_path / "obs.toml"
+    path.write_text(text)
+    code, out, err = run_main(["calibrate", "--observed", str(path), "--vary", "friction.mu_static", "--no-profile",
+                               "--json", "-q"])
+    assert code == 2 and out == "" and err.count("\n") == 1 and message in err, err

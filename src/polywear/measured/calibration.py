@@ -27,6 +27,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..friction.fits import MAX_FRICTION_COEFFICIENT
+from ..friction.loops import MAX_SLIDING_SPEED_M_PER_S
 from ..models import model_for
 from ..results import Result
 from ..keys import KEYS, study_keys
@@ -177,8 +178,9 @@ def read_observations(path: str | Path, params: Params | None = None) -> list[Ob
             raise CalibrationError(f"{where}: {quantity} value = {value!r}: a speed must be in (0, {MAX_SPEED_KMH:g}] km/h")
         if quantity == "friction_mu" and not 0.0 < value <= MAX_FRICTION_COEFFICIENT:
             raise CalibrationError(f"{where}: friction_mu value = {value!r}: must be in (0, {MAX_FRICTION_COEFFICIENT:g}]")
-        if at_v is not None and not at_v > 0.0:
-            raise CalibrationError(f"{where}: at_sliding_speed_m_per_s = {at_v!r}: must be positive")
+        if at_v is not None and not 0.0 < at_v <= MAX_SLIDING_SPEED_M_PER_S:
+            raise CalibrationError(f"{where}: at_sliding_speed_m_per_s = {at_v!r}: must be in "
+                                   f"(0, {MAX_SLIDING_SPEED_M_PER_S:g}] m/s")
         conditions = entry.get("set", {})
         if not isinstance(conditions, dict):
             raise CalibrationError(f"{where}: set must be a table of \"table.key\" = value")
@@ -398,6 +400,9 @@ def _bounds(key: str) -> tuple[float, float]:
     return KEYS[key].lower, KEYS[key].upper
 
 
+OVERFLOW = ("the residuals over their sigma overflow: a value or a sigma of the observations is far out of "
+            "scale")
+"""The error when (value - model) / sigma of an observation is not a finite number."""
 AT_BOUND = 1e-6
 """A fitted value within this of a validation bound (relative to the starting value, in
 the fit's scaled coordinates) sits on the bound: the data do not fit inside the key's range [-]."""
@@ -535,6 +540,8 @@ def calibrate(
         return cache[tag]
 
     r0 = evaluate(x0)[0]
+    if np.any(np.isinf(r0)):
+        raise CalibrationError(OVERFLOW)
     if not np.all(np.isfinite(r0)):
         missing = [observations[i].describe() for i in np.flatnonzero(~np.isfinite(r0))]
         raise CalibrationError(f"at the starting parameters the model has no {missing[0]} in "
@@ -545,6 +552,8 @@ def calibrate(
     x_hat = fit.x
     r, J = evaluate(x_hat)
     chi2 = float(r @ r)
+    if not math.isfinite(chi2):
+        raise CalibrationError(OVERFLOW)
     # identifiability in relative units: columns d r / d ln p = J x (x is p / scale)
     Jrel = J * x_hat[None, :]
     U, s, Vt = np.linalg.svd(Jrel, full_matrices=False)
