@@ -441,3 +441,14 @@ def test_overflowing_coefficient_is_one_line(tmp_path):
     text = _set(_set(TEXT, "PPY4", "2.9497177445873714e+159"), "INFLPRES", "1e300")
     with pytest.raises(TirError, match="out of range for the Magic Formula"):
         load_with_tir(_write(tmp_path, text))
+
+
+@pytest.mark.parametrize("value", ["1e999", "-1D999", "nan"])
+def test_non_finite_number_in_the_file_is_one_line(tmp_path, value):
+    """Found by the fuzz harness: LATERAL_STIFFNESS = 1e999 reached the JSON as Infinity."""
+    path = _write(tmp_path, _set(TEXT, "LATERAL_STIFFNESS", value))
+    code, out, err = run_main(["params", "from-tir", str(path), "--json", "-q"])
+    if value == "nan":  # not a number at all: a word, which the mapping does not read here
+        assert code == 0 and "NaN" not in out
+        return
+    assert code == 2 and out == "" and f"LATERAL_STIFFNESS = {value}" in err and "not a finite number" in err

@@ -264,6 +264,8 @@ def read_tir(path: str | Path) -> TirFile:
         if assign:
             key = assign.group(1).upper()
             entry = TirEntry(key, _value(assign.group(2)), section, number)
+            if isinstance(entry.value, float) and not math.isfinite(entry.value):
+                raise TirError(f"{path}: {key} = {assign.group(2).strip()} (line {number}): not a finite number")
             previous = entries.setdefault(section, {}).get(key)
             if previous is not None:
                 notes.append(f"{key} given twice in [{section}] (lines {previous.line} and {number}): "
