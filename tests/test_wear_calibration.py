@@ -80,3 +80,23 @@ def test_one_mileage_and_an_unknown_roughness_is_refused_with_the_combination(tr
     a_meas = float(np.abs(run.harmonics[np.argmin(np.abs(run.distance_km - mileages[-1])), n - 1]))
     r_true = float(np.abs(run.harmonics[0, n - 1]))
     assert value * np.log(a_meas / r_true) == pytest.approx(K_TRUE, rel=0.15)
+
+
+def test_two_mileages_separate_k_e_and_the_initial_roughness(tmp_path):
+    """A tire that started twice as rough as the parameter set assumes: both come back
+    within their intervals (the roughness between two nodes of the fitted grid)."""
+    params = load_params()
+    r_true = 2.0 * params.wear.initial_roughness_um
+    run = evolve(with_updates(params, {"wear.energetic_rate_mm3_per_j": K_TRUE, "wear.initial_roughness_um": r_true}),
+                 7000.0, settings=EvolutionSettings(step_km=500.0))
+    mileages = [float(run.distance_km[np.argmin(np.abs(run.distance_km - f * run.visible_km))]) for f in (0.8, 0.95)]
+    measured = _gauge(tmp_path, run, mileages, 0.005, "rough.csv")
+    cal = calibrate_wear(measured, params, roughness_known=False)
+    assert cal.identifiable and cal.roughness_fitted
+    lo, hi = cal.rate_interval
+    assert lo < K_TRUE < hi
+    lo, hi = cal.roughness_interval
+    assert lo < r_true < hi
+    # and the answer is not the assumption's: the fit with the roughness taken as known is off
+    assumed = calibrate_wear(measured, params, roughness_known=True)
+    assert not assumed.rate_interval[0] < K_TRUE < assumed.rate_interval[1] or assumed.chi2 > 3 * cal.chi2

@@ -43,7 +43,14 @@ MODEL_SCATTER = 0.05
 """Floor of a log amplitude's standard deviation [-]: 5 %, for what the harmonic fit's
 error does not hold (tested with the evolution's own profiles, where the model is exact)."""
 MAX_ORDERS = 3
-"""Orders fitted: the largest ones above the noise floor at the latest mileage."""
+"""Orders fitted: the largest ones above the noise floor at the latest mileage, ..."""
+MIN_SHARE = 0.3
+"""... with at least this share of the dominant order's amplitude: a weaker order is ruled
+by the tire's own random initial roughness in that order, which no model knows."""
+MAX_REFINEMENTS = 6
+"""Rounds of fitting: the reference run longer where k_e reaches its reach, the roughness
+grid refined around the fitted level (factor ``REFINE`` either side) until it holds it."""
+REFINE = 1.25
 RANGE = 4.0
 """The reference evolution covers k_e up to this multiple of the reference rate; it is
 run longer where the fit reaches that edge."""
@@ -65,7 +72,7 @@ def _readings(measured: MeasuredProfiles) -> tuple[list[_Reading], list[int]]:
     total = np.zeros(K)
     for p in latest:
         total[: p.harmonics_mm.size] += np.where(p.significant, p.amplitude_mm, 0.0)
-    orders = [int(n) + 1 for n in np.argsort(total)[::-1][:MAX_ORDERS] if total[n] > 0]
+    orders = [int(n) + 1 for n in np.argsort(total)[::-1][:MAX_ORDERS] if total[n] >= MIN_SHARE * total.max() > 0]
     out = []
     for p in measured.profiles:
         if p.distance_km is None:
@@ -225,40 +232,61 @@ def calibrate_wear(measured: MeasuredProfiles, params: Params, cycle: Iterable[t
     fit_roughness = not roughness_known and len(mileages) >= 2
     k_ref = params.wear.energetic_rate_mm3_per_j
     r_ref = params.wear.initial_roughness_um
-    grid = ROUGHNESS_GRID if fit_roughness else (1.0,)
     span = RANGE
     d = np.array([r.distance_km for r in readings])
     y = np.array([r.log_amplitude for r in readings])
     sig = np.array([r.sigma for r in readings])
     n_of = np.array([r.order for r in readings])
-    for _ in range(3):
-        distance = max(mileages) * span
-        runs = []
-        for i, level in enumerate(grid):
+    cache: dict[tuple[float, float], EvolutionResult] = {}
+
+    def run_at(level: float, distance: float) -> EvolutionResult:
+        """The evolution with the initial roughness ``level`` times the parameter set's."""
+        key = (level, distance)
+        if key not in cache:
             if progress is not None:
-                progress(i, len(grid))
-            runs.append(evolve(with_updates(params, {ROUGHNESS_KEY: r_ref * level}), distance, cycle, settings))
+                progress(len(cache), None, f"evolution {len(cache) + 1} (roughness x{level:.3g}, {distance:.0f} km)")
+            cache[key] = evolve(with_updates(params, {ROUGHNESS_KEY: r_ref * level}), distance, cycle, settings)
+        return cache[key]
+
+    levels = list(ROUGHNESS_GRID) if fit_roughness else [1.0]
+    previous = None
+    for _ in range(MAX_REFINEMENTS):
+        distance = max(mileages) * span
+        runs = [run_at(level, distance) for level in levels]
+        x_levels = np.log(np.asarray(levels))
+        logs = [np.log(np.maximum(np.abs(run.harmonics) * 1e3, 1e-12)) for run in runs]  # ln|W_n| [ln mm]
 
         def model(theta: np.ndarray) -> np.ndarray:
-            scale = math.exp(theta[0])
-            curves = np.array([[_log_amplitude(run, np.array([di * scale]), int(n))[0] for di, n in zip(d, n_of)]
-                               for run in runs])
-            if len(grid) == 1:
-                return curves[0]
-            x = np.log(np.asarray(grid))
-            return np.array([np.interp(theta[1], x, curves[:, j]) for j in range(len(d))])
+            scaled = d * math.exp(theta[0])
+            at = np.array([[np.interp(dj, run.distance_km, log[:, n - 1]) for dj, n in zip(scaled, n_of)]
+                           for run, log in zip(runs, logs)])
+            if len(runs) == 1:
+                return at[0]
+            return np.array([np.interp(theta[1], x_levels, at[:, j]) for j in range(len(d))])
 
         def residuals(theta: np.ndarray) -> np.ndarray:
             return (model(theta) - y) / sig
 
-        lo = [math.log(1e-3), math.log(min(grid))] if fit_roughness else [math.log(1e-3)]
-        hi = [math.log(span), math.log(max(grid))] if fit_roughness else [math.log(span)]
+        lo = [math.log(1e-3), x_levels.min()] if fit_roughness else [math.log(1e-3)]
+        hi = [math.log(span), x_levels.max()] if fit_roughness else [math.log(span)]
         starts = [np.array([s, 0.0][: len(lo)]) for s in np.linspace(math.log(0.01), math.log(span * 0.9), 7)]
+        if previous is not None:
+            starts.append(np.clip(previous, lo, hi))
         fits = [least_squares(residuals, x0, bounds=(lo, hi), x_scale=1.0, diff_step=1e-4) for x0 in starts]
         best = min(fits, key=lambda f: f.cost)
-        if best.x[0] < hi[0] - 0.05:
+        previous = best.x
+        if best.x[0] >= hi[0] - 0.05:  # k at the top of the reference's reach: run it longer
+            span *= RANGE
+            continue
+        if not fit_roughness:
             break
-        span *= RANGE
+        # the grid refined around the fitted roughness, so that the interpolation is local
+        fitted = math.exp(best.x[1])
+        new = [level for level in (fitted / REFINE, fitted, fitted * REFINE)
+               if min(levels) <= level <= max(levels) and min(abs(math.log(level / v)) for v in levels) > 0.02]
+        if not new:
+            break
+        levels = sorted(levels + new)
     theta = best.x
     chi2 = float(2.0 * best.cost)
     dof = max(len(y) - len(theta), 1)
@@ -302,7 +330,7 @@ def calibrate_wear(measured: MeasuredProfiles, params: Params, cycle: Iterable[t
                 x, step = x_new, step * 1.6
         return (min(ends), max(ends))
 
-    run_index = int(np.argmin(np.abs(np.log(np.asarray(grid)) - (theta[1] if fit_roughness else 0.0))))
+    run_index = int(np.argmin(np.abs(np.log(np.asarray(levels)) - (theta[1] if fit_roughness else 0.0))))
     reference = runs[run_index]
     combination = None
     rate = rate_ci = rough_ci = None
