@@ -39,7 +39,7 @@ EXPECTED = {
     "load_study": "polywear.params:load_study",
     "design": "polywear.dynamics.design:design",
     "excitation": "polywear.dynamics.excitation:excitation",
-    "report": "polywear.report.main:run_report",
+    "report": "polywear.report.main:report",
     "wear_map": "polywear.wear.map:wear_map",
     "calibrate": "polywear.measured.calibration:calibrate",
     "read_observations": "polywear.measured.calibration:read_observations",
@@ -102,7 +102,7 @@ def test_report_function_survives_import_of_the_report_module():
     import polywear.report.main  # noqa: F401  (the submodule of the same name)
 
     assert callable(pw.report) and not isinstance(pw.report, types.ModuleType)
-    assert sys.modules["polywear.report.main"].run_report is pw.report
+    assert sys.modules["polywear.report.main"].report is pw.report
 
 
 def test_import_is_lazy_and_dir_imports_nothing():

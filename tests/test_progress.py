@@ -29,7 +29,7 @@ ENTRY_POINTS = [
     "polywear.dynamics.sweep:sweep",
     "polywear.wear.evolution:evolve",
     "polywear.parallel:map_batched",
-    "polywear.report.main:run_report",
+    "polywear.report.main:report",
     "polywear.report.wear:wear_section",
 ]
 

@@ -350,17 +350,17 @@ def test_report_holds_its_results(tmp_path):
     from polywear.dynamics.sensitivity import SensitivityResult
     from polywear.dynamics.simulation import SimulationSet
     from polywear.wear.map import WearMap
-    from polywear.report.main import run_report
+    from polywear.report.main import report
 
-    report = run_report(Params(), tmp_path, wear_evolution_km=2000.0)
-    assert isinstance(report.diagram, BifurcationDiagram) and report.stability is report.diagram.stability
-    assert isinstance(report.sensitivity, SensitivityResult) and isinstance(report.design, DesignResult)
-    assert isinstance(report.disturbances, SimulationSet) and isinstance(report.wear_map, WearMap)
-    assert all(isinstance(p, Result) for p in report.portraits)
-    summary = report.summary()
+    result = report(Params(), tmp_path, wear_evolution_km=2000.0)
+    assert isinstance(result.diagram, BifurcationDiagram) and result.stability is result.diagram.stability
+    assert isinstance(result.sensitivity, SensitivityResult) and isinstance(result.design, DesignResult)
+    assert isinstance(result.disturbances, SimulationSet) and isinstance(result.wear_map, WearMap)
+    assert all(isinstance(p, Result) for p in result.portraits)
+    summary = result.summary()
     assert json.loads((tmp_path / "summary.json").read_text()) == json.loads(json.dumps(summary, default=float))
-    assert summary["bifurcation"] == report.diagram.summary() and summary["design"] == report.design.summary()
-    assert summary["wear"] == report.wear.summary() and summary["verdict"] == report.overall
-    assert [label for label, _ in report.wear.evolutions] == ["operating speed", "drive cycle"]
+    assert summary["bifurcation"] == result.diagram.summary() and summary["design"] == result.design.summary()
+    assert summary["wear"] == result.wear.summary() and summary["verdict"] == result.overall
+    assert [label for label, _ in result.wear.evolutions] == ["operating speed", "drive cycle"]
     with xr.open_dataset(tmp_path / "bifurcation.nc", engine="h5netcdf") as saved:
-        np.testing.assert_array_equal(saved["speed_kmh"].values, report.diagram.to_xarray()["speed_kmh"].values)
+        np.testing.assert_array_equal(saved["speed_kmh"].values, result.diagram.to_xarray()["speed_kmh"].values)

@@ -24,7 +24,7 @@ Entry points (each is the function or class named in brackets):
   [polywear.params]: the study specification (the ``[study]`` table), not a parameter
 - ``design`` [dynamics.design.design]
 - ``excitation`` [dynamics.excitation.excitation]
-- ``report`` [report.run_report]
+- ``report`` [report.report]
 - ``wear_map`` [wear.map.wear_map]: linear wear stability over speed and order
 - ``calibrate``, ``read_observations`` [measured.calibration]: fit parameters to observations
 - ``read_tir``, ``load_with_tir`` [measured.tir]: tyre property files (.tir) and parameters from them
@@ -69,7 +69,7 @@ _ENTRY_POINTS: dict[str, tuple[str, str | None]] = {
     "load_study": ("polywear.params", "load_study"),
     "design": ("polywear.dynamics.design", "design"),
     "excitation": ("polywear.dynamics.excitation", "excitation"),
-    "report": ("polywear.report", "run_report"),
+    "report": ("polywear.report", "report"),
     "wear_map": ("polywear.wear.map", "wear_map"),
     "calibrate": ("polywear.measured.calibration", "calibrate"),
     "read_observations": ("polywear.measured.calibration", "read_observations"),

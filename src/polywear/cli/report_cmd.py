@@ -53,19 +53,18 @@ def report(
         raise UserError(f"--wear-km {wear_km:g}: must be in [0, {MAX_WEAR_KM:g}] (0: no evolution)")
     params = load(config, set_)
     from ..io import fresh_directory
-    from ..report.main import run_report, text_summary
+    from ..report import main as main_job
 
     # written into a new folder that replaces --out only when complete: never a mix of two runs
     with fresh_directory(out) as folder:
-        result = run_report(params, folder, speed_range, operating_range,
-                            progress=status_lines("polywear report: ", quiet),
-                            wear_evolution_km=wear_km)
+        result = main_job.report(params, folder, speed_range, operating_range,
+                                 progress=status_lines("polywear report: ", quiet), wear_evolution_km=wear_km)
     summary = result.summary()
     if json_:
         emit_json(summary)
         return
     for warning in summary["bifurcation"].get("warnings", []):
         typer.echo(f"warning: {warning}", err=True)
-    for line in text_summary(summary):
+    for line in main_job.text_summary(summary):
         typer.echo(line)
     typer.echo(f"report: {out / 'report.html'}")

@@ -4,6 +4,6 @@
 turns results into text, tables and figures without computing them again.
 """
 
-from .main import Report, run_report, text_summary
+from .main import Report, report, text_summary
 
-__all__ = ["Report", "run_report", "text_summary"]
+__all__ = ["Report", "report", "text_summary"]

@@ -33,7 +33,7 @@ if TYPE_CHECKING:
     from ..wear.map import WearMap
     from .wear import WearSection
 
-__all__ = ["Report", "operating_verdict", "run_report"]
+__all__ = ["Report", "operating_verdict", "report"]
 
 
 @dataclass
@@ -226,7 +226,7 @@ def _motion(a: dict) -> str:
             f"{a['dominant_frequency_hz']:.1f} Hz{mpp}")
 
 
-def run_report(
+def report(
     params: Params,
     out_dir: Path,
     speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
@@ -354,9 +354,9 @@ def run_report(
     say("one verdict: vibration and wear together, design options judged by the wear")
     from .verdict import verdict as overall_verdict
 
-    report = Report(params, diagram, verdict, runs, sens, options, wear, portraits, files, wear_design=stops)
-    report.overall = overall_verdict(report.summary(), params, _sentence(verdict))
-    summary = report.summary()
+    result = Report(params, diagram, verdict, runs, sens, options, wear, portraits, files, wear_design=stops)
+    result.overall = overall_verdict(result.summary(), params, _sentence(verdict))
+    summary = result.summary()
     write_text(out_dir / "summary.json", json.dumps(summary, indent=2, default=float))
     write_text(out_dir / "params.toml", to_toml(params))
     files["summary.json"] = "everything above as JSON"
@@ -364,7 +364,7 @@ def run_report(
     write_text(out_dir / "report.html", _html(params, summary, files))
     stage()
     files["report.html"] = "this report"
-    return report
+    return result
 
 
 def _html(params: Params, summary: dict, files: dict) -> str:
