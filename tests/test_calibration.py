@@ -259,6 +259,8 @@ def test_interrupted_calibrate_leaves_none_of_its_outputs(tmp_path, monkeypatch)
      "at_sliding_speed_m_per_s = 1e+308: must be in (0, 1000] m/s"),
     ('[[observation]]\nquantity = "hopf_frequency_hz"\nvalue = 1e308\nsigma = 1e-300\n',
      "the residuals over their sigma overflow"),
+    ('[[observation]]\nquantity = "first_hopf_kmh"\nvalue = 58.1\nsigma = 1e-308\n',
+     "the residuals over their sigma overflow"),
 ])
 def test_observations_out_of_scale_are_one_line_without_nan(tmp_path, text, message):
     """Found by the fuzz harness: these ended in an OverflowError or Infinity in the JSON."""

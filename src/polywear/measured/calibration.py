@@ -539,8 +539,10 @@ def calibrate(
             step()
         return cache[tag]
 
-    r0 = evaluate(x0)[0]
-    if np.any(np.isinf(r0)):
+    r0, J0 = evaluate(x0)
+    with np.errstate(over="ignore"):
+        overflow = np.any(np.isinf(r0)) or np.any(np.isinf(J0)) or not np.isfinite(np.nansum(np.square(J0 * r0[:, None])))
+    if overflow:
         raise CalibrationError(OVERFLOW)
     if not np.all(np.isfinite(r0)):
         missing = [observations[i].describe() for i in np.flatnonzero(~np.isfinite(r0))]
