@@ -210,12 +210,9 @@ def _profile_from_readings(source: str, key: tuple, angle: np.ndarray, wear: np.
     """Fit one group of readings, dropping outliers (at most a tenth of them)."""
     position, rib, distance = key
     notes: list[str] = []
-    order_a = np.argsort(angle)
-    angle, wear = angle[order_a], wear[order_a]
     K = min(max_order, int((0.75 * angle.size - 1) // 2))  # a quarter of the readings left to estimate the noise
-    where = f"{source}" + (f" ({', '.join(str(k) for k in key if k is not None)})" if any(k is not None for k in key) else "")
     if K < 1:
-        raise ProfileError(f"{where}: {angle.size} readings; at least 6 are needed for a spectrum")
+        raise ProfileError(f"{source}: {_describe(key)}: {angle.size} readings; at least 6 are needed for a spectrum")
     phi = np.radians(angle)
     requested = K
     while K > 1 and np.linalg.cond(_design(phi, K)) > MAX_CONDITION:
