@@ -28,7 +28,8 @@ def _documented_bounds() -> dict[str, tuple[str, str]]:
     text = DOCS.read_text(encoding="utf-8")
     start = text.index("**Bounds.**")
     table = text[start:text.index("**Wear evolution**", start)]
-    return {m[0]: (m[1].strip(), m[2].strip()) for m in re.findall(r"^\| `([a-z_.0-9]+)` \|([^|]*)\|([^|]*)\|", table, re.M)}
+    rows = re.findall(r"^\| `([a-z_.0-9]+)` \|([^|]*)\|[^|]*\|([^|]*)\|", table, re.M)  # key, lower, unit, upper
+    return {key: (lower.strip(), upper.strip()) for key, lower, upper in rows}
 
 
 def _written(value: float, inclusive: bool, lower: bool) -> str:
