@@ -36,6 +36,10 @@ def report(
         typer.Option("--wear-km", help="Distance [km] of the wear evolutions at the operating speed and on the "
                      "drive cycle (default: wear.report_km, 100000; 0: not run); the wear map is always included."),
     ] = None,
+    wear_design: Annotated[bool, typer.Option(
+        "--wear-design", help="For a car that vibrates on the drive cycle: the least change of the first design "
+        "option's parameters after which the evolution shows no polygon within --wear-km (minutes: dozens of "
+        "evolutions).")] = False,
     json_: JsonOpt = False,
     quiet: QuietOpt = False,
 ) -> None:
@@ -58,7 +62,8 @@ def report(
     # written into a new folder that replaces --out only when complete: never a mix of two runs
     with fresh_directory(out) as folder:
         result = main_job.report(params, folder, speed_range, operating_range,
-                                 progress=status_lines("polywear report: ", quiet), wear_evolution_km=wear_km)
+                                 progress=status_lines("polywear report: ", quiet), wear_evolution_km=wear_km,
+                                 wear_design_by_evolution=wear_design)
     summary = result.summary()
     if json_:
         emit_json(summary)

@@ -233,6 +233,7 @@ def report(
     operating_range_kmh: tuple[float, float] | None = None,
     progress: Progress | None = None,
     wear_evolution_km: float | None = None,
+    wear_design_by_evolution: bool = False,
 ) -> Report:
     """Run the main job and write figures, data, ``summary.json`` and ``report.html`` to ``out_dir``.
 
@@ -255,6 +256,11 @@ def report(
     wear_evolution_km : float, optional
         Distance [km] of the wear evolutions at the operating speed and on the drive cycle
         (default ``wear.report_km``; 0: not run); the wear map is always in the report.
+    wear_design_by_evolution : bool
+        For a car that vibrates on the drive cycle, also the least change of the first
+        design option's parameters after which the evolution shows no polygon within
+        ``wear_evolution_km`` (dozens of evolutions: minutes; ``polywear report
+        --wear-design``). Off by default: the verdict judges every option by the wear map.
 
     Returns
     -------
@@ -347,7 +353,7 @@ def report(
     from ..wear.design import cycle_growth, wear_design
 
     stops = None
-    if km and options.best is not None and not cycle_growth(params)[2]:  # the tread vibrates on the drive cycle
+    if wear_design_by_evolution and km and options.best is not None and not cycle_growth(params)[2]:  # vibrates on the cycle
         say("what stops the polygon: the least change judged by the evolution")
         stops = wear_design(params, keys=options.best.keys, target_km=km).summary()
 
