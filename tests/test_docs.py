@@ -28,8 +28,11 @@ def test_docs_stand_alone():
 
 
 def _table_defaults(text: str) -> dict[str, str]:
-    """``| `key` | default | ...`` rows of a Markdown table: key -> default as written."""
-    rows = re.findall(r"^\| `([a-z_]+(?:\.[a-z0-9_]+)?)` \| ([^|]+) \|", text, flags=re.MULTILINE)
+    """``| `key` | default | ...`` rows of the Markdown tables headed ``| key | default |``
+    (not the bounds table): key -> default as written."""
+    tables = re.findall(r"^\| key \| default \|.*\n((?:\|.*\n?)*)", text, flags=re.MULTILINE)
+    rows = [row for table in tables
+            for row in re.findall(r"^\| `([a-z_]+(?:\.[a-z0-9_]+)?)` \| ([^|]+) \|", table, flags=re.MULTILINE)]
     return {key: default.strip() for key, default in rows}
 
 
