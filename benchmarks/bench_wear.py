@@ -15,7 +15,7 @@ the machine may be shared, and wall time then measures the load), best of N:
   right-hand side, tolerance 1e-8, padded spectrum);
 * the evolution over ``--km`` (default 60 000 km) on the three-speed default drive cycle
   (``--cycle 110``: 110 km/h alone), tread1dof (axle4dof too with ``--axle``), in one
-  process: the fast evolution (``polywear.wear.evolution.evolve``) and the baseline
+  process: the fast evolution (``polywear.wear.evolution.wear_evolution``) and the baseline
   (today's implementation before issue 22, fixed 1000 km steps) in the same run, CPU and
   wall time, their ratio, the load, and the answers side by side (visible distance, depth
   at the end, dominant order).
@@ -31,7 +31,7 @@ import time
 import numpy as np
 
 import wear_evolution_baseline as baseline
-from polywear.wear.evolution import evolve, initial_roughness
+from polywear.wear.evolution import wear_evolution, initial_roughness
 from polywear.wear.windows import window_wear
 from polywear.wear.map import load_to_power, wear_map
 from polywear.models import get_model
@@ -104,7 +104,7 @@ def main() -> None:
     for name in ("tread1dof",) + (("axle4dof",) if args.axle else ()):
         p_m = with_updates(params, {"model": name})
         runs = {}
-        for label, run in (("fast", evolve), ("baseline", baseline.evolve)):
+        for label, run in (("fast", wear_evolution), ("baseline", baseline.wear_evolution)):
             if label == "baseline" and args.only_fast:
                 continue
             load = os.getloadavg()[0]

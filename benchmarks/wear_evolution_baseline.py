@@ -98,7 +98,7 @@ def _window_sum(x: np.ndarray):
     A BLAS dot product (``np.dot``) of a long vector splits the sum over BLAS threads,
     so its rounding depends on the thread count, which is fixed when BLAS loads and
     follows ``OPENBLAS_NUM_THREADS``/``OMP_NUM_THREADS``; a worker process started later
-    (``evolve(..., workers=N)``) may get another count than this process (e.g. after
+    (``wear_evolution(..., workers=N)``) may get another count than this process (e.g. after
     ``distributed.LocalCluster`` set those variables to 1 here) and a different window."""
     return np.sum(x)
 
@@ -356,7 +356,7 @@ def _update(W: np.ndarray, free: np.ndarray, forcing: np.ndarray) -> tuple[np.nd
 
 
 
-def evolve(params: Params, distance_km: float, cycle: Iterable[tuple[float, float]] | None = None,
+def wear_evolution(params: Params, distance_km: float, cycle: Iterable[tuple[float, float]] | None = None,
            settings: EvolutionSettings = EvolutionSettings(), progress: Progress | None = None) -> EvolutionResult:
     """Worn profile from seeded roughness over ``distance_km`` [km] (fixed steps, one process)."""
     cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
@@ -370,7 +370,7 @@ def _windows(pool, jobs, base, longest: int) -> list[WindowWear]:
 
 def _evolve(params: Params, distance_km: float, cycle, step_km: float, revolutions: int, progress, pool
             ) -> EvolutionResult:
-    """:func:`evolve` on a given cycle, the windows of each step run by :func:`_windows`."""
+    """:func:`wear_evolution` on a given cycle, the windows of each step run by :func:`_windows`."""
     base = get_model(params.model)
     coupled = coupled_model(base)
     R = params.operating.rolling_radius_m

@@ -45,7 +45,7 @@ EXPECTED = {
     "read_observations": "polywear.measured.calibration:read_observations",
     "read_tir": "polywear.measured.tir:read_tir",
     "load_with_tir": "polywear.measured.tir:load_with_tir",
-    "wear_evolution": "polywear.wear.evolution:evolve",
+    "wear_evolution": "polywear.wear.evolution:wear_evolution",
     "wear_design": "polywear.wear.design:wear_design",
     "fleet": "polywear.studies.fleet:fleet",
     "load_fleet_spec": "polywear.studies.fleet:load_fleet_spec",

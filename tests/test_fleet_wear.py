@@ -18,7 +18,7 @@ from polywear.dynamics.bifurcation import bifurcation
 from polywear.params import Params, with_updates
 from polywear.studies.fast_band import _FIXED_RANGE, band_reference
 from polywear.studies.fleet import OUTPUTS, fleet, load_fleet_spec
-from polywear.wear.evolution import evolve
+from polywear.wear.evolution import wear_evolution
 
 from .cli_runner import run_main
 
@@ -51,7 +51,7 @@ def _spec(tmp_path, samples, every):
 
 @pytest.mark.slow
 def test_wear_risk_against_the_lognormal_closed_form(tmp_path):
-    nominal = evolve(with_updates(Params(), {"wear.energetic_rate_mm3_per_j": K_NOM}), D_KM, ((110.0, 1.0),))
+    nominal = wear_evolution(with_updates(Params(), {"wear.energetic_rate_mm3_per_j": K_NOM}), D_KM, ((110.0, 1.0),))
     visible_nom = nominal.visible_km
     assert visible_nom is not None and 0.5 * D_KM < visible_nom < 1.5 * D_KM  # the threshold inside the fleet
     at = int(np.flatnonzero(nominal.depth_mm >= 0.1)[0])

@@ -27,7 +27,7 @@ ENTRY_POINTS = [
     "polywear.dynamics.simulation:simulate_values",
     "polywear.dynamics.stability_map:stability_map",
     "polywear.dynamics.sweep:sweep",
-    "polywear.wear.evolution:evolve",
+    "polywear.wear.evolution:wear_evolution",
     "polywear.parallel:map_batched",
     "polywear.report.main:report",
     "polywear.report.wear:wear_section",

@@ -117,9 +117,9 @@ def _wear_design(d):
 
 
 def _wear_evolution(d):
-    from polywear.wear.evolution import EvolutionSettings, evolve
+    from polywear.wear.evolution import EvolutionSettings, wear_evolution
 
-    return evolve(Params(), 2000.0, cycle=((60.0, 1.0),), settings=EvolutionSettings(step_km=1000.0))
+    return wear_evolution(Params(), 2000.0, cycle=((60.0, 1.0),), settings=EvolutionSettings(step_km=1000.0))
 
 
 def _band(d):

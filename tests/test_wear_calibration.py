@@ -10,7 +10,7 @@ import pytest
 from polywear.measured.profile import read_profiles
 from polywear.measured.wear_calibration import calibrate_wear
 from polywear.params import load_params, with_updates
-from polywear.wear.evolution import EvolutionSettings, evolve
+from polywear.wear.evolution import EvolutionSettings, wear_evolution
 from polywear.wear.law import profile_samples
 
 pytestmark = pytest.mark.slow
@@ -23,7 +23,7 @@ def truth():
     """The tire as the model wears it at K_TRUE on the default cycle, and two mileages
     before the polygon is visible (where the dominant order stands above a 20 um gauge)."""
     params = load_params()
-    run = evolve(with_updates(params, {"wear.energetic_rate_mm3_per_j": K_TRUE}), 7000.0,
+    run = wear_evolution(with_updates(params, {"wear.energetic_rate_mm3_per_j": K_TRUE}), 7000.0,
                  settings=EvolutionSettings(step_km=500.0))
     visible = run.visible_km
     assert visible is not None and 5000.0 < visible < 7000.0
@@ -87,7 +87,7 @@ def test_two_mileages_separate_k_e_and_the_initial_roughness(tmp_path):
     within their intervals (the roughness between two nodes of the fitted grid)."""
     params = load_params()
     r_true = 2.0 * params.wear.initial_roughness_um
-    run = evolve(with_updates(params, {"wear.energetic_rate_mm3_per_j": K_TRUE, "wear.initial_roughness_um": r_true}),
+    run = wear_evolution(with_updates(params, {"wear.energetic_rate_mm3_per_j": K_TRUE, "wear.initial_roughness_um": r_true}),
                  7000.0, settings=EvolutionSettings(step_km=500.0))
     mileages = [float(run.distance_km[np.argmin(np.abs(run.distance_km - f * run.visible_km))]) for f in (0.8, 0.95)]
     measured = _gauge(tmp_path, run, mileages, 0.005, "rough.csv")

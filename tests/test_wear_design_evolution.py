@@ -11,7 +11,7 @@ import pytest
 from polywear.dynamics.sensitivity import perturbed
 from polywear.params import Params, with_updates
 from polywear.wear.design import EVOLUTION_REFINE, cycle_growth, wear_design
-from polywear.wear.evolution import evolve
+from polywear.wear.evolution import wear_evolution
 
 CYCLE = ((110.0, 1.0),)  # the default car vibrates at 110 km/h
 TARGET = 4000.0
@@ -35,11 +35,11 @@ def test_least_change_for_a_vibrating_car_checked_by_evolution():
     assert option.evolution["visible_km"] is None
     factor = option.value / option.nominal
     # independent evolutions (the default settings, as the search's) at the change and at 3 % less of it
-    at = evolve(perturbed(params, KEY, option.value), TARGET, CYCLE)
+    at = wear_evolution(perturbed(params, KEY, option.value), TARGET, CYCLE)
     assert at.visible_km is None and at.depth_mm[-1] < params.wear.visible_depth_mm
     step = 1.5 * EVOLUTION_REFINE
     less = math.exp(math.log(factor) - math.copysign(step, math.log(factor)))
-    before = evolve(perturbed(params, KEY, option.nominal * less), TARGET, CYCLE)
+    before = wear_evolution(perturbed(params, KEY, option.nominal * less), TARGET, CYCLE)
     assert before.visible_km is not None and before.visible_km < TARGET
 
 

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from polywear.wear.evolution import EvolutionSettings, evolve, initial_roughness
+from polywear.wear.evolution import EvolutionSettings, wear_evolution, initial_roughness
 from polywear.wear.windows import (
     MAX_WINDOW,
     SEPARATED_BEATS,
@@ -100,7 +100,7 @@ def test_coherence_of_a_drifting_vibration(eps):
 
 def test_evolution_follows_the_linear_map_at_small_amplitude():
     params = Params()
-    result = evolve(params, 4000.0, cycle=SLOW, settings=EvolutionSettings(step_km=2000.0))
+    result = wear_evolution(params, 4000.0, cycle=SLOW, settings=EvolutionSettings(step_km=2000.0))
     m = wear_map(params, [40.0])
     k = int(m.most_unstable()[0])
     factor = result.harmonics[-1, k] / result.harmonics[0, k]
@@ -114,12 +114,12 @@ def test_evolution_follows_the_linear_map_at_small_amplitude():
 
 def test_distances_scale_as_one_over_k_e_and_seed_changes_phase_only():
     params = Params()
-    base = evolve(params, 4000.0, cycle=SLOW, settings=EvolutionSettings(step_km=2000.0))
-    fast = evolve(with_updates(params, {"wear.energetic_rate_mm3_per_j": 2e-3}), 2000.0, cycle=SLOW,
+    base = wear_evolution(params, 4000.0, cycle=SLOW, settings=EvolutionSettings(step_km=2000.0))
+    fast = wear_evolution(with_updates(params, {"wear.energetic_rate_mm3_per_j": 2e-3}), 2000.0, cycle=SLOW,
                   settings=EvolutionSettings(step_km=1000.0))
     np.testing.assert_allclose(fast.harmonics, base.harmonics, rtol=1e-6, atol=1e-6 * np.abs(base.harmonics).max())
     np.testing.assert_allclose(2 * fast.distance_km, base.distance_km)
-    other = evolve(with_updates(params, {"wear.seed": 7}), 4000.0, cycle=SLOW,
+    other = wear_evolution(with_updates(params, {"wear.seed": 7}), 4000.0, cycle=SLOW,
                    settings=EvolutionSettings(step_km=2000.0))
     g_base = np.abs(base.harmonics[-1] / base.harmonics[0])
     g_other = np.abs(other.harmonics[-1] / other.harmonics[0])
@@ -132,8 +132,8 @@ def test_distances_scale_as_one_over_k_e_and_seed_changes_phase_only():
 
 def test_halving_the_distance_step_changes_the_depth_by_less_than_2_percent():
     params = Params()
-    coarse = evolve(params, 6000.0, cycle=SLOW, settings=EvolutionSettings(step_km=2000.0))
-    fine = evolve(params, 6000.0, cycle=SLOW, settings=EvolutionSettings(step_km=1000.0))
+    coarse = wear_evolution(params, 6000.0, cycle=SLOW, settings=EvolutionSettings(step_km=2000.0))
+    fine = wear_evolution(params, 6000.0, cycle=SLOW, settings=EvolutionSettings(step_km=1000.0))
     assert fine.depth_mm[-1] == pytest.approx(coarse.depth_mm[-1], rel=0.02)
 
 
@@ -201,11 +201,11 @@ def halved_vibrating_runs():
     import polywear.wear.evolution as we
 
     params = Params()
-    coarse = evolve(params, 6000.0, cycle=((120.0, 1.0),), settings=EvolutionSettings(step_km=1000.0))
+    coarse = wear_evolution(params, 6000.0, cycle=((120.0, 1.0),), settings=EvolutionSettings(step_km=1000.0))
     default = we.MAX_CHANGE
     try:
         we.MAX_CHANGE = 0.5 * default
-        fine = evolve(params, 6000.0, cycle=((120.0, 1.0),),
+        fine = wear_evolution(params, 6000.0, cycle=((120.0, 1.0),),
                       settings=EvolutionSettings(step_km=500.0, tolerance=0.25 * EvolutionSettings().tolerance))
     finally:
         we.MAX_CHANGE = default
@@ -264,8 +264,8 @@ def test_windows_in_worker_processes_give_the_same_evolution():
     the same profile, bit for bit, as one process."""
     params = Params()
     cycle = ((50.0, 0.5), (120.0, 0.5))
-    serial = evolve(params, 2000.0, cycle=cycle, settings=EvolutionSettings(step_km=1000.0))
-    parallel = evolve(params, 2000.0, cycle=cycle, settings=EvolutionSettings(step_km=1000.0), workers=2)
+    serial = wear_evolution(params, 2000.0, cycle=cycle, settings=EvolutionSettings(step_km=1000.0))
+    parallel = wear_evolution(params, 2000.0, cycle=cycle, settings=EvolutionSettings(step_km=1000.0), workers=2)
     np.testing.assert_array_equal(parallel.harmonics, serial.harmonics)
     np.testing.assert_array_equal(parallel.distance_km, serial.distance_km)
     assert np.isfinite(serial.vibration_order[:, 1]).all()  # the 120 km/h windows vibrate
@@ -281,8 +281,8 @@ def test_workers_with_another_blas_thread_count_give_the_same_evolution(monkeypa
         monkeypatch.setenv(name, "1")
     params = Params()
     cycle = ((50.0, 0.5), (120.0, 0.5))
-    serial = evolve(params, 1000.0, cycle=cycle, settings=EvolutionSettings(step_km=1000.0))
-    parallel = evolve(params, 1000.0, cycle=cycle, settings=EvolutionSettings(step_km=1000.0), workers=2)
+    serial = wear_evolution(params, 1000.0, cycle=cycle, settings=EvolutionSettings(step_km=1000.0))
+    parallel = wear_evolution(params, 1000.0, cycle=cycle, settings=EvolutionSettings(step_km=1000.0), workers=2)
     np.testing.assert_array_equal(parallel.harmonics, serial.harmonics)
     assert np.isfinite(serial.vibration_order[:, 1]).all()  # the 120 km/h window vibrates
 
@@ -317,8 +317,8 @@ def test_fast_evolution_agrees_with_the_baseline_on_a_short_cycle():
     (measured: 0.6 %, order 8 0.3 %, in 2 steps against 7), the depth within 1 %."""
     params = Params()
     cycle = ((50.0, 0.5), (120.0, 0.5))
-    fast = evolve(params, 3000.0, cycle=cycle)
-    old = _baseline().evolve(params, 3000.0, cycle=cycle)
+    fast = wear_evolution(params, 3000.0, cycle=cycle)
+    old = _baseline().wear_evolution(params, 3000.0, cycle=cycle)
     assert np.isfinite(fast.vibration_order[:, 1]).all()
     assert abs(old.harmonics[-1, 7]) > 3.0 * abs(old.harmonics[0, 7])
     largest = np.abs(old.harmonics[-1]).max()
@@ -333,8 +333,8 @@ def test_fast_evolution_agrees_with_the_baseline_through_locking():
     """120 km/h alone over 6000 km (pulled into locking at order 8 before 5000 km): visible
     distance and final depth within 1 % of the baseline, the same polygon order."""
     params = Params()
-    fast = evolve(params, 6000.0, cycle=((120.0, 1.0),))
-    old = _baseline().evolve(params, 6000.0, cycle=((120.0, 1.0),))
+    fast = wear_evolution(params, 6000.0, cycle=((120.0, 1.0),))
+    old = _baseline().wear_evolution(params, 6000.0, cycle=((120.0, 1.0),))
     assert fast.locked[-1, 0] and old.locked[-1, 0]
     assert fast.visible_km == pytest.approx(old.visible_km, rel=0.01)
     assert fast.depth_mm[-1] == pytest.approx(old.depth_mm[-1], rel=0.01)
@@ -349,8 +349,8 @@ def test_visible_distance_scales_as_one_over_k_e_where_the_tread_vibrates():
     cancel over the wheel's revolutions, half as many at half the distance, and stay
     bounded: measured 1e-4 of the visible distance, 1e-3 of the largest harmonic)."""
     params = Params()
-    one = evolve(params, 6000.0, cycle=((120.0, 1.0),), settings=EvolutionSettings(step_km=1000.0))
-    two = evolve(with_updates(params, {"wear.energetic_rate_mm3_per_j": 2e-3}), 3000.0, cycle=((120.0, 1.0),),
+    one = wear_evolution(params, 6000.0, cycle=((120.0, 1.0),), settings=EvolutionSettings(step_km=1000.0))
+    two = wear_evolution(with_updates(params, {"wear.energetic_rate_mm3_per_j": 2e-3}), 3000.0, cycle=((120.0, 1.0),),
                  settings=EvolutionSettings(step_km=500.0))
     assert one.visible_km is not None and one.locked[-1, 0]
     assert two.visible_km == pytest.approx(0.5 * one.visible_km, rel=1e-3)

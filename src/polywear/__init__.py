@@ -28,7 +28,7 @@ Entry points (each is the function or class named in brackets):
 - ``wear_map`` [wear.map.wear_map]: linear wear stability over speed and order
 - ``calibrate``, ``read_observations`` [measured.calibration]: fit parameters to observations
 - ``read_tir``, ``load_with_tir`` [measured.tir]: tyre property files (.tir) and parameters from them
-- ``wear_evolution`` [wear.evolution.evolve]: the worn profile over distance
+- ``wear_evolution`` [wear.evolution.wear_evolution]: the worn profile over distance
 - ``wear_design`` [wear.design.wear_design]: least parameter changes that keep polygonal wear
   from growing (or invisible up to a distance)
 - ``fleet``, ``load_fleet_spec`` [studies.fleet]: SEV risk over a fleet of cars
@@ -75,7 +75,7 @@ _ENTRY_POINTS: dict[str, tuple[str, str | None]] = {
     "read_observations": ("polywear.measured.calibration", "read_observations"),
     "read_tir": ("polywear.measured.tir", "read_tir"),
     "load_with_tir": ("polywear.measured.tir", "load_with_tir"),
-    "wear_evolution": ("polywear.wear.evolution", "evolve"),
+    "wear_evolution": ("polywear.wear.evolution", "wear_evolution"),
     "wear_design": ("polywear.wear.design", "wear_design"),
     "fleet": ("polywear.studies.fleet", "fleet"),
     "load_fleet_spec": ("polywear.studies.fleet", "load_fleet_spec"),

@@ -223,13 +223,13 @@ def evolve_(
             raise UserError(f"--polar-km {polar_km!r}: distances must lie in [0, --distance-km]")
     params = inputs.load()
     pairs = ((float(speed), 1.0),) if speed is not None else (parse_cycle(cycle) if cycle else None)
-    from ..wear.evolution import EvolutionSettings, evolve
+    from ..wear.evolution import EvolutionSettings, wear_evolution
 
     with (
         outputs.progress("wear evolve [km]") as update,
         user_errors(ValueError, RuntimeError, ArithmeticError, prefix="wear evolve: "),
     ):
-        result = evolve(params, distance_km, pairs, EvolutionSettings(step_km=step_km, revolutions=revolutions),
+        result = wear_evolution(params, distance_km, pairs, EvolutionSettings(step_km=step_km, revolutions=revolutions),
                         progress=update, workers=workers)
     outputs.write(result.save, lambda: one_axes(result.plot, (8, 4.5)))
     if polar:

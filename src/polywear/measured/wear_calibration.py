@@ -30,7 +30,7 @@ import numpy as np
 from ..params import Params, with_updates
 from ..progress import Progress
 from ..results import Result
-from ..wear.evolution import EvolutionResult, EvolutionSettings, evolve
+from ..wear.evolution import EvolutionResult, EvolutionSettings, wear_evolution
 from .profile import MeasuredProfiles, ProfileError
 
 __all__ = ["WearCalibration", "calibrate_wear", "predict_visible_km"]
@@ -245,7 +245,7 @@ def calibrate_wear(measured: MeasuredProfiles, params: Params, cycle: Iterable[t
         if key not in cache:
             if progress is not None:
                 progress(len(cache), None, f"evolution {len(cache) + 1} (roughness x{level:.3g}, {distance:.0f} km)")
-            cache[key] = evolve(with_updates(params, {ROUGHNESS_KEY: r_ref * level}), distance, cycle, settings)
+            cache[key] = wear_evolution(with_updates(params, {ROUGHNESS_KEY: r_ref * level}), distance, cycle, settings)
         return cache[key]
 
     levels = list(ROUGHNESS_GRID) if fit_roughness else [1.0]
@@ -408,7 +408,7 @@ def predict_visible_km(calibration: WearCalibration, params: Params | None = Non
     car = calibration.params if params is None else with_updates(params, {
         RATE_KEY: calibration.energetic_rate_mm3_per_j, ROUGHNESS_KEY: calibration.initial_roughness_um})
     cycle = calibration.cycle if cycle is None else tuple(cycle)
-    run = evolve(car, distance_km, cycle, settings)
+    run = wear_evolution(car, distance_km, cycle, settings)
     visible = run.visible_km
     k = calibration.energetic_rate_mm3_per_j
     interval = None

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..params import Params
-from ..wear.evolution import EvolutionResult, EvolutionSettings, evolve
+from ..wear.evolution import EvolutionResult, EvolutionSettings, wear_evolution
 
 if TYPE_CHECKING:
     from ..wear.map import WearMap
@@ -115,7 +115,7 @@ def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: f
                 result = section.evolutions[0][1]
             else:
                 say(f"polygonal wear: evolution over {evolution_km:,.0f} km, {label}")
-                result = evolve(params, evolution_km, cycle, evolution,
+                result = wear_evolution(params, evolution_km, cycle, evolution,
                                 progress=_tenths(stage.detail(f"evolution, {label}: ")))
             stem = "wear_evolution_operating" if label == "operating speed" else "wear_evolution_cycle"
             save_result(result, f"{stem}.nc")

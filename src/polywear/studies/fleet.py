@@ -24,7 +24,7 @@ count it). The risk probability gets an exact binomial
 (Clopper-Pearson) interval over the cars that were evaluated.
 
 Wear risk. With ``wear_km`` (D) every car's worn profile is evolved over D km on the
-usage cycle (the usage speeds with their shares, :func:`~polywear.wear.evolution.evolve`,
+usage cycle (the usage speeds with their shares, :func:`~polywear.wear.evolution.wear_evolution`,
 vibrating or not): the wear risk is the share of cars whose polygon becomes visible
 (``wear.visible_depth_mm``) within D, with the same exact interval; the most dangerous
 order is the order most of the visible polygons have; its drivers are computed as the
@@ -415,10 +415,10 @@ class FleetEvaluator:
         """(distance [km] at which the polygon becomes visible, inf if not within ``wear_km``;
         its order: the dominant order where it first is visible, else at the end) by the
         nonlinear evolution on the usage cycle, or the failure."""
-        from ..wear.evolution import evolve
+        from ..wear.evolution import wear_evolution
 
         try:
-            worn = evolve(params, self.wear_km, self.usage_cycle)
+            worn = wear_evolution(params, self.wear_km, self.usage_cycle)
         except SAMPLE_FAILURES as exc:
             return CarOutcome(failure="wear evolution", detail=f"{type(exc).__name__}: {exc}")
         visible = worn.visible_km

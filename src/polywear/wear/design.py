@@ -18,7 +18,7 @@ to ``max_factor``; the first step that meets the criterion is refined by bisecti
 
 Judged by the evolution (``judge="evolution"``, the default with a target distance when
 the tread vibrates at a cycle speed, where the map does not apply). Every probe of the
-search runs the nonlinear evolution (:func:`~polywear.wear.evolution.evolve`) over the
+search runs the nonlinear evolution (:func:`~polywear.wear.evolution.wear_evolution`) over the
 target distance on the cycle; it meets the criterion when no polygon becomes visible
 within it, vibrating or not. The same search on a coarser grid (:data:`EVOLUTION_GRID`
 steps, bisection to :data:`EVOLUTION_REFINE`); a direction whose largest change
@@ -48,7 +48,7 @@ from ..params import Params
 from ..dynamics.design import DEFAULT_KEYS, ENGINEERING, parameter_category, parameter_label
 from ..dynamics.least_change import least_factor
 from ..dynamics.sensitivity import nominal_value, parameter_direction, perturbed
-from .evolution import EvolutionSettings, evolve
+from .evolution import EvolutionSettings, wear_evolution
 from .map import wear_map
 
 __all__ = ["WearDesignOption", "WearDesignResult", "cycle_rates", "cycle_growth", "linear_depth_mm", "wear_design",
@@ -197,7 +197,7 @@ def _finite(x: float):
 def _evolved(params: Params, target_km: float, cycle, settings: EvolutionSettings) -> dict:
     """The evolution over ``target_km`` [km] on ``cycle``: depth at its end [mm], visible
     distance [km] (None: not within it) and dominant order at its end."""
-    worn = evolve(params, target_km, cycle, settings)
+    worn = wear_evolution(params, target_km, cycle, settings)
     return {"distance_km": target_km, "depth_mm": float(worn.depth_mm[-1]), "visible_km": worn.visible_km,
             "dominant_order": int(worn.dominant_order[-1])}
 
@@ -344,8 +344,8 @@ def verify_option(params: Params, option: WearDesignOption, distance_km: float, 
     returns ``{"depth_mm", "visible_km", "nominal_depth_mm", "nominal_visible_km", "verified"}``."""
     cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
     changed = perturbed(params, option.key, option.value)
-    with_option = evolve(changed, distance_km, cycle, settings)
-    nominal = evolve(params, distance_km, cycle, settings)
+    with_option = wear_evolution(changed, distance_km, cycle, settings)
+    nominal = wear_evolution(params, distance_km, cycle, settings)
     out = {
         "distance_km": distance_km,
         "depth_mm": float(with_option.depth_mm[-1]),

@@ -62,7 +62,7 @@ from .law import energetic_rate, profile_samples
 from .windows import (LOCK_TOLERANCE, MAX_WINDOW, SETTLED_PHASE, WindowWear, _detuning, _separating_window,
                       _settle_times, coherence, window_wear)
 
-__all__ = ["WindowWear", "window_wear", "EvolutionResult", "EvolutionSettings", "evolve", "initial_roughness",
+__all__ = ["WindowWear", "window_wear", "EvolutionResult", "EvolutionSettings", "wear_evolution", "initial_roughness",
            "coherence",
            "LOCK_TOLERANCE", "SETTLED_PHASE"]
 
@@ -295,7 +295,7 @@ class EvolutionResult(Result):
 
 @dataclass(frozen=True)
 class EvolutionSettings:
-    """Numerical settings of :func:`evolve` (``polywear wear evolve --step-km, --revolutions``)."""
+    """Numerical settings of :func:`wear_evolution` (``polywear wear evolve --step-km, --revolutions``)."""
 
     step_km: float = 1000.0
     """First distance step between simulated windows [km] (> 0); later steps follow the
@@ -317,7 +317,7 @@ class EvolutionSettings:
         check_positive(self, "tolerance")
 
 
-def evolve(params: Params, distance_km: float, cycle: Iterable[tuple[float, float]] | None = None,
+def wear_evolution(params: Params, distance_km: float, cycle: Iterable[tuple[float, float]] | None = None,
            settings: EvolutionSettings = EvolutionSettings(),
            progress: Progress | None = None, workers: int = 1) -> EvolutionResult:
     """Worn profile from seeded roughness over ``distance_km`` [km] on a drive cycle.
@@ -358,7 +358,7 @@ def _windows(pool, jobs, base, longest: int) -> list[WindowWear]:
 
 def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettings, progress, pool
             ) -> EvolutionResult:
-    """:func:`evolve` on a given cycle: error-controlled distance steps (module notes), the
+    """:func:`wear_evolution` on a given cycle: error-controlled distance steps (module notes), the
     windows at the end of each step run by :func:`_windows` and reused for the next."""
     base = model_for(params)
     coupled = coupled_model(base)
