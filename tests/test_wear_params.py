@@ -54,9 +54,9 @@ def test_cycle_round_trip_and_normalisation(tmp_path):
     ("wear.max_order=360", ["wear.max_order", "360", "wear.profile_points"]),
     ("wear.max_order=2.5", ["wear.max_order", "2.5", "integer"]),
     ("wear.seed=-1", ["wear.seed", "-1"]),
-    ("wear.energetic_rate_mm3_per_j=0", ["wear.energetic_rate_mm3_per_j", "greater than 0"]),
+    ("wear.energetic_rate_mm3_per_j=0", ["wear.energetic_rate_mm3_per_j", "greater than or equal to 0.000001"]),
     ("wear.visible_depth_mm=-0.1", ["wear.visible_depth_mm", "-0.1", "greater than 0"]),
-    ("tire.contact_length_m=0", ["tire.contact_length_m", "greater than 0"]),
+    ("tire.contact_length_m=0", ["tire.contact_length_m", "greater than or equal to 0.01"]),
 ])
 def test_bad_wear_values_give_one_line(override, fragments):
     with pytest.raises(ParameterError) as exc:
