@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import math
 import tempfile
+from abc import ABC, abstractmethod
 from contextlib import contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass
@@ -117,15 +118,15 @@ def load_with_study(config: Path | None, sets: list[str] | None):
     return params, load_study(config, study_sets)
 
 
-class OptionGroup:
+class OptionGroup(ABC):
     """Options that travel together. A command declares them as one parameter whose default
     is the group (a frozen dataclass, its fields named like the options);
     :func:`with_shared_options` puts the options in that place of its --help and hands the
     command their values as one such object."""
 
+    @abstractmethod
     def options(self) -> list[tuple[str, Any, Any]]:
         """(parameter name, typer annotation, default) of each option, in --help order."""
-        raise NotImplementedError
 
 
 @dataclass(frozen=True)
