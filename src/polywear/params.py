@@ -107,15 +107,15 @@ class Friction(_Table):
         2.0, "Stribeck exponent delta [-] (>= 1 keeps G smooth at v = 0)", ge=1.0, le=10.0
     )
     contact: Literal["point", "patch"] = Field(
-        "point",
+        default="point",
         description='"point": one tread element under the whole load (the paper); "patch": '
         "patch_elements tread elements travelling through the contact patch (tread1dof)",
     )
     patch_elements: int = Field(
-        40, description="tread elements M along the contact patch (contact = patch) [-]", ge=2, le=400
+        default=40, description="tread elements M along the contact patch (contact = patch) [-]", ge=2, le=400
     )
     patch_pressure: Literal["parabolic", "uniform"] = Field(
-        "parabolic", description="normal pressure distribution along the patch (contact = patch)"
+        default="parabolic", description="normal pressure distribution along the patch (contact = patch)"
     )
 
     @field_validator("patch_elements", mode="before")

@@ -51,9 +51,12 @@ def with_deprecated_keys(summary: dict, renamed: dict[str, str | tuple[str, floa
     out: dict = {}
     for key, value in summary.items():
         out[key] = value
-        if key in renamed:
-            old, factor = renamed[key] if isinstance(renamed[key], tuple) else (renamed[key], None)
-            out[old] = value if factor is None else _scaled(value, factor)
+        entry = renamed.get(key)
+        if isinstance(entry, tuple):
+            old, factor = entry
+            out[old] = _scaled(value, factor)
+        elif entry is not None:
+            out[entry] = value
     return out
 
 
