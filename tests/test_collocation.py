@@ -55,6 +55,26 @@ def test_scheme_integrates_and_differentiates_polynomials_exactly():
     assert np.isclose(sch.mth @ vals, poly.deriv(4)(0.0))
 
 
+@pytest.mark.parametrize("m, per_interval", [(4, 8), (4, 16), (3, 5)])
+def test_dense_samples_are_the_interpolant_on_every_interval(m, per_interval):
+    # a non-uniform mesh, each interval holding a different polynomial of degree m: dense()
+    # (one basis for all intervals) gives the polynomials' values and agrees with evaluate()
+    rng = np.random.default_rng(3)
+    mesh = np.concatenate([[0.0], np.sort(rng.random(6)), [1.0]])
+    polys = [np.polynomial.Polynomial(rng.normal(size=m + 1)) for _ in range(len(mesh) - 1)]
+    for j in range(1, len(polys)):  # continuous: each starts where the one before ends, the last closes the loop
+        polys[j] = polys[j] - polys[j](0.0) + polys[j - 1](1.0)
+    polys[-1] = polys[-1] + np.polynomial.Polynomial([0.0, polys[0](0.0) - polys[-1](1.0)])
+    nodes = np.array([[polys[j](s), 2.0 * polys[j](s)] for j in range(len(mesh) - 1) for s in scheme(m).nodes[:-1]])
+    orbit = PeriodicOrbit(mesh, nodes, 1.0, 1.0, m)
+    tau, u = orbit.dense(per_interval)
+    s = np.arange(per_interval) / per_interval
+    exact = np.concatenate([polys[j](s) for j in range(len(mesh) - 1)] + [[nodes[0, 0]]])
+    assert tau.shape == (u.shape[0],) and tau[-1] == 1.0
+    assert np.allclose(u[:, 0], exact, rtol=0.0, atol=1e-12) and np.allclose(u[:, 1], 2.0 * exact, atol=1e-12)
+    assert np.allclose(u, orbit.evaluate(tau), rtol=0.0, atol=1e-13)
+
+
 def exact_orbit(V, branch, mesh, m=4):
     r = np.sqrt(cycle_radius2(V, branch))
     orbit = PeriodicOrbit(mesh, np.zeros(((len(mesh) - 1) * m, 3)), 1.0, V, m)
