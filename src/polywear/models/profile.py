@@ -12,6 +12,11 @@ load). A worn spot unloads the tire like a lifted contact point, so the static l
 (``k_z``, ``c_z``: tire vertical stiffness and damping). In ``axle4dof`` the kernel then
 subtracts ``k_z dz_C + c_z z_C'`` of the axle motion and clamps the total at ``N >= 0``;
 in ``tread1dof`` (rim held) this load is the whole normal load and is clamped here.
+With the patch contact (``tread1dof+patch``, :mod:`polywear.models.patch`) it is the
+patch's total load ``N``, clamped here, which the elements share in the proportions of
+the pressure distribution: the patch average enters the load as for the point contact,
+and the wear law spreads the friction power over the patch the same way
+(docs/patch_contact.md section 5 gives the reasons).
 The spring preloads of ``axle4dof`` stay those of the nominal ``N0`` (they are set on
 the car, not by the profile): the base vector is always *prepared* at the speed.
 
@@ -45,6 +50,7 @@ import numpy as np
 from numba import njit
 
 from . import axle4dof_kernels as _axle
+from . import patch as _patch
 from . import tread1dof as _tread
 from .base import Model
 
@@ -57,7 +63,7 @@ _FLAG, _IN0, _R, _KZ, _CZ, _NH, _NT = range(7)
 _HEAD = 7
 _CSTEP = 1e-20
 """Complex step [N] for the load derivative of the base rhs (exact to rounding)."""
-_FLAGS = {"tread1dof": 0, "axle4dof": 1}
+_FLAGS = {"tread1dof": 0, "axle4dof": 1, "tread1dof+patch": 2}
 
 
 def patch_sinc(orders, contact_length_m: float, radius_m: float) -> np.ndarray:
@@ -79,40 +85,50 @@ def harmonics_of(profile: np.ndarray, max_order: int) -> tuple[np.ndarray, np.nd
 def _base_rhs(flag, u, V, p, out):
     if flag == 0:
         _tread.rhs(u, V, p, out)
-    else:
+    elif flag == 1:
         _axle.rhs(u, V, p, out)
+    else:
+        _patch.rhs(u, V, p, out)
 
 
 @njit(cache=True, error_model="numpy")
 def _base_jac(flag, u, V, p, out):
     if flag == 0:
         _tread.jac(u, V, p, out)
-    else:
+    elif flag == 1:
         _axle.jac(u, V, p, out)
+    else:
+        _patch.jac(u, V, p, out)
 
 
 @njit(cache=True, error_model="numpy")
 def _base_dfdv(flag, u, V, p, out):
     if flag == 0:
         _tread.dfdv(u, V, p, out)
-    else:
+    elif flag == 1:
         _axle.dfdv(u, V, p, out)
+    else:
+        _patch.dfdv(u, V, p, out)
 
 
 @njit(cache=True, error_model="numpy")
 def _base_rhs_jac_dfdv(flag, u, V, p, f, J, fv):
     if flag == 0:
         _tread.rhs_jac_dfdv(u, V, p, f, J, fv)
-    else:
+    elif flag == 1:
         _axle.rhs_jac_dfdv(u, V, p, f, J, fv)
+    else:
+        _patch.rhs_jac_dfdv(u, V, p, f, J, fv)
 
 
 @njit(cache=True, error_model="numpy")
 def _base_aux(flag, u, V, p, out):
     if flag == 0:
         _tread.aux(u, V, p, out)
-    else:
+    elif flag == 1:
         _axle.aux(u, V, p, out)
+    else:
+        _patch.aux(u, V, p, out)
 
 
 @njit(cache=True, error_model="numpy")
@@ -181,7 +197,7 @@ def _loaded(u, V, p):
     i0 = int(p[_IN0].real)
     dn, dn_dtheta, dn_dv = _profile_load(u[n], V, p)
     load = q[i0] + dn
-    clamped = p[_FLAG].real == 0.0 and load.real < 0.0
+    clamped = p[_FLAG].real != 1.0 and load.real < 0.0
     q[i0] = 0.0 * load if clamped else load
     return q, clamped, dn_dtheta, dn_dv
 
@@ -284,12 +300,6 @@ def aux(u, V, p, out):
 
 
 # -- the model object ---------------------------------------------------------------------
-def _base_of(model_name: str) -> Model:
-    from . import get_model
-
-    return get_model(model_name.removesuffix("+profile"))
-
-
 def profile_vector(base: Model, params, V: float, a_patch=(), b_patch=(), table_points: int = 0) -> np.ndarray:
     """Parameter vector of :func:`coupled_model` ``(base)`` at speed ``V`` [m/s].
 
@@ -331,13 +341,15 @@ def _table(a: np.ndarray, b: np.ndarray, size: int) -> np.ndarray:
     return np.concatenate(columns)
 
 
-def _prepare(V, p):
-    """Re-cache the base model's speed-only quantities for speed ``V`` [m/s]."""
-    start = _HEAD + 2 * int(p[_NH]) + 3 * int(p[_NT])
-    base = _base_of(("tread1dof", "axle4dof")[int(p[_FLAG])])
-    out = np.array(p, dtype=float)
-    out[start:] = base.prepared(float(V), out[start:])
-    return out
+def _prepare_factory(base: Model):
+    def prepare(V, p):
+        """Re-cache the base model's speed-only quantities for speed ``V`` [m/s]."""
+        start = _HEAD + 2 * int(p[_NH]) + 3 * int(p[_NT])
+        out = np.array(p, dtype=float)
+        out[start:] = base.prepared(float(V), out[start:])
+        return out
+
+    return prepare
 
 
 def _equilibrium_factory(base: Model):
@@ -349,7 +361,8 @@ def _equilibrium_factory(base: Model):
     return equilibrium
 
 
-_COUPLED: dict[str, Model] = {}
+_COUPLED: dict[Model, Model] = {}
+"""Per base model (the patch has one per element count and pressure)."""
 
 
 def coupled_model(base: Model) -> Model:
@@ -360,15 +373,13 @@ def coupled_model(base: Model) -> Model:
     if base.name not in _FLAGS:
         from ..params import ParameterError
 
-        raise ParameterError(
-            f"{base.name}: the worn profile is coupled to the point contact only (friction.contact = 'point')"
-        )
-    if base.name not in _COUPLED:
+        raise ParameterError(f"{base.name}: no worn-profile coupling (models with one: {', '.join(_FLAGS)})")
+    if base not in _COUPLED:
         kernels = SimpleNamespace(
             rhs=rhs, jac=jac, dfdv=dfdv, rhs_jac_dfdv=rhs_jac_dfdv, aux=aux,
-            equilibrium=_equilibrium_factory(base), prepare=_prepare,
+            equilibrium=_equilibrium_factory(base), prepare=_prepare_factory(base),
         )
-        _COUPLED[base.name] = Model(
+        _COUPLED[base] = Model(
             name=f"{base.name}+profile",
             state_names=base.state_names + (PHASE_STATE,),
             state_units=base.state_units + ("rad",),
@@ -377,4 +388,4 @@ def coupled_model(base: Model) -> Model:
             kernels=kernels,
             coordinates=base.coordinates,
         )
-    return _COUPLED[base.name]
+    return _COUPLED[base]
