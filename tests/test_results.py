@@ -111,9 +111,9 @@ def _wear_map(d):
 
 
 def _wear_design(d):
-    from polywear.wear.design import wear_design
+    from polywear.wear.design import WearDesignSettings, wear_design
 
-    return wear_design(Params(), keys=("operating.toe_deg",), grid=6)
+    return wear_design(Params(), keys=("operating.toe_deg",), settings=WearDesignSettings(grid=6))
 
 
 def _wear_evolution(d):
@@ -364,3 +364,14 @@ def test_report_holds_its_results(tmp_path):
     assert [label for label, _ in result.wear.evolutions] == ["operating speed", "drive cycle"]
     with xr.open_dataset(tmp_path / "bifurcation.nc", engine="h5netcdf") as saved:
         np.testing.assert_array_equal(saved["speed_kmh"].values, result.diagram.to_xarray()["speed_kmh"].values)
+    # the report is a Result too: it records what it ran with (the defaults resolved), its
+    # table is the diagram's cycles.csv, its JSON file the summary with the provenance
+    from polywear.report.main import ReportSettings
+
+    assert isinstance(result, Result)
+    assert result.settings == ReportSettings((20.0, 300.0), (80.0, 130.0), 2000.0, False)
+    assert result.save(tmp_path / "again.csv").read_bytes() == (tmp_path / "cycles.csv").read_bytes()
+    saved = json.loads(result.save(tmp_path / "again.json").read_text())
+    assert saved["settings"] == {"speed_range_kmh": [20.0, 300.0], "operating_range_kmh": [80.0, 130.0],
+                                 "wear_evolution_km": 2000.0, "wear_design_by_evolution": False}
+    assert saved["verdict"] == json.loads(json.dumps(result.overall, default=float))

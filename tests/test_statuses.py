@@ -10,10 +10,12 @@ import pytest
 
 from polywear.dynamics.attractor import Regime
 from polywear.dynamics.design import DesignOutcome, _outcome
+from polywear.dynamics.excitation import SelfExcitation
 from polywear.dynamics.points import Criticality
 from polywear.dynamics.simulation import SteadyOutcome, simulate
 from polywear.dynamics.stability import stability
 from polywear.params import Params
+from polywear.wear.design import Judge
 
 # the strings each status had before it was an enum
 OLD_STRINGS = {
@@ -23,6 +25,8 @@ OLD_STRINGS = {
     Criticality: {"soft", "hard"},
     DesignOutcome: {"", "the band vanishes", "the band moves above the range", "the band moves below the range",
                     "bands remain on both sides of the range"},
+    SelfExcitation: {"soft self-excitation", "hard self-excitation", "no SEV"},
+    Judge: {"auto", "map", "evolution"},
 }
 
 
@@ -59,3 +63,35 @@ def test_a_run_outcome_is_a_member_and_its_file_attribute_a_plain_string():
 ])
 def test_design_outcome_names_where_the_band_went(band, expected):
     assert _outcome(band, 80.0, 130.0) is expected
+
+
+def test_excitation_regime_is_a_member_read_from_steady_rolling_and_the_cycles():
+    """Each portrait's regime against an independent reading at its speed: the eigenvalues
+    of steady rolling (unstable: soft) and the continued cycles there (a stable one with
+    rolling stable: hard); the netCDF attribute is the plain text."""
+    import numpy as np
+
+    from polywear.dynamics.bifurcation import bifurcation
+    from polywear.dynamics.excitation import ExcitationSettings, excitation
+    from polywear.models import model_for
+    from polywear.units import kmh_to_ms
+
+    params = Params()
+    diagram = bifurcation(params, (20.0, 300.0))
+    (hard_lo, hard_hi), *_ = diagram.hard_regions_kmh
+    speeds = [110.0, 0.5 * (hard_lo + hard_hi), 30.0]
+    result = excitation(diagram, speeds, ExcitationSettings(duration_s=0.02))
+    model = model_for(params)
+    p = model.pack(params)
+    expected = []
+    for v in speeds:
+        V = kmh_to_ms(v)
+        unstable = np.linalg.eigvals(model.jacobian(model.equilibrium(V, p), V, p)).real.max() > 0.0
+        stable_cycle = any(c.stable for c in diagram.cycles_at(v))
+        expected.append(SelfExcitation.SOFT if unstable else SelfExcitation.HARD if stable_cycle
+                        else SelfExcitation.NO_SEV)
+    assert [portrait.regime for portrait in result] == expected == list(SelfExcitation)
+    for portrait in result:
+        assert type(portrait.regime) is SelfExcitation and portrait.settings is result.settings
+        attr = portrait.to_xarray().attrs["regime"]
+        assert type(attr) is str and attr == portrait.regime.value

@@ -10,7 +10,7 @@ import pytest
 
 from polywear.dynamics.sensitivity import perturbed
 from polywear.params import Params, with_updates
-from polywear.wear.design import EVOLUTION_REFINE, cycle_growth, wear_design
+from polywear.wear.design import EVOLUTION_REFINE, Judge, WearDesignSettings, cycle_growth, wear_design
 from polywear.wear.evolution import wear_evolution
 
 CYCLE = ((110.0, 1.0),)  # the default car vibrates at 110 km/h
@@ -45,6 +45,6 @@ def test_least_change_for_a_vibrating_car_checked_by_evolution():
 
 def test_judge_is_checked():
     with pytest.raises(ValueError, match="needs a target"):
-        wear_design(Params(), keys=(KEY,), judge="evolution", cycle=CYCLE)
-    with pytest.raises(ValueError, match="judge"):
-        wear_design(Params(), keys=(KEY,), judge="nonsense", target_km=1.0, cycle=CYCLE)
+        wear_design(Params(), keys=(KEY,), settings=WearDesignSettings(judge=Judge.EVOLUTION), cycle=CYCLE)
+    with pytest.raises(ValueError, match="WearDesignSettings: judge = 'nonsense': must be one of auto, map, evolution"):
+        WearDesignSettings(judge="nonsense")

@@ -1,7 +1,8 @@
 """Validation shared by the frozen settings dataclasses.
 
 Every numerical-options object of the library (``ContinuationSettings``, ``MapSettings``,
-``StabilitySettings``, ``SimulationSettings``, ``AutoSettings``) is a frozen dataclass
+``StabilitySettings``, ``SimulationSettings``, ``WearMapSettings``, ``WearDesignSettings``,
+``AutoSettings``, ...) is a frozen dataclass
 that checks its fields in ``__post_init__`` with these helpers, so that a bad value fails
 on construction with a ``ValueError`` naming the class and the field. Frozen dataclasses
 are hashable and picklable: settings travel to worker processes unchanged.
@@ -28,12 +29,14 @@ def check_positive(obj: Any, *names: str, finite: bool = True) -> None:
             raise _fail(obj, name, value, "must be positive" + (" and finite" if finite else ""))
 
 
-def check_count(obj: Any, *names: str, minimum: int = 1) -> None:
-    """Each named field is an integer >= ``minimum``."""
+def check_count(obj: Any, *names: str, minimum: int = 1, maximum: int | None = None) -> None:
+    """Each named field is an integer >= ``minimum`` (and <= ``maximum`` if given)."""
     for name in names:
         value = getattr(obj, name)
-        if not isinstance(value, int) or isinstance(value, bool) or value < minimum:
-            raise _fail(obj, name, value, f"must be an integer >= {minimum}")
+        if not isinstance(value, int) or isinstance(value, bool) or value < minimum or (
+                maximum is not None and value > maximum):
+            need = f"from {minimum} to {maximum}" if maximum is not None else f">= {minimum}"
+            raise _fail(obj, name, value, f"must be an integer {need}")
 
 
 def check_fraction(obj: Any, name: str, closed_low: bool = False) -> None:

@@ -82,11 +82,11 @@ def map_(
         check_count(n_speeds, "--n-speeds", 2, MAX_GRID_POINTS)
         grid = [lo + (hi - lo) * i / (n_speeds - 1) for i in range(n_speeds)]
     params = inputs.load()
-    from ..wear.map import wear_map
+    from ..wear.map import WearMapSettings, wear_map
 
     outputs.note(f"wear map: {len(grid)} speeds x {max_order or params.wear.max_order} orders ...")
     with user_errors(ValueError, RuntimeError, ArithmeticError, prefix="wear map: "):
-        result = wear_map(params, grid, max_order)
+        result = wear_map(params, grid, WearMapSettings(max_order=max_order))
     rows_only = outputs.out is not None and outputs.out.suffix.lower() != ".nc"
     outputs.write((lambda p: _write_rows(p, result.rows(True))) if rows_only else result.save,
                   lambda: _map_figure(result, params, (min(grid), max(grid)), sev_band, outputs.quiet))
@@ -294,11 +294,11 @@ def design_(
         raise UserError(f"--max-factor {max_factor:g}: must be in (1, 100]")
     if verify_km is not None and not (math.isfinite(verify_km) and 0 < verify_km <= 1e6):
         raise UserError(f"--verify-km {verify_km:g}: must be in (0, 1e6]")
-    from ..wear.design import JUDGES, verify_option, wear_design
+    from ..wear.design import Judge, WearDesignSettings, verify_option, wear_design
 
-    if judge not in JUDGES:
-        raise UserError(f"--judge {judge!r}: one of {', '.join(JUDGES)}")
-    if judge == "evolution" and target_km is None:
+    if judge not in tuple(Judge):
+        raise UserError(f"--judge {judge!r}: one of {', '.join(j.value for j in Judge)}")
+    if judge == Judge.EVOLUTION and target_km is None:
         raise UserError("--judge evolution needs --target-km")
     params = inputs.load()
     pairs = parse_cycle(cycle) if cycle else None
@@ -307,9 +307,9 @@ def design_(
 
     outputs.note("wear design: searching (where the evolution judges, each probe is an evolution: minutes) ...")
     with user_errors(ValueError, RuntimeError, ArithmeticError, prefix="wear design: "):
-        result = wear_design(params, keys or None, target_km, pairs, max_factor, judge=judge,
+        result = wear_design(params, keys or None, target_km, pairs, WearDesignSettings(max_factor, judge=Judge(judge)),
                              executor=Executor("processes", workers) if workers > 1 else None)
-    if verify_km is not None and result.options and result.judge == "map":
+    if verify_km is not None and result.options and result.judge == Judge.MAP:
         outputs.note(f"wear design: verifying '{result.options[0].label}' by evolution over {verify_km:,.0f} km ...")
         verify_option(params, result.options[0], verify_km, pairs)
     outputs.show(result.summary(), _print_design)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
+from enum import StrEnum
 
 import numpy as np
 
@@ -23,8 +24,8 @@ from ..settings import check_order, check_positive
 from .bifurcation import BifurcationDiagram, CyclePoint
 from .simulation import SimulationResult, simulate
 
-__all__ = ["ExcitationPortrait", "ExcitationResult", "ExcitationSettings", "excitation", "default_speeds",
-           "portraits_figure", "settling_time"]
+__all__ = ["ExcitationPortrait", "ExcitationResult", "ExcitationSettings", "SelfExcitation", "excitation",
+           "default_speeds", "portraits_figure", "settling_time"]
 
 
 RENAMED_KEYS = {"amplitude_x_mm": ("amplitude_x_m", 1e-3), "initial_x_mm": ("initial_x_m", 1e-3),
@@ -33,14 +34,28 @@ RENAMED_KEYS = {"amplitude_x_mm": ("amplitude_x_m", 1e-3), "initial_x_mm": ("ini
 (tread amplitudes were in m; the old keys go in the next release)."""
 
 
+class SelfExcitation(StrEnum):
+    """How the tread can start to vibrate at a portrait's speed, from the diagram (the value
+    is the text of figures and JSON)."""
+
+    SOFT = "soft self-excitation"
+    """Steady rolling is unstable (the linear band): any disturbance grows into SEV."""
+    HARD = "hard self-excitation"
+    """In the SEV band with steady rolling stable: only a start beyond the unstable cycle grows into SEV."""
+    NO_SEV = "no SEV"
+    """Outside the SEV band: every start returns to steady rolling."""
+
+
 @dataclass
 class ExcitationPortrait(Result):
     """Cycles and trajectories at one speed."""
 
     speed_kmh: float
-    regime: str
+    regime: SelfExcitation
     cycles: list[CyclePoint]
     runs: list[SimulationResult]
+    settings: ExcitationSettings | None = None
+    """The settings of :func:`excitation` that made the portrait."""
 
     @property
     def params(self):
@@ -64,7 +79,7 @@ class ExcitationPortrait(Result):
                 "outcome": ("run", np.array([r["outcome"] for r in s["runs"]], dtype=str)),
             },
             coords={"run": np.array([r["start"] for r in s["runs"]], dtype=str)},
-            attrs={"speed_kmh": self.speed_kmh, "regime": self.regime},
+            attrs={"speed_kmh": self.speed_kmh, "regime": str(self.regime)},
         )
 
     def to_dataframe(self):
@@ -238,7 +253,7 @@ def excitation(diagram: BifurcationDiagram, speeds_kmh: Iterable[float],
     for speed in speeds_kmh:
         in_linear = any(a <= speed <= b for a, b in diagram.linear_band_kmh)
         in_sev = any(a <= speed <= b for a, b in diagram.sev_band_kmh)
-        regime = "soft self-excitation" if in_linear else ("hard self-excitation" if in_sev else "no SEV")
+        regime = (SelfExcitation.SOFT if in_linear else SelfExcitation.HARD if in_sev else SelfExcitation.NO_SEV)
         cycles = diagram.cycles_at(speed)
         u_eq = model.equilibrium(kmh_to_ms(speed), p)
         # starts on the ray from steady rolling through each cycle's point farthest from it
@@ -260,7 +275,7 @@ def excitation(diagram: BifurcationDiagram, speeds_kmh: Iterable[float],
         for label, initial in starts.items():
             runs.append(replace(simulate(params, speed, duration, initial=initial), label=label))
             step(f"{speed:.1f} km/h, {label}")
-        out.append(ExcitationPortrait(speed, regime, cycles, runs))
+        out.append(ExcitationPortrait(speed, regime, cycles, runs, settings))
     return ExcitationResult(params, settings, out)
 
 

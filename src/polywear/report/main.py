@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import html
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -20,7 +21,7 @@ from .. import __version__
 from ..io import atomic_path, write_text
 from ..params import Params, to_toml
 from ..progress import Progress, StepCounter
-from ..results import with_deprecated_keys
+from ..results import Result, with_deprecated_keys
 from ..units import DEFAULT_SPEED_RANGE_KMH
 
 if TYPE_CHECKING:
@@ -33,13 +34,37 @@ if TYPE_CHECKING:
     from ..wear.map import WearMap
     from .wear import WearSection
 
-__all__ = ["Report", "operating_verdict", "report"]
+__all__ = ["Report", "ReportSettings", "operating_verdict", "report"]
+
+
+@dataclass(frozen=True)
+class ReportSettings:
+    """What :func:`report` ran with, resolved (the defaults filled in), recorded in its :class:`Report`."""
+
+    speed_range_kmh: tuple[float, float]
+    """Analysed speeds [km/h] (the range given, widened to hold the operating range)."""
+    operating_range_kmh: tuple[float, float]
+    """Speeds the design options keep free of SEV [km/h]."""
+    wear_evolution_km: float
+    """Distance of the wear evolutions [km] (0: not run)."""
+    wear_design_by_evolution: bool
+    """Whether the least change judged by the evolution was searched (``--wear-design``)."""
+
+    def __post_init__(self) -> None:
+        for name in ("speed_range_kmh", "operating_range_kmh"):
+            lo, hi = getattr(self, name)
+            if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+                raise ValueError(f"ReportSettings: {name} = {(lo, hi)!r}: need finite low < high [km/h]")
+        if not (math.isfinite(self.wear_evolution_km) and self.wear_evolution_km >= 0.0):
+            raise ValueError(f"ReportSettings: wear_evolution_km = {self.wear_evolution_km!r}: must be >= 0 and finite")
 
 
 @dataclass
-class Report:
+class Report(Result):
     """Everything the main job computed: the result objects, the verdict at the operating
-    speed and the files written (name -> caption). :meth:`summary` is ``summary.json``."""
+    speed and the files written (name -> caption). :meth:`summary` is ``summary.json``; as
+    a :class:`~polywear.results.Result` its data, table and plot are those of its
+    bifurcation diagram (``bifurcation.nc``, ``cycles.csv``)."""
 
     params: Params
     diagram: BifurcationDiagram
@@ -61,6 +86,8 @@ class Report:
     """Where the tread vibrates on the drive cycle: the least change of the first design
     option's keys after which no polygon is visible within the report's distance, judged by
     the evolution (:func:`polywear.wear.design.wear_design` summary); else None."""
+    settings: ReportSettings | None = None
+    """What the report ran with (:class:`ReportSettings`)."""
 
     @property
     def stability(self) -> StabilityResult:
@@ -70,6 +97,18 @@ class Report:
     @property
     def wear_map(self) -> WearMap:
         return self.wear.wear_map
+
+    def _dataset(self):
+        """The bifurcation diagram's data (what ``bifurcation.nc`` holds)."""
+        return self.diagram._dataset()
+
+    def to_dataframe(self):
+        """The bifurcation diagram's cycle table (what ``cycles.csv`` holds)."""
+        return self.diagram.to_dataframe()
+
+    def plot(self, ax=None):
+        """The bifurcation diagram onto ``ax``. Returns artists."""
+        return self.diagram.plot(ax)
 
     def summary(self) -> dict:
         """The JSON summary (``summary.json``, ``polywear report --json``), from the results."""
@@ -360,7 +399,8 @@ def report(
     say("one verdict: vibration and wear together, design options judged by the wear")
     from .verdict import verdict as overall_verdict
 
-    result = Report(params, diagram, verdict, runs, sens, options, wear, portraits, files, wear_design=stops)
+    result = Report(params, diagram, verdict, runs, sens, options, wear, portraits, files, wear_design=stops,
+                    settings=ReportSettings(speed_range_kmh, operating_range, km, wear_design_by_evolution))
     result.overall = overall_verdict(result.summary(), params, _sentence(verdict))
     summary = result.summary()
     write_text(out_dir / "summary.json", json.dumps(summary, indent=2, default=float))

@@ -228,10 +228,11 @@ def verdict(summary: dict, params: Params, vibration: str) -> dict:
     out["design_options"] = judged
     wear_option = None
     if first is not None and not design["options"]:
-        from ..wear.design import wear_design
+        from ..wear.design import Judge, WearDesignSettings, wear_design
 
         cycle = tuple((c["speed_kmh"], c["share"]) for c in first["cycle"])
-        found = wear_design(params, target_km=distance, cycle=cycle, judge="map")  # the linear map, as before
+        found = wear_design(params, target_km=distance, cycle=cycle,
+                            settings=WearDesignSettings(judge=Judge.MAP))  # the linear map, as before
         wear_option = (_where(first), found.options[0] if found.options else None,
                        found.nominal_rolling_stable and not found.options and found.nominal_depth_at_target_mm
                        < params.wear.visible_depth_mm)

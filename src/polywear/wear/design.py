@@ -16,7 +16,7 @@ to ``max_factor``; the first step that meets the criterion is refined by bisecti
 ``ln f`` to 1 %. Parameter handling (keys,
 ``adhesion_scale``, categories) is that of :mod:`polywear.dynamics.design`.
 
-Judged by the evolution (``judge="evolution"``, the default with a target distance when
+Judged by the evolution (``Judge.EVOLUTION``, the default with a target distance when
 the tread vibrates at a cycle speed, where the map does not apply). Every probe of the
 search runs the nonlinear evolution (:func:`~polywear.wear.evolution.wear_evolution`) over the
 target distance on the cycle; it meets the criterion when no polygon becomes visible
@@ -37,6 +37,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from enum import StrEnum
 
 import numpy as np
 
@@ -45,21 +46,18 @@ from ..parallel import Executor
 from ..models import model_for
 from ..results import Result
 from ..params import Params
+from ..settings import check_count, check_positive
 from ..dynamics.design import DEFAULT_KEYS, ENGINEERING, parameter_category, parameter_label
 from ..dynamics.least_change import least_factor
 from ..dynamics.sensitivity import nominal_value, parameter_direction, perturbed
 from .evolution import EvolutionSettings, wear_evolution
 from .map import wear_map
 
-__all__ = ["WearDesignOption", "WearDesignResult", "cycle_rates", "cycle_growth", "linear_depth_mm", "wear_design",
-           "verify_option", "JUDGES"]
+__all__ = ["Judge", "WearDesignOption", "WearDesignResult", "WearDesignSettings", "cycle_rates", "cycle_growth",
+           "linear_depth_mm", "wear_design", "verify_option"]
 
 _REFINE = 0.01
 """Relative accuracy of the least change [-]."""
-JUDGES = ("auto", "map", "evolution")
-"""What judges an option: ``map`` (linear wear map), ``evolution`` (nonlinear evolution over
-the target distance), ``auto`` (the evolution with a target distance where the nominal
-tread vibrates at a cycle speed, else the map)."""
 EVOLUTION_GRID = 8
 """Grid steps per direction where the evolution judges (each probe is one evolution) [-]."""
 EVOLUTION_REFINE = 0.02
@@ -69,6 +67,45 @@ CLEARLY_VISIBLE = 2.0
 """A probe with stable rolling at every cycle speed whose linear-map depth at the target
 exceeds this many visible depths fails without an evolution (the nonlinear evolution
 follows the linear one while the profile is small) [-]."""
+
+
+class Judge(StrEnum):
+    """What judges a wear design option (the value is its text in JSON and on the command line)."""
+
+    AUTO = "auto"
+    """The evolution with a target distance where the nominal tread vibrates at a cycle
+    speed, else the map (a result records the one it used)."""
+    MAP = "map"
+    """The linear wear map (exact while rolling is stable at every cycle speed)."""
+    EVOLUTION = "evolution"
+    """The nonlinear evolution over the target distance (every probe an evolution: minutes)."""
+
+
+@dataclass(frozen=True)
+class WearDesignSettings:
+    """Numerical settings of :func:`wear_design` (``polywear wear design --max-factor, --judge``)."""
+
+    max_factor: float = 4.0
+    """Largest change searched: ``p0 * f`` or ``p0 / f`` [-] (> 1, finite)."""
+    grid: int = 24
+    """Grid steps per direction where the map judges [-] (integer >= 1; the evolution
+    takes :data:`EVOLUTION_GRID`)."""
+    judge: Judge = Judge.AUTO
+    """What judges an option (:class:`Judge`; its text is accepted too)."""
+    evolution: EvolutionSettings = EvolutionSettings()
+    """Settings of the evolutions where the evolution judges."""
+
+    def __post_init__(self) -> None:
+        check_positive(self, "max_factor")
+        if not self.max_factor > 1.0:
+            raise ValueError(f"WearDesignSettings: max_factor = {self.max_factor!r}: must be above 1")
+        check_count(self, "grid")
+        if self.judge not in tuple(Judge):
+            raise ValueError(f"WearDesignSettings: judge = {self.judge!r}: must be one of "
+                             f"{', '.join(j.value for j in Judge)}")
+        object.__setattr__(self, "judge", Judge(self.judge))  # the member, where its text was given
+        if not isinstance(self.evolution, EvolutionSettings):
+            raise ValueError(f"WearDesignSettings: evolution = {self.evolution!r}: must be an EvolutionSettings")
 
 
 def cycle_rates(params: Params, cycle=None) -> np.ndarray | None:
@@ -138,10 +175,12 @@ class WearDesignResult(Result):
     nominal_rolling_stable: bool
     options: list[WearDesignOption]
     not_found: list[str] = field(default_factory=list)
-    judge: str = "map"
-    """``map`` or ``evolution`` (:data:`JUDGES`)"""
+    judge: Judge = Judge.MAP
+    """The judge used: ``Judge.MAP`` or ``Judge.EVOLUTION`` (``AUTO`` resolved)"""
     nominal_evolution: dict | None = None
     """where the evolution judged: the nominal car's (as :attr:`WearDesignOption.evolution`)"""
+    settings: WearDesignSettings = WearDesignSettings()
+    """The settings of the search (``judge`` as given: ``AUTO`` stays ``AUTO``)"""
 
     def summary(self) -> dict:
         return {
@@ -151,7 +190,7 @@ class WearDesignResult(Result):
             "judge": self.judge,
             "criterion": "every order stable over the cycle" if self.target_km is None else
             f"visible polygon beyond {self.target_km:g} km (" +
-            ("nonlinear evolution" if self.judge == "evolution" else "linear evolution") + ")",
+            ("nonlinear evolution" if self.judge == Judge.EVOLUTION else "linear evolution") + ")",
             "nominal_evolution": self.nominal_evolution,
             "nominal_depth_at_target_mm": _finite(self.nominal_depth_at_target_mm)
             if self.nominal_depth_at_target_mm is not None else None,
@@ -203,7 +242,7 @@ def _evolved(params: Params, target_km: float, cycle, settings: EvolutionSetting
 
 
 def _meets(params: Params, key: str, nominal: float, factor: float, cycle, target_km: float | None,
-           judge: str = "map", settings: EvolutionSettings = EvolutionSettings()):
+           judge: Judge = Judge.MAP, settings: EvolutionSettings = EvolutionSettings()):
     """(criterion met, growth [e-folds per 1000 km], order, the evolution or None) with
     ``key`` at ``nominal * factor``; None where it cannot be evaluated."""
     try:
@@ -237,7 +276,7 @@ class _KeySearch:
     params: Params
     cycle: tuple
     target_km: float | None
-    judge: str
+    judge: Judge
     max_factor: float
     grid: int
     settings: EvolutionSettings
@@ -280,32 +319,33 @@ class _KeySearch:
 
 
 def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: float | None = None,
-                cycle: Sequence[tuple[float, float]] | None = None, max_factor: float = 4.0,
-                grid: int = 24, judge: str = "auto", settings: EvolutionSettings = EvolutionSettings(),
+                cycle: Sequence[tuple[float, float]] | None = None,
+                settings: WearDesignSettings = WearDesignSettings(),
                 executor: Executor | None = None) -> WearDesignResult:
     """Least relative change of each key (both directions) that meets the wear criterion.
 
     ``keys`` default :data:`polywear.dynamics.design.DEFAULT_KEYS` (those that enter the
-    model); ``target_km``: visible-polygon distance to exceed (None: every order stable);
-    ``max_factor``: largest change searched (p0 * f or p0 / f); ``grid``: grid steps per
-    direction where the map judges; ``judge``: :data:`JUDGES`; ``settings``: those of the
-    evolutions; ``executor`` (:class:`~polywear.parallel.Executor`, default in this
-    process): where the keys are searched, one task per key.
+    model); ``target_km``: visible-polygon distance to exceed [km] (None: every order
+    stable); ``cycle``: ((speed [km/h], share), ...), default ``wear.cycle``; ``settings``
+    (:class:`WearDesignSettings`): largest change, grid, judge, the evolutions' settings;
+    ``executor`` (:class:`~polywear.parallel.Executor`, default in this process): where the
+    keys are searched, one task per key.
     """
-    if judge not in JUDGES:
-        raise ValueError(f"judge = {judge!r}: must be one of {', '.join(JUDGES)}")
-    if judge == "evolution" and target_km is None:
+    if not isinstance(settings, WearDesignSettings):
+        raise TypeError(f"wear_design: settings = {settings!r}: a WearDesignSettings")
+    judge = settings.judge
+    if judge == Judge.EVOLUTION and target_km is None:
         raise ValueError("judge = 'evolution' needs a target distance")
     cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
     g0, order0, stable0 = cycle_growth(params, cycle)
-    if judge == "auto":
-        judge = "evolution" if target_km is not None and not stable0 else "map"
+    if judge == Judge.AUTO:
+        judge = Judge.EVOLUTION if target_km is not None and not stable0 else Judge.MAP
     not_found = []
     model = model_for(params)
     depth0 = None if target_km is None else linear_depth_mm(params, target_km, cycle)
     nominal_evolution = None
-    if judge == "evolution":
-        nominal_evolution = _evolved(params, target_km, cycle, settings)
+    if judge == Judge.EVOLUTION:
+        nominal_evolution = _evolved(params, target_km, cycle, settings.evolution)
         nominal_ok = nominal_evolution["visible_km"] is None
     else:
         nominal_ok = stable0 and (g0 <= 0.0 if target_km is None else depth0 < params.wear.visible_depth_mm)
@@ -322,7 +362,7 @@ def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: fl
             entries.append(f"{key}: nominal value 0 (no relative change)")
         else:
             entries.append((key,))
-    search = _KeySearch(params, cycle, target_km, judge, max_factor, grid, settings)
+    search = _KeySearch(params, cycle, target_km, judge, settings.max_factor, settings.grid, settings.evolution)
     found = iter((executor or Executor("serial")).map(search, [e[0] for e in entries if isinstance(e, tuple)]))
     entries = [next(found) if isinstance(e, tuple) else e for e in entries]
     options = [o for o in entries if isinstance(o, WearDesignOption)]
@@ -334,7 +374,8 @@ def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: fl
     options.sort(key=lambda o: (o.category not in ENGINEERING, abs(math.log1p(o.relative_change))))
     return WearDesignResult(params=params, cycle=cycle, target_km=target_km, nominal_depth_at_target_mm=depth0,
                             nominal_growth_per_1000km=g0, nominal_order=order0, nominal_rolling_stable=stable0,
-                            options=options, not_found=not_found, judge=judge, nominal_evolution=nominal_evolution)
+                            options=options, not_found=not_found, judge=judge, nominal_evolution=nominal_evolution,
+                            settings=settings)
 
 
 def verify_option(params: Params, option: WearDesignOption, distance_km: float, cycle=None,

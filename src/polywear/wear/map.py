@@ -22,7 +22,7 @@ analysis does not apply: such speeds are flagged ``rolling_stable = False``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -30,16 +30,30 @@ from numpy.typing import ArrayLike
 from ..models import model_for
 from ..results import Result
 from ..models.profile import patch_sinc
-from ..params import Params
+from ..params import MAX_WEAR_ORDER, Params
+from ..settings import check_count
 from ..units import wheel_circumference_m, wheel_rotation_frequency_hz, kmh_to_ms
 from ..dynamics.stability import mode_label, stability
 from .law import energetic_rate
 
-__all__ = ["WearMap", "wear_map", "load_to_power", "VIBRATING_NOTE"]
+__all__ = ["WearMap", "WearMapSettings", "wear_map", "load_to_power", "VIBRATING_NOTE"]
 
 VIBRATING_NOTE = "vibrating: see evolution"
 _CSTEP = 1e-20
 """Complex step, relative to the perturbed quantity's scale (exact to rounding)."""
+
+
+@dataclass(frozen=True)
+class WearMapSettings:
+    """Numerical settings of :func:`wear_map` (``polywear wear map --max-order``)."""
+
+    max_order: int | None = None
+    """Highest polygon order of the map [-] (1 to ``MAX_WEAR_ORDER``); None: ``wear.max_order``
+    of the parameters (the result records the order used)."""
+
+    def __post_init__(self) -> None:
+        if self.max_order is not None:
+            check_count(self, "max_order", minimum=1, maximum=MAX_WEAR_ORDER)
 
 
 def _load_slot(model) -> int:
@@ -101,7 +115,8 @@ class WearMap(Result):
     linear_band_kmh: list[tuple[float, float]]
     """Speed intervals where steady rolling is unstable [km/h], bounded by the located
     Hopf speeds (``dynamics.stability``) within the speeds of the map"""
-    settings: dict = field(default_factory=dict)
+    settings: WearMapSettings = WearMapSettings()
+    """The settings of the map, ``max_order`` the highest order computed"""
 
     # -- derived quantities ---------------------------------------------------------------
     @property
@@ -201,7 +216,7 @@ class WearMap(Result):
                 "mean_wear_mm_per_1000km": ("speed_kmh", self.mean_wear_mm_per_1000km),
             },
             coords={"speed_kmh": self.speeds_kmh, "order": self.orders},
-            attrs={k: str(v) for k, v in self.settings.items()},
+            attrs={k: str(v) for k, v in asdict(self.settings).items()},
         )
 
     def plot(self, ax=None, sev_band_kmh: tuple[float, float] | None = None, rays=(5, 10, 15, 20, 30, 40, 60)):
@@ -272,11 +287,14 @@ def _tread_mode_frequency(model, p, A) -> float:
     return best[1]
 
 
-def wear_map(params: Params, speeds_kmh: ArrayLike, max_order: int | None = None) -> WearMap:
-    """The linear wear-stability map at the given speeds [km/h] for orders 1..max_order
-    (default ``wear.max_order``)."""
+def wear_map(params: Params, speeds_kmh: ArrayLike, settings: WearMapSettings = WearMapSettings()) -> WearMap:
+    """The linear wear-stability map at the given speeds [km/h] for orders 1 to
+    ``settings.max_order`` (:class:`WearMapSettings`; default ``wear.max_order``)."""
+    if not isinstance(settings, WearMapSettings):
+        raise TypeError(f"wear_map: settings = {settings!r}: a WearMapSettings (the highest order is "
+                        "WearMapSettings(max_order=...))")
     speeds_kmh = np.atleast_1d(np.asarray(speeds_kmh, dtype=float))
-    K = params.wear.max_order if max_order is None else int(max_order)
+    K = params.wear.max_order if settings.max_order is None else settings.max_order
     model = model_for(params)
     p = model.pack(params)
     orders = np.arange(1, K + 1)
@@ -306,4 +324,5 @@ def wear_map(params: Params, speeds_kmh: ArrayLike, max_order: int | None = None
         [] if stable[0] else [(lo, hi)])
     return WearMap(params=params, speeds_kmh=speeds_kmh, orders=orders, relative_change=change,
                    rolling_stable=stable, mode_frequency_hz=mode_f, mean_wear_mm_per_1000km=mean_wear,
-                   linear_band_kmh=[(float(a), float(b)) for a, b in bands], settings={"max_order": K})
+                   linear_band_kmh=[(float(a), float(b)) for a, b in bands],
+                   settings=replace(settings, max_order=K))
