@@ -406,13 +406,63 @@ def test_patch_small_slip_force_reproduces_the_magic_formula(tmp_path, fz):
     sets = ["friction.contact=patch", f"operating.vertical_load_n={fz}"]
     loaded = load_with_tir(path, None, sets)
     assert "tread.lateral_stiffness_n_per_m" in loaded.mapping.values
-    slips = [0.01, 0.02, 0.05]  # 1.2 % below the MF at 0.1 deg, 2.4 % at 0.2 deg (3000 N): docs/tir.md
+    assert loaded.params.friction.patch_pressure == "uniform"
+    slips = [0.01, 0.02, 0.05, 0.1, 0.2]
     rows = steady_lateral_force(loaded.params, slips)["rows"]
     for slip, row in zip(slips, rows):
         assert row["force_n"] == pytest.approx(_magic_formula(path, fz, math.radians(slip)), rel=0.01)
     point = load_with_tir(path, None, [f"operating.vertical_load_n={fz}"])
     assert point.params.tread == Params().tread
     assert any("used by the patch contact only" in n for n in point.mapping.notes)
+
+
+@pytest.mark.parametrize("fz", [3000.0, 6000.0])
+def test_a_parabolic_pressure_cannot_follow_the_magic_formula_at_small_slip(tmp_path, fz):
+    """Why the file's patch has a uniform pressure (brush theory, closed forms): with the file's
+    cornering stiffness and friction, a Coulomb brush under a parabolic pressure slides at its
+    trailing edge at any slip and falls below the line K alpha by K alpha/(3 mu Fz), more than
+    1 % below the file's Magic Formula at 0.2 deg; under a uniform pressure it adheres all along
+    (F = K alpha up to mu Fz/2), as the Magic Formula, which leaves the line as alpha^3."""
+    from polywear.models.patch import brush_force
+
+    path = _with_lateral(tmp_path)
+    m = tir_parameters(read_tir(path), load_n=fz)
+    c_alpha, mu = m.conditions["cornering_stiffness_n_per_rad"], m.values["friction.mu_static"]
+    alpha = math.radians(0.2)
+    mf = _magic_formula(path, fz, alpha)
+    c_p, a = 1.0, math.sqrt(c_alpha / 2.0)  # C_alpha = 2 c_p a^2
+    parabolic = brush_force(alpha, c_p, a, mu, fz, "parabolic")
+    uniform = brush_force(alpha, c_p, a, mu, fz, "uniform")
+    psi = c_alpha * math.tan(alpha) / (3.0 * mu * fz)
+    assert parabolic / (c_alpha * math.tan(alpha)) == pytest.approx(1.0 - psi + psi**2 / 3.0, rel=1e-12)
+    assert parabolic < 0.99 * mf
+    assert uniform == pytest.approx(c_alpha * math.tan(alpha), rel=1e-12)
+    assert uniform == pytest.approx(mf, rel=1e-3)
+
+
+def test_patch_shape_from_the_file_unless_given(tmp_path):
+    """With the patch contact the file sets pressure (uniform) and bristle (sigma0 = 50 K/(Fz a))
+    besides the tread; the user's values stand, and the tread is then solved with them."""
+    from polywear.measured.tir import BRISTLE_RATIO
+    from polywear.models.patch import steady_lateral_force
+
+    path = _with_lateral(tmp_path)
+    loaded = load_with_tir(path, None, ["friction.contact=patch"])
+    p = loaded.params
+    c_alpha = loaded.mapping.conditions["cornering_stiffness_n_per_rad"]
+    assert p.friction.sigma0_per_m == pytest.approx(
+        BRISTLE_RATIO * c_alpha / (p.operating.vertical_load_n * 0.5 * p.tire.contact_length_m), rel=1e-12)
+    rows = {r["key"]: r for r in loaded.sources()}
+    assert rows["friction.patch_pressure"]["source"].startswith("file: uniform")
+    assert rows["friction.sigma0_per_m"]["from_file"]
+    own = load_with_tir(path, None, ["friction.contact=patch", "friction.patch_pressure=parabolic",
+                                     "friction.sigma0_per_m=2000"])
+    assert (own.params.friction.patch_pressure, own.params.friction.sigma0_per_m) == ("parabolic", 2000.0)
+    assert own.params.tread.lateral_stiffness_n_per_m != p.tread.lateral_stiffness_n_per_m
+    for got in (loaded, own):
+        assert steady_lateral_force(got.params, [])["cornering_stiffness_n_per_rad"] == pytest.approx(c_alpha, rel=1e-8)
+    point = load_with_tir(path, None, []).params.friction  # the point contact: the set's own
+    assert (point.patch_pressure, point.sigma0_per_m) == (Params().friction.patch_pressure, Params().friction.sigma0_per_m)
 
 
 def test_every_file_value_is_listed_as_used_noted_or_ignored(tmp_path):
