@@ -23,6 +23,7 @@ __all__ = [
     "wheel_rotation_frequency_hz",
     "frequency_order",
     "plot_scale",
+    "order_rays",
 ]
 
 MAX_SPEED_KMH = 1000.0
@@ -102,3 +103,47 @@ _PLOT_UNITS = {"m": (1e3, "mm"), "rad": (1e3, "mrad")}
 def plot_scale(unit: str) -> tuple[float, str]:
     """(factor, unit) for plotting a quantity of SI ``unit``: m -> mm, rad -> mrad, else as is."""
     return _PLOT_UNITS.get(unit, (1.0, unit))
+
+
+RAY_LABEL_GAP_IN = (0.32, 0.14)
+"""Least distance [inch] between the anchors of two order-ray labels: along the top edge
+(the labels' width) and along the right edge (their height)."""
+
+
+def order_rays(ax, orders, rolling_radius_m: float, speed_range_kmh, top_hz: float, first=(), **line_kw) -> list:
+    """Wheel-order rays ``n V / (2 pi R)`` [Hz] over ``speed_range_kmh`` [km/h] below
+    ``top_hz`` [Hz] onto ``ax``, each labelled ``n=..`` inside the axes where it leaves them
+    (right or top edge). A ray is drawn only if its label keeps :data:`RAY_LABEL_GAP_IN`
+    from every label already placed (``first`` orders first, then multiples of 10, of 5,
+    then the others, ascending), so every drawn ray is labelled and no two labels overlap.
+    Returns the orders drawn."""
+    lo, hi = (float(v) for v in speed_range_kmh)
+    fig = ax.figure
+    box = ax.get_position()
+    width, height = box.width * fig.get_figwidth(), box.height * fig.get_figheight()  # axes size [inch]
+    candidates = [n for n in first if n in orders] + sorted(
+        (n for n in orders if n not in first), key=lambda n: (n % 10 != 0, n % 5 != 0, n))
+    placed: list[tuple[str, float]] = []  # (edge, position along it [inch])
+    drawn = []
+    kw = {"color": "w", "lw": 0.5, "alpha": 0.5, **line_kw}
+    for n in candidates:
+        if order_frequency_hz(n, lo, rolling_radius_m) >= top_hz:
+            continue
+        f_end = float(order_frequency_hz(n, hi, rolling_radius_m))
+        if f_end <= top_hz:
+            edge, where, xy, align = "right", (1.0 - f_end / top_hz) * height, (hi, f_end), ("right", "center")
+        else:
+            v_exit = top_hz / float(order_frequency_hz(n, 1.0, rolling_radius_m))
+            edge, where, xy, align = "top", (v_exit - lo) / (hi - lo) * width, (v_exit, top_hz), ("center", "top")
+        # along the perimeter: the top edge from the left, then the right edge from the top
+        s = where if edge == "top" else width + where
+        if any(abs(s - (p if e == "top" else width + p)) < RAY_LABEL_GAP_IN[e == "right" and edge == "right"]
+               for e, p in placed):
+            continue
+        placed.append((edge, where))
+        drawn.append(n)
+        ax.plot([lo, xy[0]], [float(order_frequency_hz(n, lo, rolling_radius_m)), xy[1]], **kw)
+        ax.annotate(f"n={n:g}", xy, xytext=(-2, 0) if edge == "right" else (0, -2), textcoords="offset points",
+                    ha=align[0], va=align[1], fontsize=7, color="k",
+                    bbox={"boxstyle": "round,pad=0.1", "fc": "w", "ec": "none", "alpha": 0.75}, zorder=6)
+    return sorted(drawn)

@@ -95,6 +95,11 @@ _TIR_PATH: ContextVar[Path | None] = ContextVar("tir_path", default=None)
 """The ``--tir`` file of the running command (set by :func:`with_shared_options`)."""
 
 
+def tir_path() -> Path | None:
+    """The ``--tir`` file of the running command (None without one)."""
+    return _TIR_PATH.get()
+
+
 def load(config: Path | None, sets: list[str] | None):
     """Resolved, validated parameters: defaults, the ``--tir`` file of the running command
     (if any), the TOML file, then ``--set`` overrides."""

@@ -22,6 +22,7 @@ from .common import (
     load,
     output_folder,
     status_lines,
+    tir_path,
 )
 
 
@@ -55,7 +56,7 @@ def report(
         operating_range = check_speed_range(operating_range, "--operating-range")
     if wear_km is not None and not (0.0 <= wear_km <= MAX_WEAR_KM):
         raise UserError(f"--wear-km {wear_km:g}: must be in [0, {MAX_WEAR_KM:g}] (0: no evolution)")
-    params = load(config, set_)
+    params, cornering = _load_with_cornering(config, set_)
     from ..io import fresh_directory
     from ..report import main as main_job
 
@@ -63,7 +64,7 @@ def report(
     with fresh_directory(out) as folder:
         result = main_job.report(params, folder, speed_range, operating_range,
                                  progress=status_lines("polywear report: ", quiet), wear_evolution_km=wear_km,
-                                 wear_design_by_evolution=wear_design)
+                                 wear_design_by_evolution=wear_design, cornering_stiffness=cornering)
     summary = result.summary()
     if json_:
         emit_json(summary)
@@ -73,3 +74,18 @@ def report(
     for line in main_job.text_summary(summary):
         typer.echo(line)
     typer.echo(f"report: {out / 'report.html'}")
+
+
+def _load_with_cornering(config, set_):
+    """(parameters, (C_alpha [N/rad], its source) from the ``--tir`` file at the load, or None
+    without a file or without PKY1/PKY2 in it)."""
+    tir = tir_path()
+    if tir is None:
+        return load(config, set_), None
+    from ..measured.tir import load_with_tir
+
+    loaded = load_with_tir(tir, config, set_ or ())
+    c_alpha = loaded.mapping.conditions.get("cornering_stiffness_n_per_rad")
+    if c_alpha is None:
+        return loaded.params, None
+    return loaded.params, (c_alpha, f"from {tir.name}, PKY1/PKY2 at {loaded.mapping.conditions['load_n']:g} N")

@@ -90,7 +90,7 @@ def map_(
     rows_only = outputs.out is not None and outputs.out.suffix.lower() != ".nc"
     outputs.write((lambda p: _write_rows(p, result.rows(True))) if rows_only else result.save,
                   lambda: _map_figure(result, params, (min(grid), max(grid)), sev_band, outputs.quiet))
-    outputs.show(result.summary(all_orders), _print_map)
+    outputs.show(result.summary(all_orders), lambda summary: _print_map(summary, collapse=speeds is None))
 
 
 def _map_figure(result, params, speed_range: tuple[float, float], sev_band: bool, quiet: bool):
@@ -99,15 +99,19 @@ def _map_figure(result, params, speed_range: tuple[float, float], sev_band: bool
     return one_axes(lambda ax: result.plot(ax, sev_band_kmh=band), (9, 5.5))
 
 
-def _print_map(summary: dict) -> None:
-    """The most unstable order at each speed as text on stdout (one line per run of vibrating speeds)."""
-    typer.echo(f"model {summary['model']}; distances scale as 1/k_e (k_e = {summary['energetic_rate_mm3_per_j']:g} mm^3/J)")
+def _print_map(summary: dict, collapse: bool = True) -> None:
+    """The most unstable order at each speed as text on stdout; with ``collapse`` (a speed
+    range's grid) a run of vibrating speeds is shown by its first and last line, else
+    (speeds the user listed) every speed gets its line."""
+    typer.echo(f"model {summary['model']}; distances scale as 1/k_e (k_e = {summary['energetic_rate_mm3_per_j']:g} mm³/J)")
     rows = summary["rows"]
     for i, row in enumerate(rows):
         if not row["rolling_stable"]:
             first = i == 0 or rows[i - 1]["rolling_stable"]
             last = i == len(rows) - 1 or rows[i + 1]["rolling_stable"]
-            if first or last:  # one line for each run of vibrating speeds
+            if not collapse:
+                typer.echo(f"{row['speed_kmh']:8.1f} km/h  {row['note']}")
+            elif first or last:  # one line for each run of vibrating speeds
                 typer.echo(f"{row['speed_kmh']:8.1f} km/h  {row['note']}" + ("" if last else "  ..."))
             continue
         efold = f"{row['efold_km']:10.0f} km" if row["efold_km"] is not None else "  no order grows"

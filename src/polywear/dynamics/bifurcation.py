@@ -432,6 +432,11 @@ class BifurcationDiagram(Result):
             if ax is not axes[0, 0]:
                 ax.set_title("")
                 ax.get_legend().remove()
+            if len(states) > 1:  # short panel labels ("x [mm]"), one "amplitude" for all: no overlap
+                ax.set_ylabel(ax.get_ylabel().removeprefix("amplitude of "))
+        if len(states) > 1:
+            fig.supylabel("amplitude of the cycle")
+            fig.align_ylabels(axes[:, 0])
         fig.tight_layout()
         return fig
 

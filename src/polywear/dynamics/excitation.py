@@ -22,7 +22,7 @@ from ..results import Result, with_deprecated_keys
 from ..progress import Progress, StepCounter
 from ..settings import check_order, check_positive
 from .bifurcation import BifurcationDiagram, CyclePoint
-from .simulation import SimulationResult, simulate
+from .simulation import SimulationResult, phase_labels, simulate
 
 __all__ = ["ExcitationPortrait", "ExcitationResult", "ExcitationSettings", "SelfExcitation", "excitation",
            "default_speeds", "portraits_figure", "settling_time"]
@@ -104,7 +104,8 @@ class ExcitationPortrait(Result):
         }
 
     def plot(self, ax=None):
-        """x' against x: cycles (stable solid, unstable dashed), trajectories thin. Returns artists."""
+        """dx/dt against x − x_eq (:func:`~.simulation.phase_labels`): cycles (stable solid,
+        unstable dashed), trajectories thin. Returns artists."""
         import matplotlib.pyplot as plt
 
         if ax is None:
@@ -125,8 +126,8 @@ class ExcitationPortrait(Result):
             artists += ax.plot(1e3 * (u[:, i] - eq[i]), u[:, j], style, color="k", lw=2,
                                label=f"{'stable' if c.stable else 'unstable'} cycle {c.amplitude[i] * 1e3:.3f} mm")
         artists += ax.plot([0.0], [0.0], "k+", ms=10)
-        ax.set_xlabel("x - x_eq [mm]")
-        ax.set_ylabel("x' [m/s]")
+        ax.set_xlabel(phase_labels("x", "mm", "m/s")[0])
+        ax.set_ylabel(phase_labels("x", "mm", "m/s")[1])
         ax.set_title(f"{self.speed_kmh:g} km/h: {self.regime}", fontsize=10)
         ax.legend(fontsize=7, loc="upper right")
         return artists

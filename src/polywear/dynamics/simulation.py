@@ -60,6 +60,7 @@ __all__ = [
     "classify_window",
     "initial_state",
     "phase_pairs",
+    "phase_labels",
     "frequency_order",
 ]
 
@@ -457,6 +458,14 @@ def _finite(value):
     return float(value) if np.isfinite(value) else None
 
 
+def phase_labels(q: str, unit_q: str, unit_qd: str) -> tuple[str, str]:
+    """Axis labels of a phase portrait of coordinate ``q``, the one convention of every
+    phase portrait (simulation and self-excitation figures): the deflection from steady
+    rolling ``q − q_eq`` (the state's own sign) and its rate ``dq/dt``, in ``unit_q`` and
+    ``unit_qd``."""
+    return f"{q} − {q}_eq [{unit_q}]", f"d{q}/dt [{unit_qd}]"
+
+
 def _phase_portraits(runs, ax, pairs, tail_s, **line_kw):
     import matplotlib.pyplot as plt
 
@@ -482,11 +491,12 @@ def _phase_portraits(runs, ax, pairs, tail_s, **line_kw):
         for k, run in enumerate(runs):
             kw = {"lw": 0.6, "color": f"C{k % 10}", **line_kw}
             shown = slice(None) if tail_s is None else run.t >= run.t[-1] - tail_s
-            artists += axis.plot(fx * run.u[shown, i], fy * run.u[shown, j], label=run.label or None, **kw)
+            dq = run.u[:, i] - run.equilibrium[i]  # deflection from steady rolling (phase_labels)
+            artists += axis.plot(fx * dq[shown], fy * run.u[shown, j], label=run.label or None, **kw)
             if tail_s is None:
-                artists += axis.plot(fx * run.u[0, i], fy * run.u[0, j], "o", ms=3, color=kw["color"])
-        axis.set_xlabel(f"{q} [{ux}]")
-        axis.set_ylabel(f"{qd} [{uy}]")
+                artists += axis.plot(fx * dq[0], fy * run.u[0, j], "o", ms=3, color=kw["color"])
+        axis.set_xlabel(phase_labels(q, ux, uy)[0])
+        axis.set_ylabel(phase_labels(q, ux, uy)[1])
         axis.set_title(f"{q}: phase portrait", fontsize=10)
         axis.ticklabel_format(style="sci", scilimits=(-3, 4), useMathText=True)
     if any(run.label for run in runs):

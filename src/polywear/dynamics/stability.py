@@ -263,7 +263,8 @@ class StabilityResult(Result):
         return ds
 
     def plot(self, ax=None):
-        """Real parts of the eigenvalues against speed; Hopf points marked. Returns artists."""
+        """Real parts of the eigenvalues against speed; Hopf points marked, the operating
+        speed (``params.operating.speed_kmh``) as a vertical line. Returns artists."""
         import matplotlib.pyplot as plt
 
         if ax is None:
@@ -291,6 +292,9 @@ class StabilityResult(Result):
         lo, hi = np.nanmin(finite), np.nanmax(finite)
         pad = 0.1 * (hi - lo + 1e-12)
         ax.set_ylim(lo - pad, hi + pad)
+        speed = self.params.operating.speed_kmh
+        artists.append(ax.axvline(speed, color="tab:green", ls="-.", lw=1.5, label=f"operating speed {speed:g} km/h"))
+        ax.legend(loc="lower left", fontsize=8)
         ax.set_xlabel("speed [km/h]")
         ax.set_ylabel("Re(eigenvalue) [1/s]")
         ax.set_title(f"{self.params.model}: stability of steady rolling (red: unstable)")

@@ -40,7 +40,7 @@ import numpy as np
 from ..params import Params
 from ..results import Result
 from ..settings import check_fraction, check_positive
-from ..units import order_frequency_hz
+from ..units import order_rays
 from .run_file import MeasurementError, Run
 from .sev_detection import (
     HOPF_MISMATCH_KMH,
@@ -163,7 +163,10 @@ class CampbellResult(Result):
         return path
 
     def plot(self, ax=None, channel: int = 0, orders: tuple[int, ...] = tuple(range(1, 31))):
-        """Frequency against speed in dB, order rays, Hopf points, SEV band, detected SEV."""
+        """Frequency against speed in dB, labelled order rays (:func:`~polywear.units.order_rays`:
+        the orders found as features first), Hopf points, SEV band, detected SEV; the
+        frequency axis up to 1.2 times the highest feature or predicted frequency [Hz]
+        (the whole map without either)."""
         import matplotlib.pyplot as plt
 
         if ax is None:
@@ -173,12 +176,13 @@ class CampbellResult(Result):
         mesh = ax.pcolormesh(self.speeds_kmh[order], self.frequencies_hz, level[:, order], shading="nearest",
                              cmap="magma", vmin=np.percentile(level, 5), vmax=np.max(level))
         plt.colorbar(mesh, ax=ax, label="power [dB]")
-        v = np.linspace(self.speeds_kmh.min(), self.speeds_kmh.max(), 50)
-        fmax = self.frequencies_hz[-1]
-        for n in orders:
-            f = order_frequency_hz(n, v, self.radius_m)
-            if f[0] < fmax:
-                ax.plot(v, f, color="w", lw=0.4, alpha=0.35)
+        shown = [f["frequency_to_hz"] for f in self.features]
+        shown += [h["frequency_hz"] for h in self.prediction.get("hopf_points", [])]
+        fmax = min(float(self.frequencies_hz[-1]), 1.2 * max(shown)) if shown else float(self.frequencies_hz[-1])
+        ax.set_ylim(0, fmax)
+        found = [int(round(f["frequency_order"])) for f in self.features if f["kind"] == "order"]
+        order_rays(ax, orders, self.radius_m, (self.speeds_kmh.min(), self.speeds_kmh.max()), fmax,
+                   first=tuple(dict.fromkeys(found)), color="w", lw=0.5, alpha=0.5)
         for lo, hi in self.prediction.get("sev_band_kmh", []):
             ax.axvspan(lo, hi, ymin=0.97, ymax=1.0, color="tab:cyan", label="predicted SEV band")
             for edge in (lo, hi):
@@ -199,7 +203,6 @@ class CampbellResult(Result):
         if unique:
             ax.legend(unique.values(), unique.keys(), fontsize=7, loc="upper left")
         ax.set_xlim(self.speeds_kmh.min(), self.speeds_kmh.max())
-        ax.set_ylim(0, fmax)
         ax.set_xlabel("speed [km/h]")
         ax.set_ylabel("frequency [Hz]")
         return mesh

@@ -212,7 +212,7 @@ def _sentence(v: dict) -> str:
     w = v["wear"]
     s += (
         f"self-excited vibration of {v['sev_amplitude_x_mm']:.3f} mm at {w['frequency_hz']:.1f} Hz "
-        f"(frequency order {w['frequency_order']:.2f}, RMS tread acceleration {w['rms_acceleration']:.0f} m/s^2, "
+        f"(frequency order {w['frequency_order']:.2f}, RMS tread acceleration {w['rms_acceleration']:.0f} m/s², "
         f"uneven-wear index {w['uneven_wear_index']:.3f})"
     )
     if v["steady_rolling_stable"]:  # a stable cycle with stable rolling: the hard SEV region
@@ -226,10 +226,12 @@ def _sentence(v: dict) -> str:
 
 
 def text_summary(summary: dict) -> list[str]:
-    """The report's result as lines of text: the verdict, the SEV band (``open`` at an open
-    edge), and the bifurcations besides Hopf points and folds (PD, NS, static divergence)."""
+    """The report's result as lines of text: the verdict at a glance, the verdict, the SEV
+    band (``open`` at an open edge), and the bifurcations besides Hopf points and folds (PD,
+    NS, static divergence)."""
     b = summary["bifurcation"]
-    lines = list(summary["verdict"]["lines"][:-1]) if summary.get("verdict") else [_sentence(summary["operating"])]
+    lines = ([*summary["verdict"]["glance"], "", *summary["verdict"]["lines"][:-1]] if summary.get("verdict")
+             else [_sentence(summary["operating"])])
     if b["sev_band_kmh"]:
         first, second = b["first_bifurcation_speed_kmh"], b["second_bifurcation_speed_kmh"]
         lo, hi = b["speed_range_kmh"]
@@ -273,6 +275,7 @@ def report(
     progress: Progress | None = None,
     wear_evolution_km: float | None = None,
     wear_design_by_evolution: bool = False,
+    cornering_stiffness: tuple[float, str] | None = None,
 ) -> Report:
     """Run the main job and write figures, data, ``summary.json`` and ``report.html`` to ``out_dir``.
 
@@ -300,6 +303,10 @@ def report(
         design option's parameters after which the evolution shows no polygon within
         ``wear_evolution_km`` (dozens of evolutions: minutes; ``polywear report
         --wear-design``). Off by default: the verdict judges every option by the wear map.
+    cornering_stiffness : (float, str), optional
+        The tire's cornering stiffness C_alpha [N/rad] and where it comes from (a .tir
+        file's, at the load), against which the point contact's lateral force is judged
+        (default: :data:`.verdict.C_ALPHA_N_PER_RAD`, a passenger tire's).
 
     Returns
     -------
@@ -388,6 +395,7 @@ def report(
     wear = wear_section(params, speed_range_kmh, save, out_dir, km,
                         sev_band_kmh=(sev[0][0], sev[-1][1]) if sev and None not in (sev[0][0], sev[-1][1]) else None,
                         progress=stage.detail(""))
+    files.update(_wear_data_files(wear))
 
     from ..wear.design import cycle_growth, wear_design
 
@@ -401,19 +409,29 @@ def report(
 
     result = Report(params, diagram, verdict, runs, sens, options, wear, portraits, files, wear_design=stops,
                     settings=ReportSettings(speed_range_kmh, operating_range, km, wear_design_by_evolution))
-    result.overall = overall_verdict(result.summary(), params, _sentence(verdict))
+    result.overall = overall_verdict(result.summary(), params, _sentence(verdict), cornering_stiffness)
     summary = result.summary()
     write_text(out_dir / "summary.json", json.dumps(summary, indent=2, default=float))
     write_text(out_dir / "params.toml", to_toml(params))
     files["summary.json"] = "everything above as JSON"
     files["params.toml"] = "the parameter set used"
+    files["report.html"] = "this report"
     write_text(out_dir / "report.html", _html(params, summary, files))
     stage()
-    files["report.html"] = "this report"
     return result
 
 
+def _wear_data_files(wear: WearSection) -> dict[str, str]:
+    """The data files the wear section writes (name -> caption): the map, and each evolution's."""
+    files = {"wear_map.nc": "linear wear map: growth of every polygon order at every speed (netCDF)"}
+    for label, _ in wear.evolutions:
+        stem = "wear_evolution_operating" if label == "operating speed" else "wear_evolution_cycle"
+        files[f"{stem}.nc"] = f"wear evolution, {label}: worn profile w(distance, angle) and its harmonics (netCDF)"
+    return files
+
+
 def _html(params: Params, summary: dict, files: dict) -> str:
+    from .verdict import top_sensitivities
     from .wear import wear_html
 
     b = summary["bifurcation"]
@@ -444,19 +462,24 @@ def _html(params: Params, summary: dict, files: dict) -> str:
     )
     notes = "".join(f"<li>{e(n)}</li>" for n in [*b.get("range_notes", []), *b.get("continuation_notes", []), *b.get("warnings", [])])
     sens_notes = "".join(f"<li>{e(n)}</li>" for n in summary["sensitivity"].get("notes", []))
+    sens_rows = "".join(
+        f"<tr><td>{e(r['label'])}</td><td>{e(r['param'])}</td><td>{_signed(r['first'])}</td><td>{_signed(r['second'])}</td></tr>"
+        for r in top_sensitivities(summary["sensitivity"], n=len(summary["sensitivity"]["rows"])))
     figures = "".join(
         f"<figure><img src='{e(name)}' alt='{e(caption)}'><figcaption>{e(caption)}</figcaption></figure>"
         for name, caption in files.items()
         if name.endswith(".png")
     )
-    file_list = "".join(f"<li><a href='{e(n)}'>{e(n)}</a>: {e(c)}</li>" for n, c in files.items() if not n.endswith(".png"))
+    file_list = "".join(f"<li><a href='{e(n)}'>{e(n)}</a>: {e(c)}</li>" for n, c in files.items())
     return f"""<!doctype html>
 <html><head><meta charset="utf-8"><title>polywear report: {e(params.model)}</title>
 <style>body{{font-family:sans-serif;max-width:960px;margin:2em auto;color:#222}}
 table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:left}}
-figure{{margin:1.5em 0}}img{{max-width:100%}}.verdict{{background:#fff4e0;padding:1em;border-left:4px solid #e69500}}</style>
+figure{{margin:1.5em 0}}img{{max-width:100%}}.verdict{{background:#fff4e0;padding:1em;border-left:4px solid #e69500}}
+.glance{{font-size:1.1em}}.glance li{{margin:.3em 0}}</style>
 </head><body>
 <h1>polywear report: {e(params.model)}</h1>
+<ul class="glance">{"".join(f"<li>{_glance_item(line)}</li>" for line in summary["verdict"]["glance"])}</ul>
 <div class="verdict">{"".join(f"<p>{e(line)}</p>" for line in summary["verdict"]["lines"])}</div>
 <h2>Speed bands</h2>
 <ul><li>steady rolling unstable (linear band): {band(b['linear_band_kmh'])}</li>
@@ -465,7 +488,11 @@ figure{{margin:1.5em 0}}img{{max-width:100%}}.verdict{{background:#fff4e0;paddin
 {f"<li>static divergence (steady rolling unstable through a real eigenvalue; it drifts, it does not vibrate): {band(b['divergence_kmh'])}</li>" if b.get('divergence_kmh') else ""}</ul>
 <p>Analysed speed range {range_lo:g}-{range_hi:g} km/h.</p><ul>{notes}</ul>
 <table><tr><th>point</th><th>speed [km/h]</th><th>frequency [Hz]</th><th></th></tr>{rows or "<tr><td colspan='4'>no Hopf point, fold or other bifurcation in the analysed range</td></tr>"}</table>
-<h2>Sensitivities</h2><ul>{sens_notes or "<li>see sensitivity.png and sensitivity.csv</li>"}</ul>
+<h2>Sensitivities</h2>{f"<ul>{sens_notes}</ul>" if sens_notes else ""}{
+    "<p>Normalized sensitivities S = (p/V) dV/dp of the SEV band's edges (1 % more of the parameter moves the "
+    "speed by S %), largest first (sensitivity.png, sensitivity.csv):</p><table><tr><th>parameter</th><th>key</th>"
+    f"<th>S, first bifurcation speed</th><th>S, second</th></tr>{sens_rows}</table>" if sens_rows else
+    "<p>No edge of an SEV band in the analysed range: no sensitivities.</p>"}
 <h2>Design options for {summary['design']['operating_range_kmh'][0]:.0f}-{summary['design']['operating_range_kmh'][1]:.0f} km/h</h2>
 {_design_html(summary["design"], summary["verdict"])}{_wear_design_html(summary["wear_design"])}
 {wear_html(summary.get("wear"))}
@@ -475,6 +502,17 @@ figure{{margin:1.5em 0}}img{{max-width:100%}}.verdict{{background:#fff4e0;paddin
 <p>polywear {e(__version__)}</p>
 </body></html>
 """
+
+
+def _signed(value: float | None) -> str:
+    """A sensitivity with its sign, or a dash where the edge has none."""
+    return "&mdash;" if value is None else f"{value:+.2f}".replace("-", "&minus;")
+
+
+def _glance_item(line: str) -> str:
+    """One line of the glance, its label (up to the first colon) in bold."""
+    label, sep, rest = line.partition(": ")
+    return f"<b>{html.escape(label)}:</b> {html.escape(rest)}" if sep else html.escape(line)
 
 
 def _wear_design_html(found: dict | None) -> str:

@@ -20,34 +20,44 @@ import numpy as np
 from ..models import model_for
 from ..params import Params
 from ..results import with_deprecated_keys
-from ..units import kmh_to_ms, wheel_rotation_frequency_hz
+from ..units import DEFAULT_SPEED_RANGE_KMH, kmh_to_ms, wheel_rotation_frequency_hz
 from .wear import _round_km as _km
 from .wear import _where
 
-__all__ = ["C_ALPHA_N_PER_RAD", "OVERSTATED_FACTOR", "judge_options", "point_contact", "verdict", "wear_outlook"]
+__all__ = ["C_ALPHA_N_PER_RAD", "OVERSTATED_FACTOR", "PATCH_STABILITY_SPEEDS", "glance", "judge_options",
+           "patch_beside", "top_sensitivities", "point_contact", "verdict", "wear_outlook"]
 
 C_ALPHA_N_PER_RAD = 50.0e3
-"""Cornering stiffness of a passenger tire [N/rad] (no key gives it yet)."""
+"""Cornering stiffness of a passenger tire [N/rad], the documented default where no .tir
+file gives one (no parameter key holds it)."""
+C_ALPHA_DEFAULT_SOURCE = "the default of a passenger tire (no .tir file loaded)"
+"""Where :data:`C_ALPHA_N_PER_RAD` comes from, as the report says it."""
+PATCH_STABILITY_SPEEDS = 40
+"""Grid speeds of the patch contact's stability sweep beside the point contact (0.1-0.2 s
+of CPU time each at M = 40; a pair of Hopf points closer than the grid spacing can be missed)."""
 OVERSTATED_FACTOR = 2.0
 """The point contact's wear growth is flagged as overstated where its steady lateral force
 exceeds ``C_alpha * alpha`` by more than this factor [-]."""
 
 
-def point_contact(params: Params, speed_kmh: float) -> dict:
+def point_contact(params: Params, speed_kmh: float, cornering: tuple[float, str] | None = None) -> dict:
     """The point contact's steady lateral force at ``speed_kmh`` [km/h] against a tire's
     ``C_alpha * alpha``, alpha [rad] the steady slip angle ``asin(v_r / V)`` of the model:
-    ``{"lateral_force_n", "slip_angle_deg", "c_alpha_n_per_rad", "c_alpha_alpha_n", "ratio",
-    "overstated"}`` (``overstated``: the ratio exceeds :data:`OVERSTATED_FACTOR`)."""
+    ``{"lateral_force_n", "slip_angle_deg", "c_alpha_n_per_rad", "c_alpha_source",
+    "c_alpha_alpha_n", "ratio", "overstated"}`` (``overstated``: the ratio exceeds
+    :data:`OVERSTATED_FACTOR`). ``cornering``: (C_alpha [N/rad], where it comes from), e.g.
+    a .tir file's at the load; None: :data:`C_ALPHA_N_PER_RAD`."""
+    c_alpha, source = cornering if cornering is not None else (C_ALPHA_N_PER_RAD, C_ALPHA_DEFAULT_SOURCE)
     model = model_for(params)
     V = float(kmh_to_ms(speed_kmh))
     q = model.prepared(V, model.pack(params))
     aux = dict(zip(model.aux_names, model.diagnostics(model.equilibrium(V, q), V, q)))
     force = abs(float(aux["friction_force"]))
     alpha = math.asin(min(abs(float(aux["sliding_velocity"])) / V, 1.0))
-    linear = C_ALPHA_N_PER_RAD * alpha
+    linear = c_alpha * alpha
     ratio = force / linear if linear > 0.0 else math.inf
-    return {"lateral_force_n": force, "slip_angle_deg": math.degrees(alpha), "c_alpha_n_per_rad": C_ALPHA_N_PER_RAD,
-            "c_alpha_alpha_n": linear, "ratio": ratio if math.isfinite(ratio) else None,
+    return {"lateral_force_n": force, "slip_angle_deg": math.degrees(alpha), "c_alpha_n_per_rad": c_alpha,
+            "c_alpha_source": source, "c_alpha_alpha_n": linear, "ratio": ratio if math.isfinite(ratio) else None,
             "overstated": bool(ratio > OVERSTATED_FACTOR)}
 
 
@@ -77,21 +87,23 @@ def _linear_visible_km(params: Params, rates: np.ndarray, distance_km: float) ->
     return hi
 
 
-def wear_outlook(params: Params, distance_km: float) -> dict:
+def wear_outlook(params: Params, distance_km: float, cornering: tuple[float, str] | None = None) -> dict:
     """What the linear wear map says for ``params``, at the operating speed alone
     (``operating``) and on the drive cycle (``cycle``): the speeds where steady rolling is
     unstable (the tread vibrates, the map does not apply: ``rolling_stable`` False), else
     the fastest growing order, its e-folding distance [km] (``efold_km``, at the operating
     speed) and the distance [km] within ``distance_km`` at which the seeded roughness grown
     at the (share-weighted) rates becomes visible (``visible_km``, None: not within it); and
-    the :func:`point_contact` check at the operating speed (None with the patch contact)."""
+    the :func:`point_contact` check at the operating speed (None with the patch contact;
+    ``cornering`` as there)."""
     from ..wear.design import cycle_rates
     from ..wear.map import wear_map
 
     op = params.operating.speed_kmh
     row = wear_map(params, [op]).rows()[0]
     out = {"operating": {k: row[k] for k in ("speed_kmh", "rolling_stable", "order", "frequency_hz", "efold_km")},
-           "cycle": {}, "basis": "linear wear map", "distance_km": distance_km, "point_contact": _check(params)}
+           "cycle": {}, "basis": "linear wear map", "distance_km": distance_km,
+           "point_contact": _check(params, cornering)}
     for place, cycle in (("operating", ((op, 1.0),)), ("cycle", params.wear.cycle_shares())):
         rates = cycle_rates(params, cycle)
         if rates is None:
@@ -104,18 +116,19 @@ def wear_outlook(params: Params, distance_km: float) -> dict:
     return out
 
 
-def _check(params: Params) -> dict | None:
+def _check(params: Params, cornering: tuple[float, str] | None = None) -> dict | None:
     """:func:`point_contact` at the operating speed for the point contact, None for the patch."""
-    return point_contact(params, params.operating.speed_kmh) if params.friction.contact == "point" else None
+    return point_contact(params, params.operating.speed_kmh, cornering) if params.friction.contact == "point" else None
 
 
-def judge_options(params: Params, design: dict, distance_km: float, nominal_visible_km: dict) -> list[dict]:
+def judge_options(params: Params, design: dict, distance_km: float, nominal_visible_km: dict,
+                  cornering: tuple[float, str] | None = None) -> list[dict]:
     """The wear judgement of every computed design option (``design``: the report's design
     summary), in its order: :func:`wear_outlook` with the option's values, ``sooner``
     (on the drive cycle or at the operating speed alone the polygon becomes visible before
     the nominal car's, ``nominal_visible_km`` {"cycle", "operating"} [km] or None; None where
     the option leaves the tread vibrating at both, so that the map cannot tell) and ``text``.
-    Options not computed (no values) get None."""
+    Options not computed (no values) get None. ``cornering``: as in :func:`point_contact`."""
     from ..dynamics.sensitivity import perturbed
 
     out = []
@@ -126,7 +139,7 @@ def judge_options(params: Params, design: dict, distance_km: float, nominal_visi
         changed = params
         for key, value in zip(o["params"], o["values"]):
             changed = perturbed(changed, key, value)
-        look = wear_outlook(changed, distance_km)
+        look = wear_outlook(changed, distance_km, cornering)
         judged = [look[place]["visible_km"] is not None and (nominal_visible_km.get(place) is None
                                                             or look[place]["visible_km"] < nominal_visible_km[place])
                   for place in ("cycle", "operating") if look[place]["rolling_stable"]]
@@ -164,25 +177,29 @@ def _option_text(look: dict, nominal_visible_km: dict, distance_km: float) -> st
 
 def _overstated(pc: dict) -> str:
     return (f"the point contact's lateral force {pc['lateral_force_n']:,.0f} N is {pc['ratio']:.0f} times a "
-            f"tire's C_alpha*alpha = {pc['c_alpha_alpha_n']:,.0f} N ({pc['c_alpha_n_per_rad'] / 1e3:g} kN/rad at "
-            f"{pc['slip_angle_deg']:.2f} deg): it slides under the whole load, so its wear growth is overstated")
+            f"tire's C_alpha*alpha = {pc['c_alpha_alpha_n']:,.0f} N ({pc['c_alpha_n_per_rad'] / 1e3:.4g} kN/rad, "
+            f"{pc['c_alpha_source']}, at {pc['slip_angle_deg']:.2f} deg): it slides under the whole load, so its wear "
+            "growth is overstated")
 
 
-def verdict(summary: dict, params: Params, vibration: str) -> dict:
-    """The one verdict from the report's summary (``operating``, ``wear``, ``design``):
-    ``lines`` (vibration, polygon, what the distances assume, what to change),
-    ``vibrates``, ``polygon_visible`` (None: no evolution run), ``dominant_order`` (sides), ``visible_km``
-    per evolution, ``source`` of the polygon, the :func:`point_contact` check and the
-    wear judgement of every design option (:func:`judge_options`). ``vibration`` is the
-    sentence on the vibration at the operating speed."""
+def verdict(summary: dict, params: Params, vibration: str, cornering: tuple[float, str] | None = None) -> dict:
+    """The one verdict from the report's summary (``operating``, ``wear``, ``design``,
+    ``bifurcation``, ``sensitivity``): ``lines`` (vibration, polygon, what the distances
+    assume, the contact, what to change), ``glance`` (:func:`glance`), ``contact``,
+    ``vibrates``, ``polygon_visible`` (None: no evolution run), ``dominant_order`` (sides),
+    ``visible_km`` per evolution, ``source`` of the polygon, the :func:`point_contact` check,
+    the patch contact beside an overstated point contact (``patch``, :func:`patch_beside`;
+    None where not computed) and the wear judgement of every design option
+    (:func:`judge_options`). ``vibration`` is the sentence on the vibration at the operating
+    speed; ``cornering``: as in :func:`point_contact`."""
     v, wear, design = summary["operating"], summary["wear"], summary["design"]
     evs = {ev["label"]: ev for ev in wear["evolutions"]}
     distance = max((ev["distance_km"] for ev in evs.values()), default=params.wear.report_km)
     vibrates = "sev_amplitude_x_mm" in v
     visible = [ev for ev in evs.values() if ev["visible_km"] is not None]
     first = min(visible, key=lambda ev: ev["visible_km"]) if visible else None
-    pc = _check(params)
-    out = {"vibrates": vibrates, "polygon_visible": bool(visible) if evs else None,
+    pc = _check(params, cornering)
+    out = {"contact": params.friction.contact, "vibrates": vibrates, "polygon_visible": bool(visible) if evs else None,
            "dominant_order": first["dominant_order"] if first else None,
            "visible_km": {label: ev["visible_km"] for label, ev in evs.items()},
            "source": None, "point_contact": pc}
@@ -216,15 +233,22 @@ def verdict(summary: dict, params: Params, vibration: str) -> dict:
                      f"drives; after a disturbance above {v['trigger_amplitude_x_mm']:.3f} mm (a pothole) the "
                      f"tread vibrates at order {w['frequency_order']:.2f} ({w['frequency_hz']:.0f} Hz) instead, and the "
                      "wear from that vibration is not evolved here.")
+    lines.append(_contact_line(params))
+    out["patch"] = None
     if pc is not None and pc["overstated"]:
         lines.append("Beside the wear judgement: " + _overstated(pc) + " (friction.contact = \"patch\" is the "
                      "distributed contact, for tread1dof).")
-    nominal = wear_outlook(params, distance)
+    nominal = wear_outlook(params, distance, cornering)
+    if pc is not None and pc["overstated"] and params.model == "tread1dof":
+        analysed = (summary.get("bifurcation") or {}).get("speed_range_kmh", DEFAULT_SPEED_RANGE_KMH)
+        out["patch"] = patch_beside(params, tuple(analysed), nominal["operating"])
+        if out["patch"]["disagree"]:
+            lines.append(out["patch"]["text"])
     out["wear_outlook"] = nominal
     nominal_visible = {place: evs[label]["visible_km"] for place, label in (("cycle", "drive cycle"),
                                                                             ("operating", "operating speed"))
                        if label in evs}
-    judged = judge_options(params, design, distance, nominal_visible) if (vibrates or visible) else []
+    judged = judge_options(params, design, distance, nominal_visible, cornering) if (vibrates or visible) else []
     out["design_options"] = judged
     wear_option = None
     if first is not None and not design["options"]:
@@ -239,7 +263,170 @@ def verdict(summary: dict, params: Params, vibration: str) -> dict:
     out["wear_design_option"] = wear_option[1].summary() if wear_option and wear_option[1] else None
     lines.append(_what_to_change(vibrates, bool(visible), bool(evs), design, judged, distance, wear_option))
     out["lines"] = lines
+    out["glance"] = glance(summary, out, params)
     return with_deprecated_keys(out, {"dominant_order": "sides"})
+
+
+def _contact_line(params: Params) -> str:
+    """Which contact the analysis used, in words."""
+    if params.friction.contact == "patch":
+        return (f"Contact: the distributed patch (friction.contact = \"patch\", {params.friction.patch_elements} tread "
+                "elements carried through the contact length, each with its share of the load).")
+    return ("Contact: the paper's point contact (friction.contact = \"point\": one tread element sliding under the "
+            "whole wheel load).")
+
+
+def _bands_text(bands) -> str:
+    return ", ".join(f"{lo:.1f}-{hi:.1f} km/h" for lo, hi in bands) or "none"
+
+
+def patch_beside(params: Params, speed_range_kmh: tuple[float, float], point_operating: dict) -> dict:
+    """The patch contact's result beside the point contact's (tread1dof, cheap: linear
+    analysis only): the linear bands of both over ``speed_range_kmh`` [km/h] on the same
+    grid (:data:`PATCH_STABILITY_SPEEDS` speeds) and the patch's linear wear growth at the
+    operating speed, against the point contact's (``point_operating``: its wear-map row at
+    the operating speed, :func:`wear_outlook`). ``disagree``: the
+    two differ on whether steady rolling is unstable at the operating speed or anywhere in
+    the range, or, both stable there, their e-folding distances differ by more than
+    :data:`OVERSTATED_FACTOR`. Returns {"linear_band_kmh", "operating": {"rolling_stable",
+    "order", "efold_km"}, "point": the same two, "disagree", "text"}."""
+    from ..dynamics.stability import StabilitySettings, stability
+    from ..wear.map import wear_map
+
+    patch = params.with_updates({"friction.contact": "patch"})
+    op = params.operating.speed_kmh
+    lo, hi = speed_range_kmh
+    grid = StabilitySettings(n_speeds=PATCH_STABILITY_SPEEDS)
+    band = stability(patch, (lo, hi), grid).linear_band_kmh
+    point_band = stability(params, (lo, hi), grid).linear_band_kmh
+    keys = ("rolling_stable", "order", "efold_km")
+    row = wear_map(patch, [op]).rows()[0]
+    mine = {k: row[k] for k in keys}
+    theirs = {k: point_operating[k] for k in keys}
+
+    def at_op(bands):
+        return any(a <= op <= b for a, b in bands)
+
+    disagree = at_op(band) != at_op(point_band) or bool(band) != bool(point_band)
+    if mine["rolling_stable"] and theirs["rolling_stable"] and mine["efold_km"] and theirs["efold_km"]:
+        disagree = disagree or max(mine["efold_km"] / theirs["efold_km"],
+                                   theirs["efold_km"] / mine["efold_km"]) > OVERSTATED_FACTOR
+
+    def unstable(bands):
+        return f"unstable at {_bands_text(bands)}" if bands else "stable at every speed"
+
+    def growth(r):
+        if not r["rolling_stable"]:
+            return "steady rolling is unstable (the tread vibrates; the linear wear map does not apply)"
+        if r["efold_km"] is None:
+            return "no polygon order grows"
+        return f"order {r['order']} grows by e every {_km(r['efold_km'])} km"
+
+    text = (f"The patch contact beside it (friction.contact = \"patch\", {params.friction.patch_elements} elements, "
+            f"linear analysis): steady rolling {unstable(band)} in {lo:g}-{hi:g} km/h "
+            f"({PATCH_STABILITY_SPEEDS} speeds; point contact: {unstable(point_band)}); at {op:g} km/h "
+            f"{growth(mine)} (point contact: {growth(theirs)}).")
+    return {"linear_band_kmh": [list(b) for b in band], "operating": mine,
+            "point": {"linear_band_kmh": [list(b) for b in point_band], "operating": theirs},
+            "disagree": disagree, "text": text}
+
+
+def top_sensitivities(sensitivity: dict, n: int = 2) -> list[dict]:
+    """The ``n`` parameters whose normalized sensitivity S = (p/V) dV/dp [-] on either
+    edge of the SEV band (first or second bifurcation speed) is largest in magnitude:
+    [{"param", "label", "first", "second"}] (None: that edge has no row), largest first."""
+    from ..dynamics.sensitivity import PARAMETER_LABELS
+
+    by_param: dict[str, dict] = {}
+    for r in sensitivity["rows"]:
+        if r["quantity"] in ("first_bifurcation", "second_bifurcation") and r["normalized"] is not None:
+            entry = by_param.setdefault(r["param"], {"param": r["param"], "first": None, "second": None,
+                                                     "label": PARAMETER_LABELS.get(r["param"], r["param"])})
+            entry[r["quantity"].split("_")[0]] = r["normalized"]
+
+    def size(e):
+        return max(abs(v) for v in (e["first"], e["second"]) if v is not None)
+
+    return sorted(by_param.values(), key=size, reverse=True)[:n]
+
+
+def _best_option(design: dict, judged: list):
+    """(option, its wear judgement, whether it keeps the polygon from coming sooner) of the
+    first design option that clears the band without bringing the polygon sooner, else of
+    the first that clears it; None if none does."""
+    cleared = [(o, j) for o, j in zip(design["options"], judged) if o["achieved"] and j is not None]
+    good = [(o, j) for o, j in cleared if j["sooner"] is False]
+    if not cleared:
+        return None
+    o, j = (good or cleared)[0]
+    return o, j, bool(good)
+
+
+def glance(summary: dict, judged: dict, params: Params) -> list[str]:
+    """The report at a glance, before any table: at risk or not, how bad, what to change
+    (the best design option), which two parameters move the SEV band most (from the
+    report's sensitivities) and the contact used. ``judged``: the verdict so far
+    (``vibrates``, ``polygon_visible``, ``visible_km``, ``dominant_order``, ``design_options``,
+    ``point_contact``, ``patch``)."""
+    v, b, design = summary["operating"], summary.get("bifurcation") or {}, summary["design"]
+    visible = {label: km for label, km in judged["visible_km"].items() if km is not None}
+    risk = judged["vibrates"] or bool(visible)
+    lines = ["At risk: " + ("yes" if risk else "no") + (
+        "" if risk else f" (no self-excited vibration at {v['speed_kmh']:g} km/h"
+        + ("" if judged["polygon_visible"] is None else ", no visible polygon within the distance evolved") + ")")]
+    bad = []
+    if judged["vibrates"]:
+        w = v.get("wear")
+        bad.append(f"the tread vibrates at {v['speed_kmh']:g} km/h with {v['sev_amplitude_x_mm']:.3f} mm"
+                   + (f" at {v['frequency_hz']:.0f} Hz" if v.get("frequency_hz") else "")
+                   + (f" (RMS tread acceleration {w['rms_acceleration']:.0f} m/s²)" if w and "rms_acceleration" in w else ""))
+    if b.get("sev_band_kmh"):
+        bad.append(f"SEV band {_band_edges(b)}")
+    if visible:
+        label, km = min(visible.items(), key=lambda item: item[1])
+        n = judged["dominant_order"]
+        bad.append(f"{'an' if str(n)[0] == '8' or n in (11, 18) else 'a'} {n}-sided polygon becomes visible after about {_km(km)} km "
+                   f"({'on the drive cycle' if label == 'drive cycle' else 'at ' + format(v['speed_kmh'], 'g') + ' km/h alone'})")
+    lines.append("How bad: " + ("; ".join(bad) if bad else "nothing vibrates and nothing wears into a polygon") + ".")
+    best = _best_option(design, judged.get("design_options") or [])
+    if not risk:
+        lines.append("What to change: nothing.")
+    elif best is None:
+        lines.append("What to change: no design option clears the SEV band from the operating range "
+                     f"{design['operating_range_kmh'][0]:g}-{design['operating_range_kmh'][1]:g} km/h"
+                     + ("" if design["options"] else f" ({design['reason']})") + " (see the verdict below).")
+    else:
+        o, j, good = best
+        lines.append(f"What to change: {o.get('text') or o['change']}" + ("" if good else "; it brings the polygon sooner")
+                     + ".")
+    top = top_sensitivities(summary.get("sensitivity") or {"rows": []})
+    if top:
+        def s(x):
+            return "no edge" if x is None else f"{x:+.2f}"
+
+        lines.append("What moves the SEV band most (normalized sensitivity S = (p/V) dV/dp; 1 % more of the "
+                     "parameter moves the speed by S %): "
+                     + " and ".join(f"{e['label']} ({e['param']}: S = {s(e['first'])} on the first, "
+                                    f"{s(e['second'])} on the second bifurcation speed)" for e in top) + ".")
+    else:
+        lines.append("What moves the SEV band most: no band edge in the analysed range, so no sensitivities.")
+    contact = _contact_line(params)
+    pc = judged.get("point_contact")
+    if pc is not None and pc["overstated"]:
+        contact += (f" Outside its validity here: its lateral force is {pc['ratio']:.0f} times C_alpha*alpha "
+                    f"(C_alpha {pc['c_alpha_n_per_rad'] / 1e3:.4g} kN/rad, {pc['c_alpha_source']})")
+        patch = judged.get("patch")
+        contact += ("; the patch contact's result is in the verdict below." if patch and patch["disagree"] else ".")
+    lines.append(contact)
+    return lines
+
+
+def _band_edges(b: dict) -> str:
+    """The SEV band of a bifurcation summary, an open edge named as such [km/h]."""
+    lo, hi = b["speed_range_kmh"]
+    first, second = b["first_bifurcation_speed_kmh"], b["second_bifurcation_speed_kmh"]
+    return (f"{f'{first:.1f}' if first is not None else f'open below {lo:g}'}-"
+            f"{f'{second:.1f}' if second is not None else f'open above {hi:g}'} km/h")
 
 
 def _what_to_change(vibrates: bool, visible: bool, evolved: bool, design: dict, judged: list,
@@ -255,8 +442,8 @@ def _what_to_change(vibrates: bool, visible: bool, evolved: bool, design: dict, 
         return (f"Nothing to change: the tread does not vibrate and no polygon becomes visible within "
                 f"{distance_km:,.0f} km.")
     lo, hi = design["operating_range_kmh"]
-    cleared = [(o, j) for o, j in zip(design["options"], judged) if o["achieved"] and j is not None]
-    if not cleared:
+    best = _best_option(design, judged)
+    if best is None:
         if not design["options"] and visible:
             text = (f"What to change: there is no SEV band to move out of {lo:g}-{hi:g} km/h, but the tire still "
                     "wears into a polygon: the wear itself must change")
@@ -278,8 +465,7 @@ def _what_to_change(vibrates: bool, visible: bool, evolved: bool, design: dict, 
         if not design["options"]:
             return f"What to change: no design option for {lo:g}-{hi:g} km/h: {design['reason']}"
         return f"What to change: no design option clears the SEV band from {lo:g}-{hi:g} km/h (see the design section)."
-    good = [(o, j) for o, j in cleared if j["sooner"] is False]
-    o, j = (good or cleared)[0]
+    o, j, good = best
     text = f"What to change: {o['change']} clears the SEV band from {lo:g}-{hi:g} km/h; wear: {j['text']}."
     if not good:
         text += " No option that clears the band keeps the polygon from coming sooner."

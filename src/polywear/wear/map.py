@@ -32,7 +32,7 @@ from ..results import Result
 from ..models.profile import patch_sinc
 from ..params import MAX_WEAR_ORDER, Params
 from ..settings import check_count
-from ..units import wheel_circumference_m, wheel_rotation_frequency_hz, kmh_to_ms
+from ..units import kmh_to_ms, order_rays, wheel_circumference_m, wheel_rotation_frequency_hz
 from ..dynamics.stability import mode_label, stability
 from .law import energetic_rate
 
@@ -250,17 +250,9 @@ class WearMap(Result):
             artists.append(ax.axvspan(*sev_band_kmh, fill=False, hatch="//", edgecolor="tab:orange", lw=0.0,
                                       label="SEV band"))
         top = min(float(np.nanmax(freq)), 1.6 * float(np.nanmax(self.mode_frequency_hz)))
-        placed = []  # labels in axes fractions: one that would overlap a lower order's is left out
-        span = max(float(v[-1] - v[0]), 1e-9)
-        for n in rays:
-            if n <= self.orders[-1]:
-                artists += ax.plot(v, freq[:, n - 1], color="0.25", lw=0.6)
-                j = min(int(np.searchsorted(freq[:, n - 1], 0.97 * top)), v.size - 1)
-                xy = (v[j], min(freq[j, n - 1], 0.97 * top))
-                at = ((xy[0] - v[0]) / span, xy[1] / top)
-                if all(abs(at[0] - a) > 0.07 or abs(at[1] - b) > 0.05 for a, b in placed):
-                    placed.append(at)
-                    artists.append(ax.annotate(f"n={n}", xy, fontsize=7, color="0.15", ha="right"))
+        ax.set_ylim(0.0, top)  # every ray drawn is labelled, no two labels overlap (units.order_rays)
+        order_rays(ax, [n for n in rays if n <= self.orders[-1]], self.params.operating.rolling_radius_m,
+                   (float(v[0]), float(v[-1])), top, color="0.25", lw=0.6, alpha=1.0)
         artists += ax.plot(self.speeds_kmh, self.mode_frequency_hz, color="k", lw=1.6, ls="--", label="tread mode")
         best = self.most_unstable()
         ok = best >= 0
