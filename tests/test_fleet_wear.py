@@ -108,3 +108,52 @@ def test_cli_wear_risk_json(tmp_path):
     assert s["wear_km"] == D_KM and s["wear_cycle"] == [{"speed_kmh": 110.0, "share": 1.0}]
     code, out, err = run_main(["fleet", "--spec", str(path), "--wear-km", "-5"])
     assert code != 0 and "--wear-km" in err
+
+
+def test_a_car_over_the_step_budget_stops_there():
+    """The evaluator stops a car's evolution at its step budget, at the distance an
+    unstopped evolution of the same car has after that many steps, and says so; with the
+    default budget the same car ends with the evolution's own visible distance."""
+    from polywear.studies.fleet import FleetEvaluator, wear_step_budget
+
+    params = with_updates(Params(), {"wear.energetic_rate_mm3_per_j": K_NOM})
+    cycle = ((110.0, 1.0),)
+    full = wear_evolution(params, D_KM, cycle)
+    budget = wear_step_budget(D_KM, 1)
+    assert budget == 2 and full.distance_km.size - 1 > budget  # ceil(3000 / 8000) + 1: fewer than it takes
+    stopped = FleetEvaluator(params, (), None, (110.0,), wear_km=D_KM, wear_max_steps=1, usage_cycle=cycle)._wear(params)
+    assert np.isnan(stopped[0]) and np.isnan(stopped[1])
+    assert stopped[2] == f"over the budget of 2 distance steps at {full.distance_km[2]:,.0f} of {D_KM:,.0f} km"
+    ended = FleetEvaluator(params, (), None, (110.0,), wear_km=D_KM, usage_cycle=cycle)._wear(params)
+    assert ended[0] == full.visible_km and ended[2] == ""
+
+
+def test_cars_over_the_budget_are_listed_and_kept_out_of_the_wear_risk():
+    """Summary of 10 cars (values set by hand): 2 over the wear budget, 1 failed. The wear
+    risk counts the 7 others (3 visible within D: 3/7, its exact interval from scipy), the
+    band risk the 9 evaluated; the 2 are counted and listed with their parameters."""
+    from scipy.stats import binomtest
+
+    from polywear.studies.fleet import CarOutcome, FleetResult, FleetSpec
+
+    spec = FleetSpec(samples=10, wear_km=D_KM, parameter=[{"key": "operating.toe_deg", "distribution": "uniform",
+                                                            "low": 0.4, "high": 0.6}],
+                     usage=[{"speed_kmh": 110.0, "share": 1.0}])
+    X = np.linspace(0.41, 0.59, 10)[:, None]
+    values = np.full((10, len(OUTPUTS)), np.nan)
+    values[:, 2] = [1, 1, 0, 0, 1, 0, 1, 1, 0, 1]  # at risk (band)
+    values[:, OUTPUTS.index("wear_visible_km")] = [1000, 2000, np.inf, np.inf, np.nan, np.inf, np.nan, 2500, np.inf, np.nan]
+    values[:, OUTPUTS.index("wear_order")] = [8, 8, 9, 9, np.nan, 9, np.nan, 7, 9, np.nan]
+    over = "over the budget of 201 distance steps at 1,234 of 3,000 km"
+    outcomes = [CarOutcome(path="fast")] * 10
+    outcomes[4] = outcomes[6] = CarOutcome(path="fast", wear=over)
+    outcomes[9] = CarOutcome(failure="ValueError", detail="bad")
+    s = FleetResult(Params(), spec, X, values, outcomes).summary()
+    assert s["risk_probability"] == pytest.approx(5 / 9)  # the over-budget cars' bands count
+    assert s["wear_n_evaluated"] == 7 and s["wear_risk_probability"] == pytest.approx(3 / 7)
+    ci = binomtest(3, 7).proportion_ci(0.95, method="exact")
+    assert s["wear_risk_ci"] == pytest.approx([ci.low, ci.high])
+    assert s["wear_over_budget"] == 2 and s["wear_max_steps"] == 201
+    assert s["wear_over_budget_cars"] == [{"car": i, "reason": over, "parameters": {"operating.toe_deg": X[i, 0]}}
+                                          for i in (4, 6)]
+    assert s["wear_most_dangerous_order"] == 8 and s["wear_orders"] == {"7": 1, "8": 2}

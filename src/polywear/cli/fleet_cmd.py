@@ -120,6 +120,15 @@ def fleet(
                        "interactions included): " + ", ".join(f"{k} {v:.3f}" for k, v in s["drivers_importance"].items()))
         if s["wear_risk_probability"] is not None:
             _print_wear_risk(s)
+        if s.get("wear_over_budget"):
+            typer.echo(f"wear: {s['wear_over_budget']} car(s) over the budget of {s['wear_max_steps']} distance steps "
+                       "per evolution, not counted in the wear risk (fleet.wear_max_steps):")
+            for car in s["wear_over_budget_cars"]:
+                typer.echo(f"  car {car['car']}: {car['reason']}; " + ", ".join(
+                    f"{k} = {v:.6g}" for k, v in car["parameters"].items()))
+            if s["wear_over_budget"] > len(s["wear_over_budget_cars"]):
+                typer.echo(f"  ... {s['wear_over_budget'] - len(s['wear_over_budget_cars'])} more "
+                           "(all in --out .nc/.csv, column wear_note)")
 
 
 def _print_wear_risk(s: dict) -> None:
@@ -128,7 +137,7 @@ def _print_wear_risk(s: dict) -> None:
     cycle = ", ".join(f"{c['speed_kmh']:g} km/h {c['share']:.0%}" for c in s["wear_cycle"])
     typer.echo(f"wear risk (a polygon visible within {s['wear_km']:,.0f} km on the usage cycle {cycle}, nonlinear "
                f"evolution): {s['wear_risk_probability']:.4f}, {s['confidence']:.0%} CI [{lo:.4f}, {hi:.4f}] "
-               "(Clopper-Pearson); distances scale as 1/k_e")
+               f"(Clopper-Pearson, {s['wear_n_evaluated']} cars); distances scale as 1/k_e")
     if s["wear_most_dangerous_order"] is not None:
         q = s["wear_visible_km"]
         typer.echo(f"  most dangerous order {s['wear_most_dangerous_order']} (visible polygons by order: "

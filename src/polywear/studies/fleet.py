@@ -28,7 +28,12 @@ usage cycle (the usage speeds with their shares, :func:`~polywear.wear.evolution
 vibrating or not): the wear risk is the share of cars whose polygon becomes visible
 (``wear.visible_depth_mm``) within D, with the same exact interval; the most dangerous
 order is the order most of the visible polygons have; its drivers are computed as the
-band risk's.
+band risk's. Every car's evolution has a budget of distance steps (``wear_max_steps``
+beyond the fewest that D takes at the longest step): a car that would need more (a
+vibration within a few thousandths of an integer order that does not lock: its windows
+cannot separate the line and the steps stay near 10 km) is stopped there, counted and
+listed with its parameters (``wear_over_budget``), and kept out of the wear risk; its band
+counts in the band risk as any other car's.
 
 Reproducibility: all samples are drawn in the calling process from
 ``numpy.random.SeedSequence(seed)`` before any evaluation, the pilot stage depends on
@@ -81,7 +86,7 @@ PATHS = ("hopf", "fast", "full", "pilot")
 fast band path, the full continuation (a fallback, with its
 :class:`~polywear.studies.fast_band.FallbackReason`), or the full continuation of the
 pilot stage (the car is a reference)."""
-CAR_FIELDS = ("failure", "detail", "path", "fallback", "fallback_detail")
+CAR_FIELDS = ("failure", "detail", "path", "fallback", "fallback_detail", "wear")
 """The fields of :class:`CarOutcome`, stored per car in the checkpoint."""
 
 
@@ -90,14 +95,16 @@ class CarOutcome:
     """How one car ended. Failed: ``failure`` (the exception type, or ``"wear evolution"``) and
     ``detail`` (its message); evaluated: ``path`` (one of :data:`PATHS`) and, on the full
     path, ``fallback`` (a :class:`~polywear.studies.fast_band.FallbackReason` value) and
-    ``fallback_detail``. The texts of the files (:attr:`status`, :attr:`path_text`) are
-    composed from these fields, never parsed back."""
+    ``fallback_detail``; ``wear``: why an evaluated car has no wear result (its evolution
+    stopped at the step budget), else empty. The texts of the files (:attr:`status`,
+    :attr:`path_text`) are composed from these fields, never parsed back."""
 
     failure: str = ""
     detail: str = ""
     path: str = ""
     fallback: str = ""
     fallback_detail: str = ""
+    wear: str = ""
 
     @property
     def ok(self) -> bool:
@@ -114,6 +121,12 @@ class CarOutcome:
         return f"full: {self.fallback}: {self.fallback_detail}" if self.path == "full" else self.path
 LISTED_FAILURES = 20
 """Failed cars listed one by one (index and reason) in the summary; all are counted."""
+WEAR_MAX_STEPS = 200
+"""Default budget of one car's wear evolution [distance steps], beyond the fewest steps the
+distance takes at the longest step (``ceil(D / 8 000 km)``). On the 110/130 km/h cycle
+over 60 000 km typical cars take 19-67 steps (0.1-0.2 s CPU each); a car whose vibration
+stays a few thousandths off an integer order without locking takes steps of ~10 km
+(thousands of steps, over an hour of CPU)."""
 
 
 class _Spec(BaseModel):
@@ -209,6 +222,10 @@ class FleetSpec(_Spec):
     wear_km: float | None = Field(None, gt=0.0, le=MAX_WEAR_KM)
     """With it, every car's wear is evolved over this distance [km] on the usage cycle:
     the wear risk is the share of cars whose polygon becomes visible within it."""
+    wear_max_steps: int = Field(WEAR_MAX_STEPS, ge=1, le=100_000)
+    """Budget of one car's wear evolution [distance steps] beyond ``ceil(wear_km / 8 000 km)``:
+    a car that would need more is counted in ``wear_over_budget``, listed with its
+    parameters, and kept out of the wear risk (:data:`WEAR_MAX_STEPS`)."""
     simulate_gaps: bool = False
     """Decide a car with a usage speed in a gap of its band after a period doubling or torus
     bifurcation by simulation, as the verdict does (runs from the stable cycle of its diagram
@@ -266,7 +283,8 @@ class FleetSpec(_Spec):
         return R
 
 
-SPEC_SETTINGS = ("samples", "seed", "checkpoint_every", "band_every", "wear_km", "simulate_gaps", "speed_range_kmh")
+SPEC_SETTINGS = ("samples", "seed", "checkpoint_every", "band_every", "wear_km", "wear_max_steps", "simulate_gaps",
+                 "speed_range_kmh")
 """Keys of the ``[fleet]`` table that ``--set fleet.KEY=VALUE`` may change."""
 
 
@@ -346,6 +364,8 @@ class FleetEvaluator:
     usage_speeds_kmh: tuple[float, ...]
     wear_km: float | None = None
     """Evolve the wear over this distance [km] on ``usage_cycle`` (None: no wear)."""
+    wear_max_steps: int = WEAR_MAX_STEPS
+    """Step budget of the evolution beyond ``ceil(wear_km / longest step)`` (:attr:`FleetSpec.wear_max_steps`)."""
     usage_cycle: tuple[tuple[float, float], ...] = ()
     """(speed [km/h], share) of the usage, shares summing to 1."""
     band_every: int = 1
@@ -365,19 +385,19 @@ class FleetEvaluator:
             band, diagram = (solved, None) if solved is not None or verdict is not None else self._band(params)
         except SAMPLE_FAILURES as exc:  # invalid parameters or a numerical failure: recorded, never dropped
             return (np.nan,) * len(OUTPUTS), CarOutcome(failure=type(exc).__name__, detail=str(exc))
-        worn = self._wear(params) if self.wear_km is not None else (np.nan, np.nan)
+        worn = self._wear(params) if self.wear_km is not None else (np.nan, np.nan, "")
         if isinstance(worn, CarOutcome):
             return (np.nan,) * len(OUTPUTS), worn
-        visible, order = worn
+        visible, order, over = worn
         if verdict is not None:  # Hopf points alone decided: no second speed for this car
             at_risk, hard, first = verdict
             return ((first, np.nan, float(at_risk), float(hard), 1.0, visible, 0.0, np.nan, order),
-                    CarOutcome(path="hopf"))
+                    CarOutcome(path="hopf", wear=over))
         inside = lambda intervals: any(a <= v <= b for v in self.usage_speeds_kmh for a, b in intervals)
         if solved is not None or band.path == "fast":
-            outcome = CarOutcome(path="fast" if solved is None else "pilot")
+            outcome = CarOutcome(path="fast" if solved is None else "pilot", wear=over)
         else:  # the fast path was tried first, so the reason is set
-            outcome = CarOutcome(path="full", fallback=band.reason.value, fallback_detail=band.detail)
+            outcome = CarOutcome(path="full", fallback=band.reason.value, fallback_detail=band.detail, wear=over)
         in_gap = [v for v in self.usage_speeds_kmh if any(a < v < b for a, b in band.gaps_after_pd_ns_kmh)]
         gap_sev = np.nan
         if in_gap and self.simulate_gaps:
@@ -411,20 +431,43 @@ class FleetEvaluator:
         except SAMPLE_FAILURES as exc:
             return CarOutcome(failure="gap simulation", detail=f"{type(exc).__name__}: {exc}")
 
-    def _wear(self, params) -> tuple[float, float] | CarOutcome:
+    def _wear(self, params) -> tuple[float, float, str] | CarOutcome:
         """(distance [km] at which the polygon becomes visible, inf if not within ``wear_km``;
-        its order: the dominant order where it first is visible, else at the end) by the
-        nonlinear evolution on the usage cycle, or the failure."""
+        its order: the dominant order where it first is visible, else at the end; "") by the
+        nonlinear evolution on the usage cycle; (nan, nan, why) where it stopped at the step
+        budget (:func:`wear_step_budget`); or the failure."""
         from ..wear.evolution import wear_evolution
 
+        budget = wear_step_budget(self.wear_km, self.wear_max_steps)
+        steps = [0]
+
+        def count(done: float, total: float | None, message: str = "") -> None:
+            steps[0] += 1
+            if steps[0] >= budget and done < self.wear_km * (1.0 - 1e-12):
+                raise _OverBudget(f"over the budget of {budget} distance steps at {done:,.0f} of {self.wear_km:,.0f} km")
+
         try:
-            worn = wear_evolution(params, self.wear_km, self.usage_cycle)
+            worn = wear_evolution(params, self.wear_km, self.usage_cycle, progress=count)
+        except _OverBudget as exc:
+            return np.nan, np.nan, str(exc)
         except SAMPLE_FAILURES as exc:
             return CarOutcome(failure="wear evolution", detail=f"{type(exc).__name__}: {exc}")
         visible = worn.visible_km
         at = np.flatnonzero(worn.depth_mm >= params.wear.visible_depth_mm)
         order = worn.dominant_order[at[0] if at.size else -1]
-        return (math.inf if visible is None else visible), float(order)
+        return (math.inf if visible is None else visible), float(order), ""
+
+
+class _OverBudget(Exception):
+    """A car's wear evolution stopped at its step budget (message: where)."""
+
+
+def wear_step_budget(wear_km: float, max_steps: int = WEAR_MAX_STEPS) -> int:
+    """Most distance steps of one car's evolution over ``wear_km`` [km]: ``max_steps`` beyond
+    the fewest the distance takes at the evolution's longest step (``MAX_STEP_FACTOR * step_km``)."""
+    from ..wear.evolution import MAX_STEP_FACTOR, EvolutionSettings
+
+    return max_steps + math.ceil(wear_km / (MAX_STEP_FACTOR * EvolutionSettings().step_km))
 
 
 def _spec_hash(params: Params, spec: FleetSpec) -> str:
@@ -623,21 +666,33 @@ class FleetResult(Result):
         return x[~at_end], int(at_end.sum())
 
     def _wear_summary(self, v, n) -> dict:
-        """The wear risk within ``spec.wear_km`` (its exact interval), the most dangerous
-        order, the visible distances and the drivers, as the band risk's (None without it)."""
+        """The wear risk within ``spec.wear_km`` (its exact interval) over the cars whose
+        evolution ended within its step budget, the cars over the budget (counted, listed
+        with their parameters), the most dangerous order, the visible distances and the
+        drivers, as the band risk's (None without it)."""
         D = self.spec.wear_km
         if D is None or n == 0:
             return {"wear_risk_probability": None, "wear_risk_ci": None}
+        evaluated = self.ok
+        over = [i for i, c in enumerate(self.outcomes) if c.ok and c.wear]
+        evaluated[over] = False
+        budget = {"wear_max_steps": wear_step_budget(D, self.spec.wear_max_steps), "wear_over_budget": len(over),
+                  "wear_over_budget_cars": [
+                      {"car": i, "reason": self.outcomes[i].wear,
+                       "parameters": {key: float(x) for key, x in zip(self.keys, self.samples[i])}}
+                      for i in over[:LISTED_FAILURES]]}
+        v, X, n = self.values[evaluated], self.samples[evaluated], int(evaluated.sum())
+        if n == 0:
+            return {"wear_km": D, "wear_risk_probability": None, "wear_risk_ci": None, **budget}
         visible = v[:, 5] < D
         k, ci = self._share(visible, n)
         orders, counts = np.unique(v[visible, 8].astype(int), return_counts=True)
-        drivers = main_effects(self.samples[self.ok], visible.astype(float)) if n > 2 * N_BINS \
-            else np.full(len(self.keys), np.nan)
-        classifier = classifier_importances(self.samples[self.ok], visible, self.spec.seed)
+        drivers = main_effects(X, visible.astype(float)) if n > 2 * N_BINS else np.full(len(self.keys), np.nan)
+        classifier = classifier_importances(X, visible, self.spec.seed)
         seen = v[visible, 5]
         return {
             "wear_km": D, "wear_cycle": [{"speed_kmh": s, "share": w} for s, w in self.spec.usage_cycle()],
-            "wear_risk_probability": k / n, "wear_risk_ci": list(ci),
+            "wear_risk_probability": k / n, "wear_risk_ci": list(ci), "wear_n_evaluated": n, **budget,
             "wear_most_dangerous_order": int(orders[np.argmax(counts)]) if k else None,
             "wear_orders": {str(o): int(c) for o, c in zip(orders, counts)},
             "wear_visible_km": {f"p{q}": float(np.percentile(seen, q)) for q in (5, 50, 95)} if k else {},
@@ -651,18 +706,20 @@ class FleetResult(Result):
         }
 
     def _dataset(self):
-        """Every car: sampled parameters, outputs, status and path (``fleet_spec_json`` attr)."""
+        """Every car: sampled parameters, outputs, status, path and wear note (``fleet_spec_json`` attr)."""
         import xarray as xr
 
         return xr.Dataset(
             {"sample": (("car", "param"), self.samples), "value": (("car", "output"), self.values),
-             "status": ("car", np.array(self.status, dtype=str)), "path": ("car", np.array(self.paths, dtype=str))},
+             "status": ("car", np.array(self.status, dtype=str)), "path": ("car", np.array(self.paths, dtype=str)),
+             "wear_note": ("car", np.array([c.wear for c in self.outcomes], dtype=str))},
             coords={"param": self.keys, "output": list(OUTPUTS)},
             attrs={"fleet_spec_json": self.spec.model_dump_json()},
         )
 
     def to_dataframe(self):
-        """One row per car: the sampled parameters, the outputs, status and path."""
+        """One row per car: the sampled parameters, the outputs, status, path and wear note
+        (why a car has no wear result: over the step budget; else empty)."""
         import pandas as pd
 
         df = pd.DataFrame(self.samples, columns=self.keys)
@@ -670,6 +727,7 @@ class FleetResult(Result):
             df[name] = self.values[:, j]
         df["status"] = self.status
         df["path"] = self.paths
+        df["wear_note"] = [c.wear for c in self.outcomes]
         return df
 
     def plot(self, ax=None):
@@ -791,7 +849,8 @@ def fleet(params: Params, spec: FleetSpec, *, backend: str | None = None, worker
         if str(data["digest"]) != digest:
             raise ParameterError(f"{ckpt}: checkpoint of another parameter set or spec; remove it or drop --resume")
         if not set(CAR_FIELDS) <= set(data.files):
-            raise ParameterError(f"{ckpt}: checkpoint of an older polywear (no per-car outcomes); remove it or drop --resume")
+            raise ParameterError(f"{ckpt}: checkpoint of an older polywear (no per-car outcomes or wear budget); "
+                                 "remove it or drop --resume")
         if "pilot" not in data.files:
             raise ParameterError(f"{ckpt}: checkpoint of an older polywear (no pilot stage); remove it or drop --resume")
         if data["values"].shape[1] != len(OUTPUTS):
@@ -809,7 +868,8 @@ def fleet(params: Params, spec: FleetSpec, *, backend: str | None = None, worker
         raise ParameterError(f"{ckpt}: checkpoint with other pilot cars; remove it or drop --resume")
     solver = FastBand(stage.references, speed_range_kmh=tuple(spec.speed_range_kmh))
     usage = tuple(u.speed_kmh for u in spec.usage if u.share > 0)
-    evaluator = FleetEvaluator(params, keys, solver, usage, wear_km=spec.wear_km, usage_cycle=spec.usage_cycle(),
+    evaluator = FleetEvaluator(params, keys, solver, usage, wear_km=spec.wear_km, wear_max_steps=spec.wear_max_steps,
+                               usage_cycle=spec.usage_cycle(),
                                band_every=spec.band_every, simulate_gaps=spec.simulate_gaps,
                                pilot={i: r.band for i, r in stage.samples.items()})
     values = np.full((spec.samples, len(OUTPUTS)), np.nan)
