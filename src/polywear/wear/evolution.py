@@ -51,6 +51,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import NumericalError
 from ..models import model_for
 from ..models.profile import coupled_model, patch_sinc, profile_vector
 from ..params import Params, to_toml
@@ -311,10 +312,19 @@ class EvolutionSettings:
     profile (writes at the start of the step) and the second-order one (mean of the writes
     at its start and end), relative to the largest harmonic."""
 
+    max_steps: int = 500
+    """Step budget [-]: an evolution that needs more distance steps than this (rejected ones
+    included) plus the fewest its distance takes at the longest step, ``distance / (8 step_km)``,
+    stops with a :class:`~polywear.errors.NumericalError` naming ``wear.energetic_rate_mm3_per_j``:
+    the profile then changes too fast for the steps (a k_e far above the default wears the
+    polygon ever deeper within the distance). The default settings take 15-40 steps over
+    60 000 km on the cars of docs/wear.md."""
+
     def __post_init__(self) -> None:
         check_positive(self, "step_km")
         check_count(self, "revolutions", minimum=6)
         check_positive(self, "tolerance")
+        check_count(self, "max_steps", minimum=1)
 
 
 def wear_evolution(params: Params, distance_km: float, cycle: Iterable[tuple[float, float]] | None = None,
@@ -412,7 +422,14 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
     h = min(settings.step_km, distance_km)
     longest_step = MAX_STEP_FACTOR * settings.step_km
     wins = window_set(W)
+    budget = settings.max_steps + math.ceil(distance_km / longest_step)
     while done < distance_km * (1.0 - 1e-12):
+        if len(distance) - 1 + rejected >= budget:
+            raise NumericalError(
+                f"wear evolution: over its budget of {budget} distance steps at {done:,.0f} of {distance_km:,.0f} km "
+                f"(EvolutionSettings.max_steps = {settings.max_steps}): the profile changes too fast for the steps; "
+                f"wear.energetic_rate_mm3_per_j = {params.wear.energetic_rate_mm3_per_j:g} mm^3/J (distances scale "
+                f"as 1/k_e: evolve a proportionally shorter distance, or lower it)")
         h = min(h, distance_km - done)
         saved = ([s.copy() for s in states], [list(s) for s in settles], list(windows), list(linear))
         W_pred, h, n_revs = _predict(W, wins, h, cycle, R)

@@ -46,12 +46,23 @@ millimetre and far below the SEV of a vibrating tire (0.1-0.3 m/s)."""
 RESOLVABLE = 0.25
 """A drifting line is separated in a window of M revolutions when eps M >= this [-]."""
 SIDEBANDS = 2
-"""Harmonics j of the vibration whose drifting writes are separated (j = +-1..+-SIDEBANDS)."""
+"""Harmonics j of the vibration whose drifting writes are separated (j = +-1..+-SIDEBANDS):
+the window is lengthened for them, and a line too slow to fit gets a reference run."""
+FITTED_LINES = 3
+"""Harmonics j = SIDEBANDS+1..FITTED_LINES are also fitted as drifting where the window
+resolves them (eps_j M >= RESOLVABLE), without lengthening the window [-]: at 110 km/h
+(axle4dof, nu = 8.344) the third, at order 25.03, turns by half a period over 16
+revolutions; counted as coherent it put 64 % of its drifting write into S_25, three times
+the profile's own, scattering from window to window (docs/wear.md)."""
 SEPARATED_BEATS = 3.0
 """A window separates the vibration's line from its nearest integer order when the pattern
 turns by at least this many periods over it (eps M >= this) [-]: the Hann main lobe is 2
 bins wide, so a shorter window mixes the line with the profile's locked response at that
 order; the order estimate and the coherent write then depend on where the window starts."""
+NEAR_SPAN = 2
+"""A line j > SIDEBANDS is fitted on the harmonics m - NEAR_SPAN..m + NEAR_SPAN around its
+nearest one m = round(j nu): a revolution's DFT puts a fraction of about eps_j / |n - j nu|
+of its write on harmonic n (3 % on each neighbour at eps_j = 0.03) [-]."""
 MAX_WINDOW = 64
 """Most revolutions a window is lengthened to for SEPARATED_BEATS [-]; a vibration closer
 to an integer order (eps < SEPARATED_BEATS / MAX_WINDOW) is only partly separated."""
@@ -215,7 +226,7 @@ def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float,
         u_ref = run_ref.dense(t)
         reference = _per_revolution(t, friction_power(coupled, u_ref, V, p_ref), u_ref[:, -1], per_rev, revolutions,
                                     params, K)[0]
-    coherent, drifting, ratios = _split(D, nu, eps, revolutions, reference)
+    coherent, drifting, ratios = _split(D, nu, eps + _fitted_beyond(nu, eps, revolutions), revolutions, reference)
     energy = float(_window_sum(power[:-1] * np.diff(t))) / revolutions
     return WindowWear(coherent=coherent, drifting=drifting, ratios=ratios, mean_per_rev=mean,
                       revolutions=revolutions, order=nu, locked=bool(locked), end_state=run.u_end.copy(),
@@ -245,6 +256,15 @@ def _detuning(nu: float) -> list[float]:
     return [abs(j * nu - round(j * nu)) for j in range(1, SIDEBANDS + 1)]
 
 
+def _fitted_beyond(nu: float, eps, revolutions: int) -> list[float]:
+    """Detuning of the lines j = SIDEBANDS+1..FITTED_LINES that the window resolves (0: not
+    fitted, left in the coherent write; none where the vibration is locked or absent)."""
+    if not eps or max(eps) == 0.0:
+        return []
+    far = [abs(j * nu - round(j * nu)) for j in range(SIDEBANDS + 1, FITTED_LINES + 1)]
+    return [e if e * revolutions >= RESOLVABLE else 0.0 for e in far]
+
+
 def _separating_window(eps) -> int:
     """Revolutions that separate every drifting line j nu from its nearest integer order
     (``eps_j M >= SEPARATED_BEATS``; lines locked to within LOCK_TOLERANCE are not drifting)."""
@@ -270,18 +290,38 @@ def _split(D, nu, eps, revolutions, reference=None):
     without the profile's harmonic m, the vibration's own write at m is the reference's
     (drifting, turning by r per revolution, bounded over the step by 1/|sin(pi eps)|) and
     the difference is the profile's coherent feedback. Without it, the whole write at m
-    is counted as drifting."""
+    is counted as drifting. Lines j > SIDEBANDS (``eps`` longer than SIDEBANDS; resolved
+    ones only) are fitted, with their ratio r_j, only on the harmonics within NEAR_SPAN of
+    their nearest one, where a revolution's DFT puts their write: fitted on every harmonic,
+    their columns, close to the coherent one, would degrade S everywhere."""
     M, K = D.shape
     k = np.arange(M)
-    fast, slow = [], []
+    fast, slow, near = [], [], []
     for j in range(1, len(eps) + 1):
         if eps[j - 1] < LOCK_TOLERANCE:
             continue
-        (fast if eps[j - 1] * M >= RESOLVABLE else slow).append(j)
+        (near if j > SIDEBANDS else fast if eps[j - 1] * M >= RESOLVABLE else slow).append(j)
     ratios = [np.exp(sign * 2j * math.pi * j * nu) for j in fast for sign in (1, -1)]
     A = np.column_stack([np.ones(M)] + [r ** k for r in ratios])
     coef = np.linalg.lstsq(A, D, rcond=None)[0]
     coherent, drifting = coef[0].copy(), [c for c in coef[1:]]
+    taken = {int(round(j * nu)) for j in slow}
+    for j in near:
+        orders = [m for m in range(int(round(j * nu)) - NEAR_SPAN, int(round(j * nu)) + NEAR_SPAN + 1)
+                  if 1 <= m <= K and m not in taken]
+        if not orders:
+            continue
+        taken.update(orders)
+        r = np.exp(2j * math.pi * j * nu)
+        idx = np.array(orders) - 1
+        coef_m = np.linalg.lstsq(np.column_stack([A, r ** k]), D[:, idx], rcond=None)[0]
+        coherent[idx] = coef_m[0]
+        for other, c_m in zip(drifting, coef_m[1:-1]):
+            other[idx] = c_m
+        c = np.zeros(K, dtype=complex)
+        c[idx] = coef_m[-1]
+        drifting.append(c)
+        ratios.append(r)
     for j in slow:
         m = int(round(j * nu))
         if not 1 <= m <= K:
