@@ -197,6 +197,11 @@ def evolve_(
         int, typer.Option("--workers", "-w", min=1, max=64,
                           help="Processes that simulate the cycle's speeds side by side (same result; worth it on long multi-speed cycles).")
     ] = 1,
+    start: Annotated[
+        str, typer.Option("--start", help="Where the tread starts at each speed: rest (steady rolling, as a car drives) "
+                          "or cycle (on the large stable cycle where it coexists with stable rolling: hard "
+                          "self-excitation, as after a pothole; an error if no speed has one).")
+    ] = "rest",
     quiet: QuietOpt = False,
 ) -> None:
     """Worn profile over distance from seeded roughness: depth, polygon order, visible distance."""
@@ -213,6 +218,10 @@ def evolve_(
     if distance_km / step_km > 10_000:
         raise UserError(f"--step-km {step_km:g}: more than 10000 steps; use a longer step")
     check_count(revolutions, "--revolutions", 6, 1000)
+    from ..wear.start import STARTS
+
+    if start not in STARTS:
+        raise UserError(f"--start {start!r}: one of {', '.join(STARTS)}")
     if speed is not None and cycle is not None:
         raise UserError("--speed and --cycle: give one of them")
     if speed is not None and not (math.isfinite(speed) and 0.0 < speed <= MAX_SPEED_KMH):
@@ -234,7 +243,7 @@ def evolve_(
         user_errors(ValueError, RuntimeError, ArithmeticError, prefix="wear evolve: "),
     ):
         result = wear_evolution(params, distance_km, pairs, EvolutionSettings(step_km=step_km, revolutions=revolutions),
-                        progress=update, workers=workers)
+                        progress=update, workers=workers, start=start)
     outputs.write(result.save, lambda: one_axes(result.plot, (8, 4.5)))
     if polar:
         write_figure(polar, lambda: _polar_figure(result, chosen), quiet)

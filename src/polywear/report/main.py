@@ -394,7 +394,7 @@ def report(
     km = params.wear.report_km if wear_evolution_km is None else wear_evolution_km
     wear = wear_section(params, speed_range_kmh, save, out_dir, km,
                         sev_band_kmh=(sev[0][0], sev[-1][1]) if sev and None not in (sev[0][0], sev[-1][1]) else None,
-                        progress=stage.detail(""))
+                        progress=stage.detail(""), diagram=diagram)
     files.update(_wear_data_files(wear))
 
     from ..wear.design import cycle_growth, wear_design
@@ -423,10 +423,15 @@ def report(
 
 def _wear_data_files(wear: WearSection) -> dict[str, str]:
     """The data files the wear section writes (name -> caption): the map, and each evolution's."""
+    from .wear import FROM_CYCLE, evolution_stem
+
     files = {"wear_map.nc": "linear wear map: growth of every polygon order at every speed (netCDF)"}
     for label, _ in wear.evolutions:
         stem = "wear_evolution_operating" if label == "operating speed" else "wear_evolution_cycle"
         files[f"{stem}.nc"] = f"wear evolution, {label}: worn profile w(distance, angle) and its harmonics (netCDF)"
+    for label, _ in wear.from_cycle:
+        files[f"{evolution_stem(label, 'cycle')}.nc"] = (f"wear evolution, {label}{FROM_CYCLE}: worn profile "
+                                                          "w(distance, angle) and its harmonics (netCDF)")
     return files
 
 

@@ -193,7 +193,7 @@ def verdict(summary: dict, params: Params, vibration: str, cornering: tuple[floa
     (:func:`judge_options`). ``vibration`` is the sentence on the vibration at the operating
     speed; ``cornering``: as in :func:`point_contact`."""
     v, wear, design = summary["operating"], summary["wear"], summary["design"]
-    evs = {ev["label"]: ev for ev in wear["evolutions"]}
+    evs = {ev["label"]: ev for ev in wear["evolutions"] if ev.get("start", "rest") == "rest"}  # as a car drives
     distance = max((ev["distance_km"] for ev in evs.values()), default=params.wear.report_km)
     vibrates = "sev_amplitude_x_mm" in v
     visible = [ev for ev in evs.values() if ev["visible_km"] is not None]
@@ -231,8 +231,10 @@ def verdict(summary: dict, params: Params, vibration: str, cornering: tuple[floa
         w = v["wear"]
         lines.append(f"Steady rolling is stable at {v['speed_kmh']:g} km/h, so the evolutions start from it, as a car "
                      f"drives; after a disturbance above {v['trigger_amplitude_x_mm']:.3f} mm (a pothole) the "
-                     f"tread vibrates at order {w['frequency_order']:.2f} ({w['frequency_hz']:.0f} Hz) instead, and the "
-                     "wear from that vibration is not evolved here.")
+                     f"tread vibrates at order {w['frequency_order']:.2f} ({w['frequency_hz']:.0f} Hz) instead, and "
+                     + ("wears as said above after a pothole." if any(ev.get("start") == "cycle" for ev in
+                                                                     wear["evolutions"])
+                        else "the wear from that vibration is not evolved here."))
     lines.append(_contact_line(params))
     out["patch"] = None
     if pc is not None and pc["overstated"]:

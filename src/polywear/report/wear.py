@@ -13,28 +13,37 @@ import numpy as np
 
 from ..params import Params
 from ..wear.evolution import EvolutionResult, EvolutionSettings, wear_evolution
+from ..wear.start import cycle_start_states
 
 if TYPE_CHECKING:
     from ..wear.map import WearMap
 from ..progress import Progress, StepCounter
 
-__all__ = ["WearSection", "wear_section", "wear_html", "wear_sentences", "wear_headline", "evolution_entry"]
+__all__ = ["WearSection", "wear_section", "wear_html", "wear_sentences", "wear_headline", "evolution_entry",
+           "evolution_stem", "from_cycle_sentence", "FROM_CYCLE"]
 
 ROUGHNESS_FACTOR = 10.0
 """The headline says how much sooner the polygon is visible from this many times the
 initial roughness [-]."""
 K_E_UNCERTAINTY = 10.0
 """Factor by which the energetic wear rate k_e is uncertain either way [-] (docs/wear.md)."""
+FROM_CYCLE = ", from the large vibration"
+"""Appended to the label of an evolution that starts on the large stable cycle (``start="cycle"``)."""
 
 
 @dataclass
 class WearSection:
     """The report's wear results: the linear map over the speed range, the map at the
-    operating and drive-cycle speeds, and the evolutions ``(label, result)`` if run."""
+    operating and drive-cycle speeds, and the evolutions ``(label, result)`` if run: from
+    steady rolling, and (``from_cycle``) from the large stable cycle where a speed of the run
+    lies in a hard region (hard self-excitation: a pothole starts the vibration)."""
 
     wear_map: WearMap
     points: WearMap
     evolutions: list[tuple[str, EvolutionResult]] = field(default_factory=list)
+    from_cycle: list[tuple[str, EvolutionResult]] = field(default_factory=list)
+    cycle_start_kmh: list[float] = field(default_factory=list)
+    """Speeds [km/h] where the ``from_cycle`` evolutions start on the large stable cycle."""
 
     def summary(self) -> dict:
         """The JSON-ready wear section of ``summary.json``, with the verdict in words
@@ -44,19 +53,22 @@ class WearSection:
                "linear_band_kmh": [list(b) for b in self.wear_map.linear_band_kmh],
                "energetic_rate_mm3_per_j": params.wear.energetic_rate_mm3_per_j,
                "initial_roughness_um": params.wear.initial_roughness_um,
-               "evolutions": [evolution_entry(label, result) for label, result in self.evolutions]}
+               "evolutions": [evolution_entry(label, result) for label, result in self.evolutions]
+               + [evolution_entry(f"{label}{FROM_CYCLE}", result, "cycle") for label, result in self.from_cycle],
+               "cycle_start_kmh": list(self.cycle_start_kmh)}
         out["sentences"] = wear_sentences(out)
         out["headline"] = wear_headline(out)
         return out
 
 
-def evolution_entry(label: str, result: EvolutionResult) -> dict:
-    """One evolution in ``summary.json``: ``label`` and the fields of
+def evolution_entry(label: str, result: EvolutionResult, start: str = "rest") -> dict:
+    """One evolution in ``summary.json``: ``label``, its ``start`` (``"rest"``, or ``"cycle"``:
+    from the large stable cycle, :mod:`polywear.wear.start`) and the fields of
     :meth:`EvolutionResult.summary` (``visible_km``, ``dominant_order``, ``final_depth_mm``, ...),
     with per cycle speed ``locked_at_end`` (the vibration locked in the last step) and
     ``growth_efolds``: e-folds [-] the dominant harmonic grew by from the initial roughness to
     the visible depth (None if not visible)."""
-    entry = {"label": label, **result.summary()}
+    entry = {"label": label, "start": start, **result.summary()}
     for j, c in enumerate(entry["cycle"]):
         c["locked_at_end"] = bool(result.locked[-1, j]) if result.locked.size else False
     visible = entry["visible_km"]
@@ -71,12 +83,14 @@ def evolution_entry(label: str, result: EvolutionResult) -> dict:
 
 def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: float | None = None,
                  evolution: EvolutionSettings = EvolutionSettings(), sev_band_kmh=None,
-                 progress: Progress | None = None) -> WearSection:
+                 progress: Progress | None = None, diagram=None) -> WearSection:
     """Compute the wear section; figures through ``save(fig, name, caption)``.
 
     The map over ``speed_range_kmh`` [km/h] (300 speeds) is always computed (about a second);
     with ``evolution_km`` [km] (None or 0: not run) the evolutions at the operating speed and
-    on the drive cycle too, with ``evolution``
+    on the drive cycle too, and where the bifurcation ``diagram`` (if given) has a hard
+    region at one of their speeds, each again from the large stable cycle
+    (``start="cycle"``, :mod:`polywear.wear.start`), with ``evolution``
     (:class:`~polywear.wear.evolution.EvolutionSettings`). ``progress``
     (:mod:`polywear.progress`) gets a message per stage and every tenth of an evolution's
     distance. Returns the wear results (:class:`WearSection`).
@@ -110,27 +124,38 @@ def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: f
     section = WearSection(m, wear_map(params, at))
     if evolution_km:
         runs = [("operating speed", ((op, 1.0),)), ("drive cycle", params.wear.cycle_shares())]
-        for label, cycle in runs:
-            if section.evolutions and tuple(cycle) == runs[0][1]:  # the cycle is the operating speed alone
-                result = section.evolutions[0][1]
+        hard = cycle_start_states(params, at, diagram) if diagram is not None else {}
+        section.cycle_start_kmh = sorted(hard)
+        for start, into, label, cycle in [("rest", section.evolutions, *run) for run in runs] + [
+                ("cycle", section.from_cycle, *run) for run in runs if any(v in hard for v, _ in run[1])]:
+            name = label if start == "rest" else label + FROM_CYCLE
+            if into and tuple(cycle) == runs[0][1]:  # the cycle is the operating speed alone
+                result = into[0][1]
             else:
-                say(f"polygonal wear: evolution over {evolution_km:,.0f} km, {label}")
+                say(f"polygonal wear: evolution over {evolution_km:,.0f} km, {name}")
                 result = wear_evolution(params, evolution_km, cycle, evolution,
-                                progress=_tenths(stage.detail(f"evolution, {label}: ")))
-            stem = "wear_evolution_operating" if label == "operating speed" else "wear_evolution_cycle"
+                                progress=_tenths(stage.detail(f"evolution, {name}: ")), start=start)
+            stem = evolution_stem(label, start)
             save_result(result, f"{stem}.nc")
             fig, ax = plt.subplots(figsize=(8, 4.5))
             result.plot(ax)
-            save(fig, f"{stem}.png", f"Worn depth (log) and dominant order against distance, {label}, with the "
+            save(fig, f"{stem}.png", f"Worn depth (log) and dominant order against distance, {name}, with the "
                                      f"visibility threshold {params.wear.visible_depth_mm:g} mm")
             fig = plt.figure(figsize=(5.5, 5.5))
             result.plot_polar(fig.add_subplot(projection="polar"))
-            save(fig, f"{stem}_polar.png", f"The worn tire at four distances, {label} (depth exaggerated)")
+            save(fig, f"{stem}_polar.png", f"The worn tire at four distances, {name} (depth exaggerated)")
             fig, ax = plt.subplots(figsize=(8, 4.5))
             result.plot_waterfall(ax)
-            save(fig, f"{stem}_waterfall.png", f"Amplitude of every polygon order against distance, {label}")
-            section.evolutions.append((label, result))
+            save(fig, f"{stem}_waterfall.png", f"Amplitude of every polygon order against distance, {name}")
+            into.append((label, result))
     return section
+
+
+def evolution_stem(label: str, start: str = "rest") -> str:
+    """File stem of the evolution ``label`` (``"operating speed"`` or ``"drive cycle"``) from
+    ``start`` (``"rest"`` or ``"cycle"``)."""
+    stem = "wear_evolution_operating" if label == "operating speed" else "wear_evolution_cycle"
+    return stem if start == "rest" else f"{stem}_from_cycle"
 
 
 def _tenths(progress: Progress) -> Progress:
@@ -171,16 +196,19 @@ def wear_headline(section: dict) -> list[str]:
     after how many km, on the drive cycle and at the operating speed alone; whether the
     vibration locks to the tire; and what the distances assume (k_e, initial roughness).
     Empty if no evolution was run."""
-    evs = {ev["label"]: ev for ev in section["evolutions"]}
+    evs = {ev["label"]: ev for ev in section["evolutions"] if ev.get("start", "rest") == "rest"}
     if not evs:
         return []
     first, *rest = [evs[k] for k in ("drive cycle", "operating speed") if k in evs]
+    kicked = [ev for ev in section["evolutions"] if ev.get("start") == "cycle"]
     text = f"{_where(first)[0].upper()}{_where(first)[1:]}, {_outcome(first)}"
     for ev in rest:
         text += f"; {_where(ev)}, " + (f"after about {_round_km(ev['visible_km'])} km"
                                        if ev["visible_km"] is not None and ev["dominant_order"] == first["dominant_order"]
                                        and first["visible_km"] is not None else _outcome(ev))
-    lines = [text + "."]
+    lines = [f"From steady rolling: {text[0].lower()}{text[1:]}." if kicked else text + "."]
+    if kicked:
+        lines.append(from_cycle_sentence(section, kicked))
     locking = []
     steady = {r["speed_kmh"] for r in section["map_rows"] if r["rolling_stable"]}
     for ev in [first, *rest]:
@@ -201,6 +229,26 @@ def wear_headline(section: dict) -> list[str]:
         lines.append(sentence[0].upper() + sentence[1:] + ".")
     lines.append(_assumptions(section, [first, *rest]))
     return lines
+
+
+def from_cycle_sentence(section: dict, kicked: list[dict]) -> str:
+    """The outcome of the evolutions ``kicked`` that start on the large stable cycle (hard
+    self-excitation at the speeds ``cycle_start_kmh`` of the ``section``), in words."""
+    hard = section.get("cycle_start_kmh", [])
+    speeds = ", ".join(f"{v:g}" for v in hard)
+    parts = []
+    for ev in kicked:
+        text = f"{_where(ev)}, {_outcome(ev)}"
+        for c in ev["cycle"]:
+            if c["speed_kmh"] not in hard:
+                continue
+            nu = c["vibration_order_end"]
+            text += (f" (at {c['speed_kmh']:g} km/h the large vibration dies out as the tire wears)" if nu is None else
+                     f" (at {c['speed_kmh']:g} km/h the tread keeps vibrating at order {nu:.2f}, "
+                     + ("locked to the tire)" if c.get("locked_at_end") else "without locking to the tire)"))
+        parts.append(text)
+    return (f"After a pothole starts the large vibration at {speeds} km/h (steady rolling is stable there, but a large "
+            f"stable cycle coexists with it: hard self-excitation): " + "; ".join(parts) + ".")
 
 
 def _assumptions(section: dict, evs: list[dict]) -> str:

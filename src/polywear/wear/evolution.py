@@ -60,6 +60,7 @@ from ..results import Result
 from ..settings import check_count, check_positive
 from ..units import kmh_to_ms
 from .law import energetic_rate, profile_samples
+from .start import start_states
 from .windows import (LOCK_TOLERANCE, MAX_WINDOW, SETTLED_PHASE, WindowWear, _detuning, _separating_window,
                       _settle_times, coherence, window_wear)
 
@@ -329,7 +330,7 @@ class EvolutionSettings:
 
 def wear_evolution(params: Params, distance_km: float, cycle: Iterable[tuple[float, float]] | None = None,
            settings: EvolutionSettings = EvolutionSettings(),
-           progress: Progress | None = None, workers: int = 1) -> EvolutionResult:
+           progress: Progress | None = None, workers: int = 1, start: str = "rest") -> EvolutionResult:
     """Worn profile from seeded roughness over ``distance_km`` [km] on a drive cycle.
 
     ``cycle``: ((speed [km/h], share), ...), default ``params.wear.cycle_shares()``;
@@ -337,15 +338,18 @@ def wear_evolution(params: Params, distance_km: float, cycle: Iterable[tuple[flo
     (:class:`EvolutionSettings`);
     ``progress(km done, distance_km)`` after every step (:mod:`polywear.progress`);
     ``workers``: processes that simulate the windows of the cycle's speeds at the same
-    time (1: all in this process; the result is the same).
+    time (1: all in this process; the result is the same);
+    ``start``: ``"rest"`` (steady rolling) or ``"cycle"`` (on the large stable cycle where it
+    coexists with stable rolling, :mod:`polywear.wear.start`).
     """
     if not (math.isfinite(distance_km) and distance_km > 0):
         raise ValueError(f"distance {distance_km!r} km: must be positive")
     if workers < 1:
         raise ValueError(f"workers = {workers!r}: must be at least 1")
     cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
+    starts = start_states(params, cycle, start)
     if workers == 1 or len(cycle) == 1:
-        return _evolve(params, distance_km, cycle, settings, progress, None)
+        return _evolve(params, distance_km, cycle, settings, progress, None, starts)
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
@@ -353,7 +357,7 @@ def wear_evolution(params: Params, distance_km: float, cycle: Iterable[tuple[flo
 
     with ProcessPoolExecutor(min(workers, len(cycle)), mp_context=multiprocessing.get_context("spawn"),
                              initializer=_ignore_interrupt) as pool:
-        return _evolve(params, distance_km, cycle, settings, progress, pool)
+        return _evolve(params, distance_km, cycle, settings, progress, pool, starts)
 
 
 def _windows(pool, jobs, base, longest: int) -> list[WindowWear]:
@@ -366,8 +370,8 @@ def _windows(pool, jobs, base, longest: int) -> list[WindowWear]:
     return [future.result() for future in futures]
 
 
-def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettings, progress, pool
-            ) -> EvolutionResult:
+def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettings, progress, pool,
+            starts=None) -> EvolutionResult:
     """:func:`wear_evolution` on a given cycle: error-controlled distance steps (module notes), the
     windows at the end of each step run by :func:`_windows` and reused for the next."""
     base = model_for(params)
@@ -380,9 +384,12 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
     for v_kmh, _ in cycle:
         V = float(kmh_to_ms(v_kmh))
         first, nxt, unstable = _settle_times(base, params, V)
-        windows.append(revolutions if unstable else min(revolutions, 3))
+        on_cycle = v_kmh in (starts or {})  # start="cycle": on the large stable cycle (wear/start.py)
+        windows.append(revolutions if unstable or on_cycle else min(revolutions, 3))
         u0 = coupled.equilibrium(V, profile_vector(base, params, V))
         u0[base.index("x")] += 1e-5  # a small disturbance: steady rolling as a car drives
+        if on_cycle:  # already on the attractor: the settling of the next windows
+            u0[:-1], first = starts[v_kmh], nxt
         states.append(u0)
         settles.append([first, nxt])
     shortest = list(windows)  # per speed; a vibrating window is lengthened up to `longest`
