@@ -625,6 +625,7 @@ def bifurcation(
     stability_settings: StabilitySettings = StabilitySettings(),
     progress: Progress | None = None,
     extend: bool = True,
+    stop=None,
 ) -> BifurcationDiagram:
     """Continuation of equilibria and of the cycles from every Hopf point in the speed range.
 
@@ -655,6 +656,10 @@ def bifurcation(
         Progress callback (:mod:`polywear.progress`), called after every continuation step.
     extend : bool
         Widen the range until the answer no longer depends on it.
+    stop : callable, optional
+        ``stop(stability_result)`` gives the stop criterion of every branch (``Branch ->
+        bool``, :func:`~polywear.solvers.continuation.continue_from_hopf`), e.g. the SEV
+        band edges alone (:mod:`polywear.studies.edges`); None: whole branches.
 
     Returns
     -------
@@ -664,7 +669,7 @@ def bifurcation(
         ``summary()`` is what ``polywear bifurcation --json`` prints.
     """
     if extend:
-        return _extended_diagram(params, speed_range_kmh, settings, stability_settings, progress)
+        return _extended_diagram(params, speed_range_kmh, settings, stability_settings, progress, stop)
     lo, hi = (float(v) for v in speed_range_kmh)
     stab = stability(params, (lo, hi), settings=stability_settings)
     model = model_for(params)
@@ -678,7 +683,8 @@ def bifurcation(
             continue
         callback = None if progress is None else (
             lambda br, b=len(runs): step(f"branch {b}: {ms_to_kmh(br.points[-1].orbit.speed):.1f} km/h"))
-        branch = continue_from_hopf(model, p, branch_start(hopf), bounds, settings, on_step=callback)
+        branch = continue_from_hopf(model, p, branch_start(hopf), bounds, settings, on_step=callback,
+                                    stop=None if stop is None else stop(stab))
         end_hopf = None
         if branch.end is BranchEnd.HOPF_REACHED and branch.points:
             end_hopf = _nearest_hopf(stab.hopf_points, branch.points[-1], exclude=k)
@@ -704,7 +710,7 @@ def bifurcation(
     # branches again in steps that turn half as much, kept if that lost fewer
     finer = replace(settings, max_turn=settings.max_turn / 2, max_steps=2 * settings.max_steps)
     again = bifurcation(params, (lo, hi), finer, stability_settings, step.relay if progress else None,
-                        extend=False)
+                        extend=False, stop=stop)
     left = _branch_trouble(again.branch_info)
     kept = again if len(left) < len(trouble) else diagram
     kept.continuation_notes = [
@@ -772,7 +778,7 @@ def _branch_trouble(info: list[dict]) -> list[str]:
     return out
 
 
-def _extended_diagram(params, speed_range_kmh, settings, stability_settings, progress) -> BifurcationDiagram:
+def _extended_diagram(params, speed_range_kmh, settings, stability_settings, progress, stop=None) -> BifurcationDiagram:
     """The diagram on the requested range widened until the range no longer cuts the answer."""
     step = StepCounter(progress)  # counts on across the widened ranges
     requested = tuple(float(v) for v in speed_range_kmh)
@@ -790,7 +796,7 @@ def _extended_diagram(params, speed_range_kmh, settings, stability_settings, pro
         n = min(max(n_speeds, int(np.ceil((hi - lo) / spacing)) + 1), 4 * n_speeds)
         try:
             wider = bifurcation(params, (lo, hi), settings, replace(stability_settings, n_speeds=n),
-                                step.relay if progress else None, extend=False)
+                                step.relay if progress else None, extend=False, stop=stop)
         except (RuntimeError, ValueError, ArithmeticError) as exc:
             if diagram is None:
                 raise

@@ -114,6 +114,8 @@ class BranchEnd(str, Enum):
     STEP_UNDERFLOW = "step_underflow"
     MULTIPLIER_CHECK_LOST = "multiplier_check_lost"
     MAX_STEPS = "max_steps"
+    STOPPED = "stopped"
+    """The caller's stop criterion held (``continue_from_hopf(stop=...)``): not a failure."""
 
     @property
     def failed(self) -> bool:
@@ -132,6 +134,7 @@ _END_TEXT = {
     BranchEnd.STEP_UNDERFLOW: "step size underflow (Newton did not converge)",
     BranchEnd.MULTIPLIER_CHECK_LOST: "Floquet multipliers not resolved (trivial multiplier check lost)",
     BranchEnd.MAX_STEPS: "maximum number of steps",
+    BranchEnd.STOPPED: "stopped where the rest of the branch was not needed",
 }
 
 

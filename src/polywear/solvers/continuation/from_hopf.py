@@ -48,6 +48,7 @@ def continue_from_hopf(
     settings: ContinuationSettings = ContinuationSettings(),
     amplitude_ref: float = 1e-4,
     on_step: Callable[[Branch], None] | None = None,
+    stop: Callable[[Branch], bool] | None = None,
 ) -> Branch:
     """Continue the cycles born at the Hopf point ``hopf`` within ``speed_bounds`` [m/s].
 
@@ -57,7 +58,8 @@ def continue_from_hopf(
     ``end_detail``) when it leaves the speed range, returns to an equilibrium (a Hopf
     point: detected when the first harmonic of the orbit changes sign, i.e. the
     amplitude passed through zero), exceeds the amplitude or period limit, or fails
-    after the rescues (finer meshes) listed in ``recoveries``.
+    after the rescues (finer meshes) listed in ``recoveries``, or when ``stop(branch)``,
+    asked after every step, is true (``BranchEnd.STOPPED``: the caller needs no more of it).
     """
     stepper, X0, t0, phase_ref = _hopf_start(model, p, hopf, settings, amplitude_ref)
     scales, period_scale = stepper.scales, stepper.period_scale
@@ -138,6 +140,9 @@ def continue_from_hopf(
         branch.points.append(point)
         if on_step is not None:
             on_step(branch)
+        if stop is not None and stop(branch):
+            finish(BranchEnd.STOPPED, f"at {3.6 * orbit.speed:.3f} km/h")
+            break
         amplitude = _scaled_amplitude(orbit, scales)
         if not (speed_bounds[0] <= orbit.speed <= speed_bounds[1]):
             finish(BranchEnd.RANGE_END)

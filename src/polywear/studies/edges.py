@@ -1,0 +1,92 @@
+"""The SEV band's edges without the whole diagram: branches followed only as far as an edge needs.
+
+For the cars the fast band path (:mod:`.fast_band`) cannot label (four Hopf points with
+period-doubling cascades), a study needs the band's edges, not the cascades. The SEV
+band (:func:`~polywear.dynamics.bifurcation.sev_band`) is the union of the oscillatory
+linear band ``O`` (steady rolling unstable through a Hopf pair, known from the
+eigenvalues alone) and the speeds of stable cycles. Inside ``O`` nothing a branch does
+moves an edge: every edge is a Hopf point, or a fold or PD/NS point of a branch *outside*
+``O``. So each branch is continued, step for step as the full continuation does
+(:func:`~polywear.dynamics.bifurcation.bifurcation` with a stop criterion), until its
+last point lies deeper than :data:`EDGE_DEPTH_KMH` inside an interval of ``O``; a Hopf
+point that branch would have reached starts its own branch, which covers the other end
+the same way. Up to the stop every point, fold and PD/NS point is the full
+continuation's, bit for bit.
+
+What the depth is for: a branch can leave ``O`` again after entering it (an *excursion*:
+past the Hopf point at the end of an interval of ``O``, into the gap next to it, e.g. a
+fold 0.4 km/h above the upper Hopf point of the first interval, reached from inside).
+Stopping on entry would miss those folds; measured on random four-Hopf cars at +-10 %, the
+excursions start from within 0.4 km/h of an end of ``O`` along the branch from one of its
+ends, and the depth is chosen well above that (the agreement run of
+``benchmarks/bench_fleet.py edges`` is the proof on cars, see docs/fleet.md).
+
+Cost: the stretches a study needs are the branches' ends outside ``O`` (the hard
+regions, windows next to folds) and the excursions; the cascades inside ``O`` are skipped.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..dynamics.bifurcation import BifurcationDiagram, bifurcation
+from ..dynamics.points import PointKind
+from ..params import Params
+from ..solvers.continuation import ContinuationSettings
+from ..units import DEFAULT_SPEED_RANGE_KMH, ms_to_kmh
+
+__all__ = ["EDGE_DEPTH_KMH", "BranchStop", "edges_diagram", "oscillatory_intervals", "pd_ns_edges_kmh"]
+
+EDGE_DEPTH_KMH = 2.0
+"""A branch is stopped once its last point lies this far [km/h] inside an interval of the
+oscillatory linear band (from both ends of it)."""
+
+
+def oscillatory_intervals(stab) -> list[tuple[float, float]]:
+    """Intervals [km/h] of the linear band of ``stab`` (a StabilityResult) with no real
+    eigenvalue crossing in them: steady rolling unstable through Hopf pairs alone."""
+    return [(a, b) for a, b in stab.linear_band_kmh
+            if not any(a <= v <= b for v in stab.real_crossings_kmh)]
+
+
+@dataclass(frozen=True)
+class BranchStop:
+    """Stop criterion of the branches (``bifurcation(stop=BranchStop(...))``): called with the
+    stability result, it gives ``Branch -> bool``, true once the branch's last point lies
+    ``depth_kmh`` [km/h] inside an oscillatory interval."""
+
+    depth_kmh: float = EDGE_DEPTH_KMH
+
+    def __call__(self, stab):
+        deep = [(a + self.depth_kmh, b - self.depth_kmh) for a, b in oscillatory_intervals(stab)]
+        deep = [(a, b) for a, b in deep if a < b]
+
+        def stop(branch) -> bool:
+            v = ms_to_kmh(branch.points[-1].orbit.speed)
+            return any(a < v < b for a, b in deep)
+
+        return stop
+
+
+def edges_diagram(params: Params, speed_range_kmh=DEFAULT_SPEED_RANGE_KMH,
+                  settings: ContinuationSettings = ContinuationSettings(),
+                  depth_kmh: float = EDGE_DEPTH_KMH, extend: bool = True) -> BifurcationDiagram:
+    """The diagram of ``params`` with every branch stopped ``depth_kmh`` [km/h] inside the
+    oscillatory linear band: its SEV band, hard regions, folds outside that band and gaps
+    after PD/NS points are the full diagram's (``bifurcation`` with the same arguments);
+    its cycles inside the band are not all there (no amplitudes from it)."""
+    return bifurcation(params, speed_range_kmh, settings, extend=extend, stop=BranchStop(depth_kmh))
+
+
+def pd_ns_edges_kmh(diagram: BifurcationDiagram) -> list[float]:
+    """Ends [km/h] of the SEV band (its first and second bifurcation speeds) that are PD or NS
+    points of a branch: there steady rolling is stable and the stable cycles end in a period
+    doubling or torus bifurcation, so the doubled or quasi-periodic motion may reach beyond;
+    only the doubled branch or a simulation decides such an edge."""
+    sev = diagram.sev_band_kmh
+    if not sev:
+        return []
+    ends = (sev[0][0], sev[-1][1])
+    points = [ms_to_kmh(pt.orbit.speed) for branch in diagram.branches for label, pt, _ in branch.special
+              if PointKind(label) in (PointKind.PD, PointKind.NS)]
+    return [e for e in ends if any(abs(e - v) <= 1e-9 * max(1.0, abs(e)) for v in points)]
