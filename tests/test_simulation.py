@@ -166,7 +166,7 @@ def test_phase_portrait_plot_returns_artists(run110):
 
     artists = run110.plot()
     assert artists and len(artists[0].figure.axes) == 1
-    assert artists[0].figure.axes[0].get_xlabel() == "x [mm]"
+    assert artists[0].figure.axes[0].get_xlabel() == "x − x_eq [mm]"
     plt.close("all")
     fig, ax = plt.subplots()
     assert run110.plot(ax=ax)[0].axes is ax

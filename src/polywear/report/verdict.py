@@ -373,9 +373,15 @@ def glance(summary: dict, judged: dict, params: Params) -> list[str]:
     v, b, design = summary["operating"], summary.get("bifurcation") or {}, summary["design"]
     visible = {label: km for label, km in judged["visible_km"].items() if km is not None}
     risk = judged["vibrates"] or bool(visible)
-    lines = ["At risk: " + ("yes" if risk else "no") + (
-        "" if risk else f" (no self-excited vibration at {v['speed_kmh']:g} km/h"
-        + ("" if judged["polygon_visible"] is None else ", no visible polygon within the distance evolved") + ")")]
+    unjudged = not risk and judged["polygon_visible"] is None  # the wear evolution was not run
+    if risk:
+        lines = ["At risk: yes"]
+    elif unjudged:
+        lines = [f"At risk: not from vibration (none at {v['speed_kmh']:g} km/h); the polygon is not judged (the wear "
+                 "evolution was not run)"]
+    else:
+        lines = [f"At risk: no (no self-excited vibration at {v['speed_kmh']:g} km/h, no visible polygon within the "
+                 "distance evolved)"]
     bad = []
     if judged["vibrates"]:
         w = v.get("wear")
@@ -389,10 +395,11 @@ def glance(summary: dict, judged: dict, params: Params) -> list[str]:
         n = judged["dominant_order"]
         bad.append(f"{'an' if str(n)[0] == '8' or n in (11, 18) else 'a'} {n}-sided polygon becomes visible after about {_km(km)} km "
                    f"({'on the drive cycle' if label == 'drive cycle' else 'at ' + format(v['speed_kmh'], 'g') + ' km/h alone'})")
-    lines.append("How bad: " + ("; ".join(bad) if bad else "nothing vibrates and nothing wears into a polygon") + ".")
+    lines.append("How bad: " + ("; ".join(bad) if bad else "nothing vibrates" if unjudged
+                                else "nothing vibrates and nothing wears into a polygon") + ".")
     best = _best_option(design, judged.get("design_options") or [])
     if not risk:
-        lines.append("What to change: nothing.")
+        lines.append("What to change: nothing for the vibration" + (" (the wear is not judged)." if unjudged else "."))
     elif best is None:
         lines.append("What to change: no design option clears the SEV band from the operating range "
                      f"{design['operating_range_kmh'][0]:g}-{design['operating_range_kmh'][1]:g} km/h"

@@ -255,7 +255,7 @@ def _assumptions(section: dict, evs: list[dict]) -> str:
     """What the distances assume: k_e (every distance scales as 1/k_e) and the initial
     roughness (the visible distance is the e-folds of growth from it)."""
     k_e = section["energetic_rate_mm3_per_j"]
-    text = (f"These distances assume the energetic wear rate k_e = {k_e:g} mm^3/J, known to about a factor of "
+    text = (f"These distances assume the energetic wear rate k_e = {k_e:g} mm³/J, known to about a factor of "
             f"{K_E_UNCERTAINTY:g} either way: every distance scales as 1/k_e ({K_E_UNCERTAINTY:g} times k_e, "
             f"{K_E_UNCERTAINTY:g} times sooner)")
     grown = [ev for ev in evs if ev.get("growth_efolds")]
@@ -291,7 +291,7 @@ def wear_sentences(section: dict) -> list[str]:
                          f"small roughness, by e every {_round_km(row['efold_km'])} km.")
         else:
             lines.append(f"at {row['speed_kmh']:g} km/h every order heals.")
-    lines.append(f"All distances scale as 1/k_e (k_e = {section['energetic_rate_mm3_per_j']:g} mm^3/J).")
+    lines.append(f"All distances scale as 1/k_e (k_e = {section['energetic_rate_mm3_per_j']:g} mm³/J).")
     return lines
 
 
