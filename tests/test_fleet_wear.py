@@ -134,7 +134,7 @@ def test_cars_over_the_budget_are_listed_and_kept_out_of_the_wear_risk():
     band risk the 9 evaluated; the 2 are counted and listed with their parameters."""
     from scipy.stats import binomtest
 
-    from polywear.studies.fleet import CarOutcome, FleetResult, FleetSpec
+    from polywear.studies.fleet import WEAR_MAX_STEPS, CarOutcome, FleetResult, FleetSpec
 
     spec = FleetSpec(samples=10, wear_km=D_KM, parameter=[{"key": "operating.toe_deg", "distribution": "uniform",
                                                             "low": 0.4, "high": 0.6}],
@@ -144,7 +144,7 @@ def test_cars_over_the_budget_are_listed_and_kept_out_of_the_wear_risk():
     values[:, 2] = [1, 1, 0, 0, 1, 0, 1, 1, 0, 1]  # at risk (band)
     values[:, OUTPUTS.index("wear_visible_km")] = [1000, 2000, np.inf, np.inf, np.nan, np.inf, np.nan, 2500, np.inf, np.nan]
     values[:, OUTPUTS.index("wear_order")] = [8, 8, 9, 9, np.nan, 9, np.nan, 7, 9, np.nan]
-    over = "over the budget of 201 distance steps at 1,234 of 3,000 km"
+    over = "over the budget of 101 distance steps at 1,234 of 3,000 km"
     outcomes = [CarOutcome(path="fast")] * 10
     outcomes[4] = outcomes[6] = CarOutcome(path="fast", wear=over)
     outcomes[9] = CarOutcome(failure="ValueError", detail="bad")
@@ -153,7 +153,7 @@ def test_cars_over_the_budget_are_listed_and_kept_out_of_the_wear_risk():
     assert s["wear_n_evaluated"] == 7 and s["wear_risk_probability"] == pytest.approx(3 / 7)
     ci = binomtest(3, 7).proportion_ci(0.95, method="exact")
     assert s["wear_risk_ci"] == pytest.approx([ci.low, ci.high])
-    assert s["wear_over_budget"] == 2 and s["wear_max_steps"] == 201
+    assert s["wear_over_budget"] == 2 and s["wear_max_steps"] == WEAR_MAX_STEPS + 1  # + ceil(3 000 / 8 000)
     assert s["wear_over_budget_cars"] == [{"car": i, "reason": over, "parameters": {"operating.toe_deg": X[i, 0]}}
                                           for i in (4, 6)]
     assert s["wear_most_dangerous_order"] == 8 and s["wear_orders"] == {"7": 1, "8": 2}
