@@ -551,19 +551,26 @@ def _patch_shape(params: Params, c_alpha: float, given: set[str]) -> dict:
 def _patch_stiffness(params: Params, c_alpha: float) -> float | None:
     """Tread lateral stiffness k [N/m] whose patch contact has the cornering stiffness
     ``c_alpha`` [N/rad] at the operating speed and load (the other keys as they are);
-    None when even a rigid tread (k = 1e10 N/m) stays below it (the bristle limits it)."""
+    None when even a rigid tread (the key's upper bound, at most 1e10 N/m) stays below it
+    (the bristle limits it)."""
     from scipy.optimize import brentq
 
     from ..models.patch import steady_lateral_force
 
+    info = KEYS["tread.lateral_stiffness_n_per_m"]
+    lowest, highest = max(1.0e3, info.lower), min(1.0e10, info.upper)
+
+    def stiffness(log_k: float) -> float:
+        return min(max(math.exp(log_k), lowest), highest)
+
     def excess(log_k: float) -> float:
-        trial = params.with_updates({"tread.lateral_stiffness_n_per_m": math.exp(log_k)})
+        trial = params.with_updates({"tread.lateral_stiffness_n_per_m": stiffness(log_k)})
         return steady_lateral_force(trial, [])["cornering_stiffness_n_per_rad"] - c_alpha
 
-    lo, hi = math.log(1.0e3), math.log(1.0e10)
+    lo, hi = math.log(lowest), math.log(highest)
     if excess(hi) < 0.0:
         return None
-    return math.exp(brentq(excess, lo, hi, xtol=1e-10, rtol=1e-12))
+    return stiffness(brentq(excess, lo, hi, xtol=1e-10, rtol=1e-12))
 
 
 def _map_structure(tir, values, sources, notes, known, dfz, dpi) -> None:
