@@ -75,6 +75,32 @@ def test_dense_samples_are_the_interpolant_on_every_interval(m, per_interval):
     assert np.allclose(u, orbit.evaluate(tau), rtol=0.0, atol=1e-13)
 
 
+def _piecewise_polynomial_orbit(rng, mesh, m, n):
+    """A continuous periodic orbit of one random degree-m polynomial per interval and state
+    (local coordinate s in [0, 1]), and those polynomials [interval][state]."""
+    polys = [[np.polynomial.Polynomial(rng.normal(size=m + 1)) for _ in range(n)] for _ in range(len(mesh) - 1)]
+    for j in range(len(polys)):
+        for i in range(n):
+            if j:
+                polys[j][i] = polys[j][i] - polys[j][i](0.0) + polys[j - 1][i](1.0)
+            if j == len(polys) - 1:
+                polys[j][i] = polys[j][i] + np.polynomial.Polynomial([0.0, polys[0][i](0.0) - polys[j][i](1.0)])
+    nodes = np.array([[polys[j][i](s) for i in range(n)] for j in range(len(mesh) - 1) for s in scheme(m).nodes[:-1]])
+    return PeriodicOrbit(mesh, nodes, 1.0, 1.0, m), polys
+
+
+def test_phase_row_is_the_integral_of_u_dot_reference_derivative():
+    # for piecewise polynomials of degree m the Gauss quadrature of u . u_ref' (degree 2m - 1) is
+    # exact: the row times the nodes equals sum_j int_0^1 p_j(s) . q_j'(s) ds (the h_j cancel)
+    rng = np.random.default_rng(5)
+    mesh = np.concatenate([[0.0], np.sort(rng.random(7)), [1.0]])
+    u, p_u = _piecewise_polynomial_orbit(rng, mesh, 4, 3)
+    ref, p_ref = _piecewise_polynomial_orbit(rng, mesh, 4, 3)
+    coll = Collocation(MODEL, P, mesh, 4)
+    exact = sum((pu * pr.deriv()).integ()(1.0) for pus, prs in zip(p_u, p_ref) for pu, pr in zip(pus, prs))
+    assert np.isclose(coll.phase_row(ref) @ coll.pack(u), exact, rtol=1e-12, atol=0.0)
+
+
 def exact_orbit(V, branch, mesh, m=4):
     r = np.sqrt(cycle_radius2(V, branch))
     orbit = PeriodicOrbit(mesh, np.zeros(((len(mesh) - 1) * m, 3)), 1.0, V, m)

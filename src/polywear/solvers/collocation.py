@@ -309,14 +309,12 @@ class Collocation:
         """Row of the integral phase condition  int u . u_ref' dtau = 0  (linear in the nodes)."""
         sch = self.sch
         ref = reference if np.array_equal(reference.mesh, self.mesh) else reference.with_mesh(self.mesh)
-        vals = ref.interval_nodes()  # (N, m+1, n)
-        dref = np.einsum("kl,jln->jkn", sch.dbasis, vals) / self.h[:, None, None]  # at Gauss points
-        # coefficient of node (j, l): h_j sum_k w_k L_l(c_k) u_ref'(c_jk)
-        coef = np.einsum("k,kl,jkn->jln", sch.weights, sch.basis, dref) * self.h[:, None, None]
-        row = np.zeros((self.N * self.m, self.n))
-        for l in range(self.m + 1):
-            idx = (np.arange(self.N) * self.m + l) % (self.N * self.m)
-            np.add.at(row, idx, coef[:, l, :])
+        # coefficient of node (j, l): h_j sum_k w_k L_l(c_k) u_ref'(c_jk), u_ref'(c_jk) =
+        # sum_l' L_l''(c_k) u_ref(j, l') / h_j: the h_j cancel, one (m+1, m+1) matrix for all j
+        coupling = (sch.weights[:, None] * sch.basis).T @ sch.dbasis
+        coef = np.matmul(coupling, ref.interval_nodes())  # (N, m+1, n)
+        row = coef[:, :-1, :].reshape(self.N * self.m, self.n).copy()
+        row[(np.arange(self.N) * self.m + self.m) % (self.N * self.m)] += coef[:, -1, :]  # closing node: next interval's first
         return np.concatenate([row.ravel(), [0.0, 0.0]])
 
     def solve(
