@@ -53,10 +53,6 @@ def test_point_contact_is_the_papers_model_itself():
 def test_patch_refused_where_not_implemented():
     with pytest.raises(ParameterError, match="friction.contact = 'patch'.*'tread1dof' only"):
         Params().with_updates({"model": "axle4dof", **PATCH})
-    from polywear.models.profile import coupled_model
-
-    with pytest.raises(ParameterError, match="point contact only"):
-        coupled_model(model_for(Params().with_updates(PATCH)))
 
 
 @pytest.mark.parametrize("value", [1, 401, 2.5])
@@ -127,7 +123,7 @@ def test_steady_force_converges_to_distributed_lugre_with_rigid_tread():
     obeys V cos(alpha) dz/dx = v (1 - sigma0 z/G): closed form; the lumped average model
     (Canudas-de-Wit et al. 2003, kappa = 2/L: the same small-slip slope) agrees to 17 %."""
     params = Params().with_updates({**PATCH, "friction.patch_pressure": "uniform",
-                                    "tread.lateral_stiffness_n_per_m": 1e12, "tread.mass_kg": 1e-3})
+                                    "tread.lateral_stiffness_n_per_m": 1e9, "tread.mass_kg": 1e-3})
     f, L, N = params.friction, params.tire.contact_length_m, 4000.0
     for M, tol in ((40, 0.025), (160, 0.0065)):
         P = params.with_updates({"friction.patch_elements": M})
