@@ -117,7 +117,7 @@ def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: f
     ax.axvline(op, color="tab:green", lw=1.4, ls="-.", label=f"operating speed {op:g} km/h")
     handles, labels = ax.get_legend_handles_labels()
     unique = dict(zip(labels, handles))
-    ax.legend(unique.values(), unique.keys(), fontsize=7, loc="upper right")
+    ax.legend(unique.values(), unique.keys(), fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=3)
     save(fig, "wear_map.png", "Wear-stability map: growth of every polygon order over speed (Campbell form), "
                               f"the operating speed {op:g} km/h dash-dotted; distances scale as 1/k_e")
     at = sorted({op, *(v for v, _ in params.wear.cycle_shares())})

@@ -264,7 +264,7 @@ class WearMap(Result):
         ax.set_title(f"{self.params.model}: wear-stability map (red grows, blue heals)")
         handles, labels = ax.get_legend_handles_labels()
         unique = dict(zip(labels, handles))
-        ax.legend(unique.values(), unique.keys(), fontsize=7, loc="upper right")
+        ax.legend(unique.values(), unique.keys(), fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=3)
         return artists
 
 
