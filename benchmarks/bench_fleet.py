@@ -14,12 +14,23 @@ Sobol and fleet extrapolations, Dask 1 -> 2 workers, cost growth (nothing is ass
     .venv/bin/python benchmarks/bench_fleet.py dask-sobol --samples 8 [--model axle4dof]
     .venv/bin/python benchmarks/bench_fleet.py growth
     .venv/bin/python benchmarks/bench_fleet.py wear --samples 100 [--wear-km 60000]
+    .venv/bin/python benchmarks/bench_fleet.py edges --samples 200 [--seed 7] [--workers 2]
+    .venv/bin/python benchmarks/bench_fleet.py windows --samples 10 [--seed 7] [--workers 2]
 
 ``agreement`` draws the paper's seven parameters uniformly within +-10 % of the model's
 defaults (the default study ranges), evaluates every sample by the fast path and by the
 full continuation, and prints every disagreement (band edges beyond 1e-6 relative, or a
 different number of Hopf points, folds or bands); it also gives the per-sample costs of
 both paths, measured on the same samples in the same run.
+
+``edges`` draws axle4dof cars the same way, keeps the first ``--samples`` with four Hopf
+points, and compares the edges-only continuation (:mod:`polywear.studies.edges`) with the
+full one on each: every end of the SEV band, hard regions and gaps after PD/NS points
+within 1e-6 km/h, the same failed branches; CPU of both per car. ``windows`` takes the
+first ``--samples`` such cars whose first or second bifurcation speed is the fold of a
+window (:func:`polywear.studies.edges.window_edges_kmh`) and simulates 0.1 km/h beyond that
+fold, outside the band (:func:`polywear.dynamics.attractor.reached_attractors`: from the
+nearest stable cycle and from steady rolling disturbed): SEV there would put the edge beyond the fold.
 """
 
 from __future__ import annotations
@@ -118,11 +129,13 @@ def _cpu() -> float:
     return time.process_time() + kids.ru_utime + kids.ru_stime
 
 
-def sobol(n_base: int, modes=("fast", "full"), spread: float = 0.1) -> None:
+def sobol(n_base: int, modes=("edges", "full"), spread: float = 0.1) -> None:
     """Sobol study of axle4dof, N = n_base (first-order layout: 9 runs per base sample),
     the paper's 7 parameters uniform within +-spread of the defaults (0.1: the default
     study ranges), both bifurcation speeds, 2 local processes, with the fast band path (and
-    its pilot stage) and/or the continuation only. CPU time (this process and the pool's
+    its pilot stage) and the edges-only continuation where it does not apply (``edges``,
+    the study's default), the fast band path and whole diagrams (``fast``), and/or the
+    continuation only (``full``). CPU time (this process and the pool's
     workers) and wall time; N = 1024 extrapolated linearly from the CPU time on 2 cores."""
     from polywear.studies.fast_band import pilot_size
     from polywear.studies.global_sensitivity import study
@@ -136,17 +149,22 @@ def sobol(n_base: int, modes=("fast", "full"), spread: float = 0.1) -> None:
                                          "parameters": [{"key": k, "low": lo, "high": hi}
                                                         for k, (lo, hi) in zip(DEFAULT_KEYS, ranges)]})
         c, t = _cpu(), time.perf_counter()
-        result = study(params, spec, backend="processes", workers=2, fast_band=mode == "fast")
+        result = study(params, spec, backend="processes", workers=2, fast_band=mode != "full",
+                       edges_only=mode == "edges")
         dt, dc = time.perf_counter() - t, _cpu() - c
         runs = len(result.status)
-        pilot = pilot_size(runs) if mode == "fast" else 0
+        pilot = pilot_size(runs) if mode != "full" else 0
         print(f"axle4dof Sobol N = {n_base} ({runs} runs, +-{spread:.0%}), {mode}: wall {dt:.1f} s, CPU {dc:.1f} s "
               f"({1e3 * dc / runs:.0f} ms per run incl. {pilot} pilot diagrams), "
-              f"{result.settings.get('fast_band_samples', 0)} on the fast path, failures {result.failures()}; "
+              f"{result.settings.get('fast_band_samples', 0)} on the fast path, "
+              f"{result.settings.get('edges_only_samples', 0)} edges only, "
+              f"{result.settings.get('gap_after_pd_ns_samples', 0)} with a gap after a PD/NS point, "
+              f"failures {result.failures()}; "
               f"N = 1024 ({1024 * 9} runs) on 2 free cores: ~{dc / runs * 1024 * 9 / 2 / 60:.1f} min")
         for values, outcome in zip(result.samples, result.status):
-            if outcome.status.value == "failed":  # the parameter values to reproduce it
-                print(f"  failed: {outcome.detail}\n    {dict(zip(DEFAULT_KEYS, values.tolist()))}")
+            if outcome.status.value not in ("ok", "no band in the speed range", "band reaches the edge of the speed range"):
+                # failed or undecided: the parameter values to reproduce it
+                print(f"  {outcome}\n    {dict(zip(DEFAULT_KEYS, values.tolist()))}")
 
 
 TOE_LOAD = [
@@ -337,27 +355,140 @@ def wear(n: int, wear_km: float, target: int = 1000) -> None:
           f"{dt * target / n / 60:.1f} min at this load)")
 
 
+def _edges_car(item):
+    """One car of ``edges``: (index, values, CPU of the full and of the edges-only
+    continuation [s], what differs (empty: none), counts of its kinds)."""
+    from polywear.studies.edges import edges_diagram, pd_ns_edges_kmh
+
+    i, values, params = item
+    t0 = time.process_time()
+    full = bifurcation(params, (20.0, 300.0))
+    t1 = time.process_time()
+    edges = edges_diagram(params, (20.0, 300.0))
+    t2 = time.process_time()
+    diff = []
+    for name in ("sev_band_kmh", "hard_regions_kmh", "gaps_after_pd_ns_kmh"):
+        a, b = getattr(full, name), getattr(edges, name)
+        if len(a) != len(b):
+            diff.append(f"{name}: {len(a)} intervals (full) vs {len(b)} (edges): {a} vs {b}")
+        elif a and float(np.max(np.abs(np.subtract(a, b)))) > 1e-6:
+            diff.append(f"{name}: ends differ by {float(np.max(np.abs(np.subtract(a, b)))):.2e} km/h: {a} vs {b}")
+    lost = lambda d: sorted(round(info["from_hopf_kmh"], 3) for info in d.branch_info if info["failed"])
+    if lost(full) != lost(edges):
+        diff.append(f"failed branches from {lost(full)} km/h (full) vs {lost(edges)} km/h (edges)")
+    kinds = {"gap_after_pd_ns": bool(full.gaps_after_pd_ns_kmh), "pd_ns_edge": bool(pd_ns_edges_kmh(full)),
+             "failed": bool(lost(full) or lost(edges)), "rerun_full": bool(full.continuation_notes),
+             "rerun_edges": bool(edges.continuation_notes),
+             "points": (sum(len(b.points) for b in full.branches), sum(len(b.points) for b in edges.branches))}
+    return i, values, t1 - t0, t2 - t1, diff, kinds
+
+
+def edges(n: int, seed: int, workers: int = 1) -> None:
+    """The first ``n`` axle4dof cars with four Hopf points (the paper's seven parameters within
+    +-10 % of the defaults, drawn by ``seed``): edges-only continuation against the full one."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from polywear.dynamics.stability import stability
+
+    base = with_updates(Params(), {"model": "axle4dof"})
+    rng = np.random.default_rng(seed)
+    nominal = np.array([get_value(base, k) for k in DEFAULT_KEYS])
+    cars, drawn = [], 0
+    while len(cars) < n:
+        values = nominal * (1.0 + 0.1 * (2.0 * rng.random(len(nominal)) - 1.0))
+        params = sample_params(base, DEFAULT_KEYS, values)
+        if len(stability(params, (20.0, 300.0)).hopf_points) == 4:
+            cars.append((drawn, values, params))
+        drawn += 1
+    print(f"axle4dof, seed {seed}: {n} cars with four Hopf points among the first {drawn} drawn", flush=True)
+    t_full = t_edges = 0.0
+    bad, counts, points = [], Counter(), np.zeros(2)
+    with ProcessPoolExecutor(workers) as pool:
+        for i, values, a, b, diff, kinds in pool.map(_edges_car, cars):
+            t_full, t_edges = t_full + a, t_edges + b
+            points += kinds.pop("points")
+            counts.update(k for k, v in kinds.items() if v)
+            print(f"  car {i}: full {a:.2f} s, edges {b:.2f} s CPU, {', '.join(k for k, v in kinds.items() if v)}; "
+                  f"{'; '.join(diff) or 'same edges'}", flush=True)
+            if diff:
+                bad.append((i, values, diff))
+                print(f"    {dict(zip(DEFAULT_KEYS, values.tolist()))}", flush=True)
+    print(f"  disagreements: {len(bad)} of {n} cars; counts {dict(counts)}")
+    print(f"  CPU per car: full {t_full / n:.3f} s, edges only {t_edges / n:.3f} s -> {t_full / t_edges:.2f}x; "
+          f"cycle points per car {points[0] / n:.0f} vs {points[1] / n:.0f}")
+
+
+def _window_car(item):
+    """One car of ``windows``: (index, values, [(edge, speed simulated, SEV reached, regimes)])."""
+    from polywear.dynamics.attractor import reached_attractors
+    from polywear.studies.edges import edges_diagram, window_edges_kmh
+
+    i, values, params = item
+    diagram = edges_diagram(params, (20.0, 300.0))
+    sev = diagram.sev_band_kmh
+    out = []
+    for edge in window_edges_kmh(diagram):
+        v = edge - 0.1 if edge == sev[0][0] else edge + 0.1
+        found = reached_attractors(diagram, v)
+        out.append((edge, v, any(a.oscillating for a in found), [str(a.regime) for a in found]))
+    return i, values, out
+
+
+def windows(n: int, seed: int, workers: int = 1) -> None:
+    """Simulation past the window folds of the first ``n`` four-Hopf cars that have one."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from polywear.dynamics.stability import stability
+
+    base = with_updates(Params(), {"model": "axle4dof"})
+    rng = np.random.default_rng(seed)
+    nominal = np.array([get_value(base, k) for k in DEFAULT_KEYS])
+    cars, drawn, checked, sev_cars = [], 0, 0, 0
+    with ProcessPoolExecutor(workers) as pool:
+        while checked < n:
+            batch = []
+            while len(batch) < 2 * workers:
+                values = nominal * (1.0 + 0.1 * (2.0 * rng.random(len(nominal)) - 1.0))
+                params = sample_params(base, DEFAULT_KEYS, values)
+                if len(stability(params, (20.0, 300.0)).hopf_points) == 4:
+                    batch.append((drawn, values, params))
+                drawn += 1
+            for i, values, out in pool.map(_window_car, batch):
+                if not out or checked >= n:
+                    continue
+                checked += 1
+                sev_cars += any(hit for _, _, hit, _ in out)
+                for edge, v, hit, regimes in out:
+                    print(f"  car {i}: window fold at {edge:.3f} km/h, at {v:.3f} km/h: "
+                          f"{'SEV' if hit else 'no SEV'} {regimes}", flush=True)
+    print(f"{checked} cars with a window fold as a band bound (first {drawn} drawn, seed {seed}): "
+          f"SEV beyond the fold in {sev_cars}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("what", choices=("agreement", "sobol", "fleet", "pilot", "dask", "dask-sobol", "growth", "wear"))
+    parser.add_argument("what", choices=("agreement", "sobol", "fleet", "pilot", "dask", "dask-sobol", "growth", "wear",
+                                         "edges", "windows"))
     parser.add_argument("--model", default="tread1dof")
     parser.add_argument("--samples", type=int, default=200)
     parser.add_argument("--seed", type=int, default=20261201)
     parser.add_argument("--backend", choices=("serial", "processes"), action="append",
                         help="fleet: backend(s) to time (default: both)")
-    parser.add_argument("--mode", choices=("fast", "full"), action="append",
-                        help="sobol: fast band path with pilot, or continuation only (default: both)")
+    parser.add_argument("--mode", choices=("edges", "fast", "full"), action="append",
+                        help="sobol: fast band path with pilot and edges-only fallbacks, the same with whole "
+                             "diagrams, or continuation only (default: edges and full)")
     parser.add_argument("--pilot", type=int, default=32, help="pilot samples (references besides the nominal one)")
     parser.add_argument("--amplitude-speeds", type=float, nargs="*", default=[80.0, 130.0],
                         help="agreement: speeds [km/h] of the amplitudes (none: the bands alone, as fleets need)")
     parser.add_argument("--band-every", type=int, default=1, help="pilot: whole bands for every k-th car")
     parser.add_argument("--spread", type=float, default=0.1, help="sobol: parameter ranges +-spread of the defaults")
     parser.add_argument("--wear-km", type=float, default=60000.0, help="wear: distance of every car's evolution [km]")
+    parser.add_argument("--workers", type=int, default=1, help="edges: local processes")
     args = parser.parse_args()
     if args.what == "agreement":
         agreement(args.model, args.samples, args.seed, args.pilot, tuple(args.amplitude_speeds))
     elif args.what == "sobol":
-        sobol(args.samples, args.mode or ("fast", "full"), args.spread)
+        sobol(args.samples, args.mode or ("edges", "full"), args.spread)
     elif args.what == "fleet":
         fleet_timing(args.samples, args.backend or ("serial", "processes"), args.model)
     elif args.what == "pilot":
@@ -368,6 +499,10 @@ def main() -> None:
         dask_sobol(args.samples, args.model, args.spread)
     elif args.what == "wear":
         wear(args.samples, args.wear_km)
+    elif args.what == "edges":
+        edges(args.samples, args.seed, args.workers)
+    elif args.what == "windows":
+        windows(args.samples, args.seed, args.workers)
     else:
         growth()
 

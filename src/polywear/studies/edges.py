@@ -14,12 +14,12 @@ the same way. Up to the stop every point, fold and PD/NS point is the full
 continuation's, bit for bit.
 
 What the depth is for: a branch can leave ``O`` again after entering it (an *excursion*:
-past the Hopf point at the end of an interval of ``O``, into the gap next to it, e.g. a
-fold 0.4 km/h above the upper Hopf point of the first interval, reached from inside).
-Stopping on entry would miss those folds; measured on random four-Hopf cars at +-10 %, the
-excursions start from within 0.4 km/h of an end of ``O`` along the branch from one of its
-ends, and the depth is chosen well above that (the agreement run of
-``benchmarks/bench_fleet.py edges`` is the proof on cars, see docs/fleet.md).
+past the Hopf point at the end of an interval of ``O``, into the gap next to it; in 33 of
+60 random four-Hopf cars at +-10 %). Stopping on entry misses the folds there: in
+``tests/test_edges.py::EXCURSION_AXLE`` the branch from the Hopf point at 80.49 km/h dips
+0.3 km/h into ``O`` before it turns and folds at 80.92 km/h, an edge. The depth is the
+rule; the agreement run of ``benchmarks/bench_fleet.py edges`` is its proof on cars
+(docs/fleet.md, "Cars the fast path cannot label").
 
 Cost: the stretches a study needs are the branches' ends outside ``O`` (the hard
 regions, windows next to folds) and the excursions; the cascades inside ``O`` are skipped.
@@ -35,7 +35,8 @@ from ..params import Params
 from ..solvers.continuation import ContinuationSettings
 from ..units import DEFAULT_SPEED_RANGE_KMH, ms_to_kmh
 
-__all__ = ["EDGE_DEPTH_KMH", "BranchStop", "edges_diagram", "oscillatory_intervals", "pd_ns_edges_kmh"]
+__all__ = ["EDGE_DEPTH_KMH", "BranchStop", "edges_diagram", "oscillatory_intervals", "pd_ns_edges_kmh",
+           "window_edges_kmh"]
 
 EDGE_DEPTH_KMH = 2.0
 """A branch is stopped once its last point lies this far [km/h] inside an interval of the
@@ -78,6 +79,31 @@ def edges_diagram(params: Params, speed_range_kmh=DEFAULT_SPEED_RANGE_KMH,
     return bifurcation(params, speed_range_kmh, settings, extend=extend, stop=BranchStop(depth_kmh))
 
 
+def _pd_ns_kmh(diagram) -> list[float]:
+    """Speeds [km/h] of the PD and NS points of every branch of ``diagram``."""
+    return [ms_to_kmh(pt.orbit.speed) for branch in diagram.branches for label, pt, _ in branch.special
+            if PointKind(label) in (PointKind.PD, PointKind.NS)]
+
+
+def _near(v: float, speeds) -> bool:
+    return any(abs(v - w) <= 1e-9 * max(1.0, abs(v)) for w in speeds)
+
+
+def window_edges_kmh(diagram: BifurcationDiagram) -> list[float]:
+    """Bounds of the SEV band [km/h] at a fold of a *window*: an interval of the band from
+    that fold to a PD or NS point (stable cycles only between them, rolling stable). Where
+    the PD is subcritical, its doubled cycles lie over the window and may turn stable
+    beyond the fold, so the motion could outlast the fold: a simulation past the fold
+    tells (``benchmarks/bench_fleet.py edges --simulate``)."""
+    sev, points = diagram.sev_band_kmh, _pd_ns_kmh(diagram)
+    folds = [f.speed_kmh for f in diagram.folds]
+    if not sev:
+        return []
+    (a, b), (c, d) = sev[0], sev[-1]
+    out = [a] if _near(a, folds) and _near(b, points) else []
+    return out + ([d] if _near(d, folds) and _near(c, points) and d != a else [])
+
+
 def pd_ns_edges_kmh(diagram: BifurcationDiagram) -> list[float]:
     """Ends [km/h] of the SEV band (its first and second bifurcation speeds) that are PD or NS
     points of a branch: there steady rolling is stable and the stable cycles end in a period
@@ -86,7 +112,5 @@ def pd_ns_edges_kmh(diagram: BifurcationDiagram) -> list[float]:
     sev = diagram.sev_band_kmh
     if not sev:
         return []
-    ends = (sev[0][0], sev[-1][1])
-    points = [ms_to_kmh(pt.orbit.speed) for branch in diagram.branches for label, pt, _ in branch.special
-              if PointKind(label) in (PointKind.PD, PointKind.NS)]
-    return [e for e in ends if any(abs(e - v) <= 1e-9 * max(1.0, abs(e)) for v in points)]
+    points = _pd_ns_kmh(diagram)
+    return [e for e in (sev[0][0], sev[-1][1]) if _near(e, points)]

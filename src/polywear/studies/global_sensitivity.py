@@ -93,6 +93,11 @@ class SampleStatus(StrEnum):
     """The sampled values are not a valid parameter set (all outputs NaN)."""
     FAILED = "failed"
     """A numerical failure: equilibrium, continuation, ... (all outputs NaN)."""
+    UNDECIDED = "band edge at a period doubling or torus bifurcation"
+    """A bound of the SEV band is a PD or NS point where steady rolling is stable: the
+    doubled or quasi-periodic motion may reach beyond it, which only the doubled branch or
+    a simulation decides (:func:`~polywear.studies.edges.pd_ns_edges_kmh`); that bound and
+    the width NaN."""
 
 
 @dataclass(frozen=True)
@@ -103,6 +108,11 @@ class SampleOutcome:
     status: SampleStatus
     detail: str | None = None
     fast: bool = False
+    edges_only: bool = False
+    """The branches were followed only as far as the band's edges need (:mod:`.edges`):
+    ``max_amplitude_mm`` is NaN (the cycles inside the linear band were not all computed)."""
+    gap_after_pd_ns: bool = False
+    """The band has a gap after a PD/NS point with rolling stable (undecided, not counted in the width)."""
 
     def __str__(self) -> str:
         """``"status: detail"`` (the status alone without a detail), as recorded per sample."""
@@ -228,6 +238,9 @@ class StudyEvaluator:
     fast: object = None
     """A :class:`~polywear.studies.fast_band.FastBand` (amplitudes at the operating-range
     ends) tried first for ``outputs = "bifurcation"``; the continuation where it does not apply."""
+    edges_only: bool = False
+    """Where the fast path does not apply, continue the branches only as far as the SEV
+    band's edges need (:func:`~polywear.studies.edges.edges_diagram`; ``max_amplitude_mm`` NaN)."""
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -257,14 +270,27 @@ class StudyEvaluator:
             if isinstance(band, Band):
                 return _fast_outputs(band, self.speed_range_kmh, self.operating_range_kmh)
 
-        diagram = bifurcation(params, self.speed_range_kmh)
+        from .edges import edges_diagram, pd_ns_edges_kmh
+
+        if self.edges_only:
+            diagram = edges_diagram(params, self.speed_range_kmh)
+        else:
+            diagram = bifurcation(params, self.speed_range_kmh)
         for info in diagram.branch_info:
             if info["failed"]:
                 return (np.nan,) * 4, SampleOutcome(
-                    SampleStatus.FAILED, f"continuation from {info['from_hopf_kmh']:.2f} km/h: {info['end_reason']}")
+                    SampleStatus.FAILED, f"continuation from {info['from_hopf_kmh']:.2f} km/h: {info['end_reason']}",
+                    edges_only=self.edges_only)
         band, outcome = _band_outputs(diagram.sev_band_kmh, diagram.speed_range_kmh)  # the range as widened
-        amplitude = max_stable_amplitude(diagram, self.operating_range_kmh) * 1e3
-        return (*band, amplitude), outcome
+        undecided = pd_ns_edges_kmh(diagram)
+        if undecided:
+            first, last, _ = band
+            band = tuple(np.nan if v in undecided else v for v in (first, last)) + (np.nan,)
+            outcome = SampleOutcome(SampleStatus.UNDECIDED, "at " + ", ".join(f"{v:.3f}" for v in undecided)
+                                    + " km/h")
+        amplitude = np.nan if self.edges_only else max_stable_amplitude(diagram, self.operating_range_kmh) * 1e3
+        return (*band, amplitude), replace(outcome, edges_only=self.edges_only,
+                                           gap_after_pd_ns=bool(diagram.gaps_after_pd_ns_kmh))
 
 
 # -- analysis -------------------------------------------------------------------------------
@@ -473,6 +499,7 @@ def study(
     executor: Executor | None = None,
     progress: Progress | None = None,
     fast_band: bool = True,
+    edges_only: bool = True,
 ) -> GlobalSensitivityResult:
     """Run ``study`` around ``params`` on an executor (:class:`polywear.parallel.Executor`).
 
@@ -505,6 +532,13 @@ def study(
         pilot diagrams with the sample's Hopf signature, :func:`~polywear.studies.fast_band.pilot_size`
         evenly spaced samples) on every sample before the full continuation; the counts of
         both are in ``settings``.
+    edges_only : bool
+        With ``outputs = "bifurcation"`` and the fast band path: where it does not apply,
+        continue the branches only as far as the SEV band's edges need
+        (:mod:`polywear.studies.edges`; about half the continuation's cost on cars with four
+        Hopf points); those samples have ``max_amplitude_mm`` NaN (counted in ``settings``
+        as ``edges_only_samples``), so the amplitude's indices come from the other blocks.
+        False: the whole diagram (amplitudes too).
 
     Returns
     -------
@@ -533,7 +567,8 @@ def study(
                             executor=replace(executor, batch_size=None))
         fast = FastBand(pilot.references, tuple(study.speed_range_kmh), tuple(study.operating_range_kmh))
     evaluator = StudyEvaluator(
-        params, tuple(problem["names"]), study.outputs, study.speed_range_kmh, study.operating_range_kmh, fast
+        params, tuple(problem["names"]), study.outputs, study.speed_range_kmh, study.operating_range_kmh, fast,
+        edges_only=fast is not None and edges_only,
     )
     results = executor.map(evaluator, list(X), progress)
     Y = np.array([r[0] for r in results], dtype=float)
@@ -572,6 +607,8 @@ def study(
         convergence=convergence,
         settings={**settings, "backend": executor.backend, "seed": study.seed, "n_base": study.n_base,
                   "fast_band_samples": n_fast,
+                  "edges_only_samples": sum(r[1].edges_only for r in results),
+                  "gap_after_pd_ns_samples": sum(r[1].gap_after_pd_ns for r in results),
                   "speed_range_kmh": list(study.speed_range_kmh),
                   "operating_range_kmh": list(study.operating_range_kmh)},
     )
