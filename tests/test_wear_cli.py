@@ -92,6 +92,8 @@ def test_wear_evolve_workers_give_the_same_result():
     (["--polar", "x.gif"], "--polar"),
     (["--distance-km", "1000", "--polar-km", "500,2000"], "--polar-km"),
     (["--workers", "0"], "--workers"),
+    (["--start", "pothole"], "--start"),
+    (["--speed", "110", "--start", "cycle"], "no hard self-excitation there"),  # the default car vibrates (soft)
 ])
 def test_wear_evolve_bad_input(args, fragment):
     code, out, err = run_main(["wear", "evolve", *args])

@@ -136,3 +136,47 @@ def test_headline_calls_a_locked_response_at_stable_rolling_forced():
     lines = wear_headline(section)
     assert lines[0].endswith("at 110 km/h alone, a 10-sided polygon becomes visible (0.1 mm) after about 28,000 km.")
     assert lines[1] == "At 110 km/h the tread's forced response to the growing pattern locks to the tire at order 10."
+
+
+def test_headline_gives_both_outcomes_where_a_pothole_starts_the_large_vibration():
+    rest = _evolution("operating speed", [_speed(110.0, 1.0)], None, 10)
+    kicked = dict(_evolution("operating speed, from the large vibration", [_speed(110.0, 1.0, 9.07)], 41_000.0, 9),
+                  start="cycle")
+    section = _section(dict(rest, start="rest"), kicked)
+    section["cycle_start_kmh"] = [110.0]
+    section["map_rows"] = [{"speed_kmh": 110.0, "rolling_stable": True}]
+    lines = wear_headline(section)
+    assert lines[0].startswith("From steady rolling: at 110 km/h alone, no visible polygon within 100,000 km")
+    assert lines[1] == ("After a pothole starts the large vibration at 110 km/h (steady rolling is stable there, but a "
+                        "large stable cycle coexists with it: hard self-excitation): at 110 km/h alone, a 9-sided "
+                        "polygon becomes visible (0.1 mm) after about 41,000 km (at 110 km/h the tread keeps vibrating "
+                        "at order 9.07, without locking to the tire).")
+    # the assumptions and the rest of the headline are those of the evolution from rest
+    assert "1 um" not in lines[-1]
+    assert wear_headline(_section(dict(rest, start="rest")))[0].startswith("At 110 km/h alone, no visible")
+
+
+@pytest.mark.slow
+def test_section_of_a_hard_car_evolves_from_rest_and_from_the_cycle(tmp_path):
+    """Toe 1.0 deg: at 110 km/h steady rolling is stable beside a stable cycle (hard region
+    103.9-127.4 km/h); the section runs the evolution from rest and, where the diagram shows
+    the hard region, from the cycle, with the same fields plus its start."""
+    from polywear.dynamics.bifurcation import bifurcation
+
+    params = with_updates(Params(), {"operating.toe_deg": 1.0, "wear.cycle": [{"speed_kmh": 110.0, "share": 1.0}]})
+    diagram = bifurcation(params)
+    result = wear_section(params, (20.0, 300.0), lambda fig, name, caption: None, tmp_path, 5000.0, diagram=diagram)
+    assert result.cycle_start_kmh == [110.0]
+    section = result.summary()
+    assert [ev["label"] for ev in section["evolutions"]] == [
+        "operating speed", "drive cycle", "operating speed, from the large vibration",
+        "drive cycle, from the large vibration"]  # the drive cycle is the operating speed alone
+    rest, _, kicked, _ = section["evolutions"]
+    assert (rest["label"], rest["start"]) == ("operating speed", "rest")
+    assert (kicked["label"], kicked["start"]) == ("operating speed, from the large vibration", "cycle")
+    assert set(rest) == set(kicked)
+    assert rest["cycle"][0]["vibration_order_end"] is None and kicked["cycle"][0]["vibration_order_end"] > 9.0
+    assert (tmp_path / "wear_evolution_operating_from_cycle.nc").exists()
+    assert section["headline"][1].startswith("After a pothole starts the large vibration at 110 km/h")
+    without = wear_section(params, (20.0, 300.0), lambda fig, name, caption: None, tmp_path, 5000.0)
+    assert without.from_cycle == [] and without.summary()["evolutions"][0] == rest
