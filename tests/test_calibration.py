@@ -220,13 +220,13 @@ def test_friction_observation_outside_what_rubber_gives_is_refused(tmp_path):
 
 def test_value_on_its_validation_bound_is_a_warning_not_a_result(tmp_path):
     """mu = 2.9 at v = 0.5 m/s needs mu_s = 0.5 + 2.4 / exp(-4) (about 131) on the default curve:
-    the fit stops at the key's bound 5, and says so."""
+    the fit stops at the key's bound 3, and says so."""
     obs = [Observation("friction_mu", 2.9, 0.01, at_sliding_speed_m_per_s=0.5)]
     result = calibrate(Params(), obs, ["friction.mu_static"], profile=False)
     entry = result.parameters[0]
-    assert entry["value"] == pytest.approx(5.0, rel=1e-6) and entry["at_bound"]
+    assert entry["value"] == pytest.approx(3.0, rel=1e-6) and entry["at_bound"]
     [warning] = result.identifiability["warnings"]
-    assert warning.startswith("friction.mu_static = 5 is at its validation bound 5: the data do not fit")
+    assert warning.startswith("friction.mu_static = 3 is at its validation bound 3: the data do not fit")
     fine = calibrate(Params(), [Observation("friction_mu", 0.7, 0.01, at_sliding_speed_m_per_s=0.2)],
                      ["friction.mu_static"], profile=False)
     assert not fine.parameters[0]["at_bound"] and fine.identifiability["warnings"] == []
@@ -234,7 +234,7 @@ def test_value_on_its_validation_bound_is_a_warning_not_a_result(tmp_path):
     path.write_text('[[observation]]\nquantity = "friction_mu"\nvalue = 2.9\nsigma = 0.01\n'
                     "at_sliding_speed_m_per_s = 0.5\n")
     code, out, err = run_main(["calibrate", "--observed", str(path), "--vary", "friction.mu_static", "--no-profile"])
-    assert code == 0 and "warning: friction.mu_static = 5 is at its validation bound" in err
+    assert code == 0 and "warning: friction.mu_static = 3 is at its validation bound" in err
 
 
 def test_interrupted_calibrate_leaves_none_of_its_outputs(tmp_path, monkeypatch):

@@ -57,13 +57,13 @@ def test_init_writes_a_file_that_loads_to_the_defaults(tmp_path):
 
 
 BAD = [
-    (["params", "show", "-s", "tread.mass_kg=-1"], ["tread.mass_kg", "-1.0", "greater than 0"]),
+    (["params", "show", "-s", "tread.mass_kg=-1"], ["tread.mass_kg", "-1.0", "greater than or equal to 0.0001"]),
     (["params", "show", "-s", "tread.mass_kg=nan"], ["tread.mass_kg", "finite"]),
     (["params", "show", "-s", "tread.mass_kg=true"], ["tread.mass_kg", "True", "must be a number"]),
     (["params", "show", "-s", "tread.mass_kg=heavy"], ["tread.mass_kg", "'heavy'", "must be a number"]),
     (["params", "show", "-s", "tread.mas_kg=1"], ["tread.mas_kg", "unknown key"]),
     (["params", "show", "-s", "friction.mu_coulomb=0.95"], ["friction.mu_coulomb", "0.95", "must not exceed"]),
-    (["params", "show", "-s", "friction.stribeck_velocity_m_per_s=0"], ["stribeck_velocity_m_per_s", "0.0", "greater than 0"]),
+    (["params", "show", "-s", "friction.stribeck_velocity_m_per_s=0"], ["stribeck_velocity_m_per_s", "0.0", "greater than or equal to 0.0001"]),
     (["params", "show", "-s", "tread.mass_kg"], ["expected table.key=value"]),
     (["params", "show", "-s", "model=axle2dof"], ["model", "axle2dof"]),
     (["params", "show", "-c", "/nonexistent/p.toml"], ["/nonexistent/p.toml", "cannot read"]),
@@ -94,7 +94,7 @@ def test_end_to_end_exit_code_and_no_traceback(tmp_path):
     bad = subprocess.run([str(exe), "params", "show", "-s", "tread.mass_kg=-1"], capture_output=True, text=True,
                          timeout=60)
     assert bad.returncode == 2 and bad.stdout == ""
-    assert bad.stderr == "error: tread.mass_kg = -1.0: should be greater than 0\n"
+    assert bad.stderr == "error: tread.mass_kg = -1.0: should be greater than or equal to 0.0001\n"
     path = tmp_path / "p.toml"
     good = subprocess.run([str(exe), "params", "init", str(path)], capture_output=True, text=True, timeout=60)
     assert good.returncode == 0 and load_params(path) == Params()

@@ -63,7 +63,7 @@ def frictions(draw) -> Friction:
         sigma1_s_per_m=draw(st.floats(0.0, 0.2)),
         sigma2_s_per_m=draw(st.floats(0.0, 0.02)),
         mu_static=mu_s,
-        mu_coulomb=mu_s * draw(st.floats(0.05, 1.0)),
+        mu_coulomb=draw(st.floats(0.05, mu_s)),  # from the bound of friction.mu_coulomb to mu_s
         stribeck_velocity_m_per_s=draw(st.floats(0.01, 2.0)),
         stribeck_exponent=draw(st.floats(1.0, 4.0)),
     )

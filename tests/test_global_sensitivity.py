@@ -356,7 +356,7 @@ def test_study_table_round_trips_through_toml(tmp_path):
     ({"study.parameters": [{"key": "tread.mass", "low": 1, "high": 2}]}, "unknown or non-numeric key"),
     ({"study.parameters": [{"key": "axle.reference", "low": 1, "high": 2}]}, "unknown or non-numeric key"),
     ({"study.parameters": [{"key": "tread.mass_kg", "low": 2, "high": 1}]}, "must be below high"),
-    ({"study.parameters": [{"key": "tread.mass_kg", "low": -1, "high": 1}]}, "greater than 0"),
+    ({"study.parameters": [{"key": "tread.mass_kg", "low": -1, "high": 1}]}, "greater than or equal to 0.0001"),
     ({"study.parameters": [{"key": "operating.toe_deg", "low": 0, "high": 25}]}, "less than 20"),
     ({"study.parameters": [{"key": "adhesion_scale", "low": 0, "high": 1}]}, "greater than 0"),
     ({"study.parameters": [{"key": "tread.mass_kg", "low": 1, "high": 2, "mode": 1.5}]}, "not used by"),

@@ -83,9 +83,9 @@ def test_unit_of_name_takes_the_longest_suffix():
 def _room(key: str, value: float) -> dict[str, float]:
     """Other keys moved so that only ``key``'s own rule can reject ``value``."""
     if key == "friction.mu_coulomb":
-        return {"friction.mu_static": 5.0}
+        return {"friction.mu_static": keys.KEYS["friction.mu_static"].upper}
     if key == "friction.mu_static":
-        return {"friction.mu_coulomb": min(value, 0.5)} if value > 0 else {}
+        return {"friction.mu_coulomb": min(max(value, keys.KEYS["friction.mu_coulomb"].lower), 0.5)} if value > 0 else {}
     if key == "wear.profile_points":
         return {"wear.max_order": 1}
     if key == "wear.max_order" and value > 0:

@@ -150,7 +150,7 @@ def valid_updates(draw) -> dict[str, typing.Any]:
         if key != "friction.mu_coulomb":
             updates[key] = draw(st.floats(**_bounds(key)))
     mu_s = updates["friction.mu_static"]
-    updates["friction.mu_coulomb"] = draw(st.floats(0.0, mu_s, exclude_min=True))
+    updates["friction.mu_coulomb"] = draw(st.floats(KEYS["friction.mu_coulomb"].lower, mu_s))
     return updates
 
 
@@ -202,10 +202,10 @@ def check_message(exc: pytest.ExceptionInfo, *fragments: str) -> None:
 
 BAD_VALUES = [
     # key, value, fragments the message must contain (key, value, rule)
-    ("tread.mass_kg", -1.0, ["tread.mass_kg", "-1.0", "greater than 0"]),
-    ("tread.mass_kg", 0.0, ["tread.mass_kg", "0.0", "greater than 0"]),
-    ("friction.stribeck_velocity_m_per_s", 0.0, ["friction.stribeck_velocity_m_per_s", "0.0", "greater than 0"]),
-    ("friction.stribeck_velocity_m_per_s", -0.1, ["friction.stribeck_velocity_m_per_s", "-0.1", "greater than 0"]),
+    ("tread.mass_kg", -1.0, ["tread.mass_kg", "-1.0", "greater than or equal to 0.0001"]),
+    ("tread.mass_kg", 0.0, ["tread.mass_kg", "0.0", "greater than or equal to 0.0001"]),
+    ("friction.stribeck_velocity_m_per_s", 0.0, ["friction.stribeck_velocity_m_per_s", "0.0", "greater than or equal to 0.0001"]),
+    ("friction.stribeck_velocity_m_per_s", -0.1, ["friction.stribeck_velocity_m_per_s", "-0.1", "greater than or equal to 0.0001"]),
     ("friction.mu_coulomb", 1.0, ["friction.mu_coulomb", "1.0", "must not exceed", "friction.mu_static", "0.9"]),
     ("friction.stribeck_exponent", 0.5, ["friction.stribeck_exponent", "0.5", "greater than or equal to 1"]),
     ("tread.lateral_damping_ns_per_m", -5.0, ["tread.lateral_damping_ns_per_m", "-5.0", "greater than or equal to 0"]),

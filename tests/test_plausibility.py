@@ -54,8 +54,27 @@ PLAUSIBLE = {
     "tire.contact_length_m": (0.01, 0.5),
     "tire.tread_width_m": (0.03, 0.6),
     "wear.energetic_rate_mm3_per_j": (1e-6, 0.1),
+    "tread.mass_kg": (1e-4, 100.0),
+    "tread.lateral_stiffness_n_per_m": (1e3, 1e9),
+    "friction.sigma0_per_m": (10.0, 1e8),
+    "friction.stribeck_velocity_m_per_s": (1e-4, 100.0),
 }
-"""The bounds the issue names (a wheel, a tire, a wear rate), written out independently."""
+"""The bounds the issue names (a wheel, a tire, a tread element, a rubber-road LuGre
+parameter, a wear rate), written out independently."""
+
+
+def test_friction_coefficients_are_those_of_a_tire_on_a_road():
+    """mu_s and mu_c from wet ice (0.05) to soft rubber on a dry rough road (3); the rule
+    mu_c <= mu_s on top."""
+    for mu in (0.05, 3.0):
+        assert with_updates(Params(), {"friction.mu_static": mu, "friction.mu_coulomb": mu}).friction.mu_coulomb == mu
+    for key, value in (("friction.mu_static", 3.0 * (1 + 1e-9)), ("friction.mu_coulomb", 0.05 * (1 - 1e-9))):
+        with pytest.raises(ParameterError, match=re.escape(key)):
+            with_updates(Params(), {key: value})
+    for key, value in (("friction.sigma1_s_per_m", 1e3 * (1 + 1e-9)), ("friction.sigma2_s_per_m", 1.0 + 1e-9),
+                       ("tread.lateral_damping_ns_per_m", 1e5 * (1 + 1e-9))):
+        with pytest.raises(ParameterError, match=re.escape(key)):
+            with_updates(Params(), {key: value})
 
 
 @pytest.mark.parametrize("key", sorted(PLAUSIBLE))

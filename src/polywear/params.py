@@ -87,22 +87,44 @@ class Operating(_Table):
 
 
 class Tread(_Table):
-    """Lateral tread element on the rim (the self-exciting oscillator)."""
+    """Lateral tread element on the rim (the self-exciting oscillator).
 
-    mass_kg: float = _f(1.0, "tread mass m [kg]", gt=0.0)
-    lateral_stiffness_n_per_m: float = _f(1.0e6, "tread lateral stiffness k [N/m]", gt=0.0)
-    lateral_damping_ns_per_m: float = _f(80.0, "tread lateral damping c [N s/m]", ge=0.0)
+    Bounds (what a tread element can be): the mass from one tread block of a few
+    millimetres of rubber (0.1 g) to the whole tread band of a truck tire (tens of kg),
+    100 kg; the lateral stiffness three decades either side of the default 1e6 N/m (a whole
+    passenger tire's lateral carcass stiffness is of order 1e5 N/m, Pacejka, *Tire and
+    Vehicle Dynamics*, 3rd ed., 2012; 1e9 N/m is a tread rigid against the bristle, the
+    limit the patch contact's closed forms take); the damping up to 1e5 N s/m (critical
+    damping of 1 kg on 1e9 N/m is 6e4 N s/m).
+    """
+
+    mass_kg: float = _f(1.0, "tread mass m [kg]", ge=1.0e-4, le=100.0)
+    lateral_stiffness_n_per_m: float = _f(1.0e6, "tread lateral stiffness k [N/m]", ge=1.0e3, le=1.0e9)
+    lateral_damping_ns_per_m: float = _f(80.0, "tread lateral damping c [N s/m]", ge=0.0, le=1.0e5)
 
 
 class Friction(_Table):
-    """LuGre tread-road friction, normalized by the normal load N (docs/model.md section 2)."""
+    """LuGre tread-road friction, normalized by the normal load N (docs/model.md section 2).
 
-    sigma0_per_m: float = _f(400.0, "bristle stiffness per unit load sigma0 [1/m]", gt=0.0)
-    sigma1_s_per_m: float = _f(0.05, "bristle damping per unit load sigma1 [s/m]", ge=0.0)
-    sigma2_s_per_m: float = _f(0.002, "viscous friction per unit load sigma2 [s/m]", ge=0.0)
-    mu_static: float = _f(0.9, "static (peak) friction coefficient mu_s [-]", gt=0.0, le=5.0)
-    mu_coulomb: float = _f(0.5, "Coulomb (sliding) friction coefficient mu_c [-]", gt=0.0, le=5.0)
-    stribeck_velocity_m_per_s: float = _f(0.25, "Stribeck velocity v_s [m/s]", gt=0.0)
+    Bounds (what a rubber-road LuGre parameter can be), spanning the published sets: the
+    tire's lumped LuGre model (Canudas-de-Wit, Tsiotras, Velenis, Basset, Gissinger,
+    *Vehicle System Dynamics* 39, 2003: sigma0 = 40 1/m, sigma1 = 4.9487 s/m,
+    sigma2 = 0.0018 s/m, v_s = 12.5 m/s) and the original LuGre example at a unit load
+    (Canudas-de-Wit, Olsson, Astrom, Lischinsky, *IEEE TAC* 40, 1995: sigma0 = 1e5 1/m,
+    sigma1 = 316 s/m, sigma2 = 0.4 s/m, v_s = 0.001 m/s). sigma0 from 10 1/m (0.1 m of
+    bristle deflection at mu = 1, the size of the contact patch) to 1e8 1/m (10 nm); sigma1
+    up to 1e3 s/m; sigma2 up to 1 s/m (viscous friction of 1 at 1 m/s sliding); v_s from
+    1e-4 to 100 m/s. Friction coefficients from 0.05 (tire on wet ice) to 3 (soft rubber on
+    a dry rough surface; racing tires reach 1.5-1.8), the limit ``friction fit`` holds
+    measured coefficients to.
+    """
+
+    sigma0_per_m: float = _f(400.0, "bristle stiffness per unit load sigma0 [1/m]", ge=10.0, le=1.0e8)
+    sigma1_s_per_m: float = _f(0.05, "bristle damping per unit load sigma1 [s/m]", ge=0.0, le=1.0e3)
+    sigma2_s_per_m: float = _f(0.002, "viscous friction per unit load sigma2 [s/m]", ge=0.0, le=1.0)
+    mu_static: float = _f(0.9, "static (peak) friction coefficient mu_s [-]", ge=0.05, le=3.0)
+    mu_coulomb: float = _f(0.5, "Coulomb (sliding) friction coefficient mu_c [-]", ge=0.05, le=3.0)
+    stribeck_velocity_m_per_s: float = _f(0.25, "Stribeck velocity v_s [m/s]", ge=1.0e-4, le=100.0)
     stribeck_exponent: float = _f(
         2.0, "Stribeck exponent delta [-] (>= 1 keeps G smooth at v = 0)", ge=1.0, le=10.0
     )
