@@ -769,6 +769,20 @@ def test_fit_pinned_at_a_bound_warns():
     assert clean.at_bound == () and clean.warnings() == []
 
 
+def test_fit_box_is_the_keys_plausibility_bounds():
+    """Data from mu_s = 4 seen only beyond the Stribeck velocity (every value <= 1.4, so the
+    data check passes): the fit stops at friction.mu_static's bound 3 with a warning, not at
+    a box of its own (it used to reach 4 and then fail the key's validation)."""
+    from polywear.keys import KEYS
+
+    v = np.geomspace(0.3, 2.0, 40)
+    mu = 0.5 + 3.5 * np.exp(-((v / 0.25) ** 2)) + 0.002 * v
+    assert mu.max() < 1.4
+    fit = fit_steady_curve(v, mu, fit=("mu_static",))
+    assert fit.at_bound == ("mu_static",) and fit.friction.mu_static == pytest.approx(KEYS["friction.mu_static"].upper)
+    assert fit.warnings()[0].startswith("mu_static = 3 is at the bound of the fit")
+
+
 @pytest.mark.parametrize("frequencies", ["1e12", "0.5,2e4", "0", "-1"])
 def test_loop_frequencies_beyond_a_tire_are_refused(frequencies):
     code, out, err = run_main(["friction", "loops", "--frequencies", frequencies])

@@ -9,6 +9,7 @@ from typing import Any, Callable, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..keys import KEYS
 from ..params import Friction, with_updates
 from ..physics.lugre import steady_friction
 from ..progress import Progress, StepCounter
@@ -321,13 +322,14 @@ def fit_steady_curve(
             full[:, col["mu_coulomb"]] *= values["mu_static"]
         return full[:, free]
 
-    bounds = {
-        "mu_static": (fields["mu_coulomb"] if "mu_coulomb" not in fit else 0.0, 5.0),
-        "mu_coulomb": (0.0, 1.0) if ratio else (0.0, 5.0),
-        "stribeck_velocity_m_per_s": (0.0, np.inf),
-        "stribeck_exponent": (1.0, 10.0),
-        "sigma2_s_per_m": (0.0, np.inf),
-    }
+    def key_bounds(name: str) -> tuple[float, float]:  # the key's plausibility bounds (polywear.keys)
+        return KEYS[f"friction.{name}"].lower, KEYS[f"friction.{name}"].upper
+
+    bounds = {name: key_bounds(name) for name in STEADY_PARAMETERS}
+    if "mu_coulomb" not in fit:
+        bounds["mu_static"] = (fields["mu_coulomb"], bounds["mu_static"][1])
+    if ratio:
+        bounds["mu_coulomb"] = (0.0, 1.0)
     lower = np.array([bounds[n][0] for n in fit])
     upper = np.array([bounds[n][1] for n in fit])
 
