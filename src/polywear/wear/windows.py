@@ -31,7 +31,7 @@ from ..solvers.integrate import integrate
 from .law import energetic_rate, friction_power
 
 __all__ = ["WindowWear", "window_wear", "coherence", "table_points", "LOCK_TOLERANCE", "SETTLED_PHASE",
-           "SEPARATED_BEATS", "MAX_WINDOW"]
+           "SEPARATED_BEATS", "FITTED_LINES", "NEAR_SPAN", "MAX_WINDOW"]
 
 LOCK_TOLERANCE = 1e-6
 """A vibration whose order is this close to an integer is locked [-]."""
