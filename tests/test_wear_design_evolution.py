@@ -27,8 +27,14 @@ def _car():
 def test_least_change_for_a_vibrating_car_checked_by_evolution():
     params = _car()
     assert not cycle_growth(params, CYCLE)[2]  # rolling unstable at 110 km/h: the linear map does not apply
-    result = wear_design(params, keys=(KEY,), target_km=TARGET, cycle=CYCLE)
+    messages = []
+    result = wear_design(params, keys=(KEY,), target_km=TARGET, cycle=CYCLE,
+                         progress=lambda done, total, message: messages.append(message))
     assert result.judge == "evolution"
+    # progress after every evolution: the nominal car's, then each probe's, the least change among them
+    assert messages[0] == f"nominal: visible after {result.nominal_evolution['visible_km']:,.0f} km"
+    assert len(messages) >= 3 and all(m.startswith(f"{KEY} = ") for m in messages[1:])
+    assert f"{KEY} = {result.options[0].value:.4g}: no visible polygon" in messages
     nominal = result.nominal_evolution
     assert nominal["visible_km"] is not None and nominal["visible_km"] < TARGET  # something must change
     (option,) = result.options

@@ -402,7 +402,8 @@ def report(
     stops = None
     if wear_design_by_evolution and km and options.best is not None and not cycle_growth(params)[2]:  # vibrates on the cycle
         say("what stops the polygon: the least change judged by the evolution")
-        stops = wear_design(params, keys=options.best.keys, target_km=km).summary()
+        stops = wear_design(params, keys=options.best.keys, target_km=km,
+                            progress=stage.detail("wear design: ")).summary()
 
     say("one verdict: vibration and wear together, design options judged by the wear")
     from .verdict import verdict as overall_verdict

@@ -42,6 +42,7 @@ from enum import StrEnum
 import numpy as np
 
 from ..parallel import Executor
+from ..progress import Progress
 
 from ..models import model_for
 from ..results import Result
@@ -233,6 +234,12 @@ def _finite(x: float):
     return x if math.isfinite(x) else None
 
 
+def _outcome(evolved: dict) -> str:
+    """An evolution of :func:`_evolved` in words."""
+    return ("no visible polygon" if evolved["visible_km"] is None
+            else f"visible after {evolved['visible_km']:,.0f} km")
+
+
 def _evolved(params: Params, target_km: float, cycle, settings: EvolutionSettings) -> dict:
     """The evolution over ``target_km`` [km] on ``cycle``: depth at its end [mm], visible
     distance [km] (None: not within it) and dominant order at its end."""
@@ -280,6 +287,8 @@ class _KeySearch:
     max_factor: float
     grid: int
     settings: EvolutionSettings
+    progress: Progress | None = None
+    """Called after every probe judged by an evolution (a serial search only)."""
 
     def __call__(self, key: str) -> WearDesignOption | str:
         nominal = nominal_value(self.params, key)
@@ -289,6 +298,9 @@ class _KeySearch:
             if factor not in cache:
                 cache[factor] = _meets(self.params, key, nominal, factor, self.cycle, self.target_km, self.judge,
                                        self.settings)
+                evolved = cache[factor][3] if cache[factor] is not None else None
+                if self.progress is not None and evolved is not None:
+                    self.progress(len(cache), None, f"{key} = {nominal * factor:.4g}: {_outcome(evolved)}")
             return cache[factor]
 
         evolution = self.judge == "evolution"
@@ -321,7 +333,7 @@ class _KeySearch:
 def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: float | None = None,
                 cycle: Sequence[tuple[float, float]] | None = None,
                 settings: WearDesignSettings = WearDesignSettings(),
-                executor: Executor | None = None) -> WearDesignResult:
+                executor: Executor | None = None, progress: Progress | None = None) -> WearDesignResult:
     """Least relative change of each key (both directions) that meets the wear criterion.
 
     ``keys`` default :data:`polywear.dynamics.design.DEFAULT_KEYS` (those that enter the
@@ -329,7 +341,9 @@ def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: fl
     stable); ``cycle``: ((speed [km/h], share), ...), default ``wear.cycle``; ``settings``
     (:class:`WearDesignSettings`): largest change, grid, judge, the evolutions' settings;
     ``executor`` (:class:`~polywear.parallel.Executor`, default in this process): where the
-    keys are searched, one task per key.
+    keys are searched, one task per key; ``progress`` (:mod:`polywear.progress`, without an
+    executor only) after every evolution (seconds to minutes each): ``(probes of the key,
+    None, "key = value: outcome")``.
     """
     if not isinstance(settings, WearDesignSettings):
         raise TypeError(f"wear_design: settings = {settings!r}: a WearDesignSettings")
@@ -347,6 +361,8 @@ def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: fl
     if judge == Judge.EVOLUTION:
         nominal_evolution = _evolved(params, target_km, cycle, settings.evolution)
         nominal_ok = nominal_evolution["visible_km"] is None
+        if progress is not None:
+            progress(0, None, f"nominal: {_outcome(nominal_evolution)}")
     else:
         nominal_ok = stable0 and (g0 <= 0.0 if target_km is None else depth0 < params.wear.visible_depth_mm)
     if nominal_ok:
@@ -362,7 +378,8 @@ def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: fl
             entries.append(f"{key}: nominal value 0 (no relative change)")
         else:
             entries.append((key,))
-    search = _KeySearch(params, cycle, target_km, judge, settings.max_factor, settings.grid, settings.evolution)
+    search = _KeySearch(params, cycle, target_km, judge, settings.max_factor, settings.grid, settings.evolution,
+                        progress if executor is None else None)
     found = iter((executor or Executor("serial")).map(search, [e[0] for e in entries if isinstance(e, tuple)]))
     entries = [next(found) if isinstance(e, tuple) else e for e in entries]
     options = [o for o in entries if isinstance(o, WearDesignOption)]
