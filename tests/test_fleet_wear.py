@@ -144,7 +144,7 @@ def test_cars_over_the_budget_are_listed_and_kept_out_of_the_wear_risk():
     values[:, 2] = [1, 1, 0, 0, 1, 0, 1, 1, 0, 1]  # at risk (band)
     values[:, OUTPUTS.index("wear_visible_km")] = [1000, 2000, np.inf, np.inf, np.nan, np.inf, np.nan, 2500, np.inf, np.nan]
     values[:, OUTPUTS.index("wear_order")] = [8, 8, 9, 9, np.nan, 9, np.nan, 7, 9, np.nan]
-    over = "over the budget of 101 distance steps at 1,234 of 3,000 km"
+    over = f"over the budget of {WEAR_MAX_STEPS + 1} distance steps at 1,234 of 3,000 km"
     outcomes = [CarOutcome(path="fast")] * 10
     outcomes[4] = outcomes[6] = CarOutcome(path="fast", wear=over)
     outcomes[9] = CarOutcome(failure="ValueError", detail="bad")

@@ -121,12 +121,13 @@ class CarOutcome:
         return f"full: {self.fallback}: {self.fallback_detail}" if self.path == "full" else self.path
 LISTED_FAILURES = 20
 """Failed cars listed one by one (index and reason) in the summary; all are counted."""
-WEAR_MAX_STEPS = 100
+WEAR_MAX_STEPS = 200
 """Default budget of one car's wear evolution [distance steps], beyond the fewest steps the
 distance takes at the longest step (``ceil(D / 8 000 km)``). On the 110/130 km/h cycle
-over 60 000 km typical cars take 19-67 steps (0.1-0.2 s CPU each); a car whose vibration
-stays a few thousandths off an integer order without locking takes steps of ~10 km
-(thousands of steps, about an hour of CPU; stopped at the budget after ~1 min)."""
+over 60 000 km most cars take 19-67 steps (0.1-0.2 s CPU each), a car locked at order 9
+whose growth holds the steps at 35-760 km 132; a car whose vibration stays a few
+thousandths off an integer order without locking takes steps of ~10 km (thousands of
+steps, about an hour of CPU; stopped at the budget after ~1.5 min)."""
 
 
 class _Spec(BaseModel):
