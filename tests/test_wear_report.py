@@ -153,6 +153,10 @@ def test_headline_gives_both_outcomes_where_a_pothole_starts_the_large_vibration
                         "at order 9.07, without locking to the tire).")
     # the assumptions and the rest of the headline are those of the evolution from rest
     assert "1 um" not in lines[-1]
+    cycle = [_speed(50.0, 0.5, 18.4), _speed(110.0, 0.5, 9.07)]
+    section["evolutions"].append(dict(_evolution("drive cycle, from the large vibration", cycle, None, 13),
+                                      start="cycle"))
+    assert "; on the drive cycle (50 % at 50 km/h, 50 % at 110 km/h), no visible polygon" in wear_headline(section)[1]
     assert wear_headline(_section(dict(rest, start="rest")))[0].startswith("At 110 km/h alone, no visible")
 
 

@@ -173,7 +173,7 @@ def _tenths(progress: Progress) -> Progress:
 
 def _where(ev: dict) -> str:
     """'on the drive cycle (30 % at 50 km/h, ...)' or 'at 110 km/h alone'."""
-    if ev["label"] == "drive cycle":
+    if ev["label"].removesuffix(FROM_CYCLE) == "drive cycle":
         return "on the drive cycle (" + ", ".join(f"{c['share'] * 100:.0f} % at {c['speed_kmh']:g} km/h"
                                                   for c in ev["cycle"]) + ")"
     return f"at {ev['cycle'][0]['speed_kmh']:g} km/h alone"
