@@ -355,6 +355,13 @@ def wear(n: int, wear_km: float, target: int = 1000) -> None:
           f"{dt * target / n / 60:.1f} min at this load)")
 
 
+def _hopf_count(params) -> int:
+    """Number of Hopf points of ``params`` in 20-300 km/h (the stability analysis's default grid)."""
+    from polywear.dynamics.stability import stability
+
+    return len(stability(params, (20.0, 300.0)).hopf_points)
+
+
 def _edges_car(item):
     """One car of ``edges``: (index, values, CPU of the full and of the edges-only
     continuation [s], what differs (empty: none), counts of its kinds)."""
@@ -388,18 +395,18 @@ def edges(n: int, seed: int, workers: int = 1) -> None:
     +-10 % of the defaults, drawn by ``seed``): edges-only continuation against the full one."""
     from concurrent.futures import ProcessPoolExecutor
 
-    from polywear.dynamics.stability import stability
-
     base = with_updates(Params(), {"model": "axle4dof"})
     rng = np.random.default_rng(seed)
     nominal = np.array([get_value(base, k) for k in DEFAULT_KEYS])
     cars, drawn = [], 0
-    while len(cars) < n:
-        values = nominal * (1.0 + 0.1 * (2.0 * rng.random(len(nominal)) - 1.0))
-        params = sample_params(base, DEFAULT_KEYS, values)
-        if len(stability(params, (20.0, 300.0)).hopf_points) == 4:
-            cars.append((drawn, values, params))
-        drawn += 1
+    with ProcessPoolExecutor(workers) as pool:
+        while len(cars) < n:
+            values = [nominal * (1.0 + 0.1 * (2.0 * rng.random(len(nominal)) - 1.0)) for _ in range(200)]
+            params = [sample_params(base, DEFAULT_KEYS, v) for v in values]
+            for k, count in enumerate(pool.map(_hopf_count, params, chunksize=20)):
+                if count == 4 and len(cars) < n:
+                    cars.append((drawn + k, values[k], params[k]))
+            drawn += len(values) if len(cars) < n else cars[-1][0] + 1 - drawn
     print(f"axle4dof, seed {seed}: {n} cars with four Hopf points among the first {drawn} drawn", flush=True)
     t_full = t_edges = 0.0
     bad, counts, points = [], Counter(), np.zeros(2)

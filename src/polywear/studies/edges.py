@@ -8,9 +8,9 @@ eigenvalues alone) and the speeds of stable cycles. Inside ``O`` nothing a branc
 moves an edge: every edge is a Hopf point, or a fold or PD/NS point of a branch *outside*
 ``O``. So each branch is continued, step for step as the full continuation does
 (:func:`~polywear.dynamics.bifurcation.bifurcation` with a stop criterion), until its
-last point lies deeper than :data:`EDGE_DEPTH_KMH` inside an interval of ``O``; a Hopf
-point that branch would have reached starts its own branch, which covers the other end
-the same way. Up to the stop every point, fold and PD/NS point is the full
+last point lies deeper than :data:`EDGE_DEPTH_KMH` inside the interval of ``O`` its Hopf
+point bounds; a Hopf point that branch would have reached starts its own branch, which
+covers the other end the same way. Up to the stop every point, fold and PD/NS point is the full
 continuation's, bit for bit.
 
 What the depth is for: a branch can leave ``O`` again after entering it (an *excursion*:
@@ -18,8 +18,12 @@ past the Hopf point at the end of an interval of ``O``, into the gap next to it;
 60 random four-Hopf cars at +-10 %). Stopping on entry misses the folds there: in
 ``tests/test_edges.py::EXCURSION_AXLE`` the branch from the Hopf point at 80.49 km/h dips
 0.3 km/h into ``O`` before it turns and folds at 80.92 km/h, an edge. The depth is the
-rule; the agreement run of ``benchmarks/bench_fleet.py edges`` is its proof on cars
-(docs/fleet.md, "Cars the fast path cannot label").
+rule. Why its own interval: a branch from the lower Hopf point of the second interval can
+cross the gap below it, turn 2.5 km/h inside the first interval and come back across the
+gap stable, a hard region filling the gap (2 of the first 18 cars of the agreement run,
+when the branches stopped in any interval). The agreement run of
+``benchmarks/bench_fleet.py edges`` is the rule's proof on cars (docs/fleet.md, "Cars the
+fast path cannot label").
 
 Cost: the stretches a study needs are the branches' ends outside ``O`` (the hard
 regions, windows next to folds) and the excursions; the cascades inside ``O`` are skipped.
@@ -54,17 +58,22 @@ def oscillatory_intervals(stab) -> list[tuple[float, float]]:
 class BranchStop:
     """Stop criterion of the branches (``bifurcation(stop=BranchStop(...))``): called with the
     stability result, it gives ``Branch -> bool``, true once the branch's last point lies
-    ``depth_kmh`` [km/h] inside an oscillatory interval."""
+    ``depth_kmh`` [km/h] inside the oscillatory interval its Hopf point bounds or lies in
+    (the one nearest to its first point). A branch that crosses a gap into another interval
+    is followed on: it may come back across the gap, stable (a hard region filling it)."""
 
     depth_kmh: float = EDGE_DEPTH_KMH
 
     def __call__(self, stab):
-        deep = [(a + self.depth_kmh, b - self.depth_kmh) for a, b in oscillatory_intervals(stab)]
-        deep = [(a, b) for a, b in deep if a < b]
+        intervals = oscillatory_intervals(stab)
 
         def stop(branch) -> bool:
+            if not intervals:
+                return False
+            start = ms_to_kmh(branch.points[0].orbit.speed)
+            a, b = min(intervals, key=lambda iv: max(iv[0] - start, start - iv[1], 0.0))
             v = ms_to_kmh(branch.points[-1].orbit.speed)
-            return any(a < v < b for a, b in deep)
+            return a + self.depth_kmh < v < b - self.depth_kmh
 
         return stop
 
