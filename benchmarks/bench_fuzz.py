@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import resource
 import subprocess
 import sys
@@ -48,7 +49,8 @@ def main() -> int:
     run = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
     wall, cpu = time.perf_counter() - t0, _cpu() - c0
     lines = run.stdout.splitlines()
-    print("\n".join(line for line in lines if " call " in line or "passed" in line or "failed" in line
+    durations = re.compile(r"^[\d.]+s call ")  # pytest --durations lines (not "most recent call last")
+    print("\n".join(line for line in lines if durations.match(line) or "passed" in line or "failed" in line
                     or line.startswith(("E ", "FAILED"))))
     calls = [line.split("\t", 1) for line in log.read_text().splitlines()]
     log.unlink()
