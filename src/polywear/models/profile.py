@@ -203,6 +203,21 @@ def _loaded(u, V, p):
 
 
 @njit(cache=True, error_model="numpy")
+def _load_in_place(u, V, p):
+    """:func:`_loaded` without the copy (the hot path: rhs and diagnostics, 2-3x cheaper):
+    the profile's load is written into ``p``'s base vector, returned as a view, with the
+    index written and the nominal value the caller puts back after the base kernel (the
+    kernels hold the GIL, so no other call sees ``p`` in between)."""
+    n = u.size - 1
+    start = _base_start(p)
+    i = start + int(p[_IN0].real)
+    nominal = p[i]
+    load = nominal + _profile_load(u[n], V, p)[0]
+    p[i] = 0.0 * load if p[_FLAG].real != 1.0 and load.real < 0.0 else load
+    return p[start:], i, nominal
+
+
+@njit(cache=True, error_model="numpy")
 def _df_dload(flag, u, V, q, i0, out):
     """Derivative of the base rhs with respect to the static load q[i0] (complex step)."""
     n = out.size
@@ -221,8 +236,9 @@ def _df_dload(flag, u, V, q, i0, out):
 def rhs(u, V, p, out):
     """du/dt: the base model's at the profile's load, and phi_c' = V/R."""
     n = u.size - 1
-    q = _loaded(u, V, p)[0]
+    q, i, nominal = _load_in_place(u, V, p)
     _base_rhs(int(p[_FLAG].real), u[:n], V, q, out[:n])
+    p[i] = nominal
     out[n] = V / p[_R]
 
 
@@ -295,8 +311,9 @@ def rhs_jac_dfdv(u, V, p, f, J, fv):
 def aux(u, V, p, out):
     """The base model's diagnostics at the profile's load."""
     n = u.size - 1
-    q = _loaded(u, V, p)[0]
+    q, i, nominal = _load_in_place(u, V, p)
     _base_aux(int(p[_FLAG].real), u[:n], V, q, out)
+    p[i] = nominal
 
 
 # -- the model object ---------------------------------------------------------------------
