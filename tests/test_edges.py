@@ -32,6 +32,12 @@ TWICE_AXLE = (985999.3723802326, 80.31223711804574, 0.5450938195581849, -0.95019
               0.9550870465071797, 1.0352942399997187, 4173.6687234248975)
 """Car 21: the branch from the third Hopf point crosses the gap between the linear band's
 two intervals twice."""
+CROSSING_AXLE = (922638.3281564085, 87.67354768717308, 0.5441591302855918, -0.9461334364602205,
+                 0.9845833632447908, 0.9415635334246808, 4005.1808129505043)
+"""Car 53: the branch from the third Hopf point (85.23 km/h) crosses the gap below it, turns
+2.5 km/h inside the first interval of the linear band (fold at 79.87 km/h) and comes back
+across the gap stable: a hard region 82.41-85.23 km/h, lost when a branch stops 2 km/h
+inside any interval rather than its own."""
 
 
 def _car(values):
@@ -102,12 +108,14 @@ def test_a_band_bound_at_a_period_doubling_is_undecided():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("values", [GAP_AXLE, TWICE_AXLE], ids=["gap", "twice"])
+@pytest.mark.parametrize("values", [GAP_AXLE, TWICE_AXLE, CROSSING_AXLE], ids=["gap", "twice", "crossing"])
 def test_edges_agree_with_the_full_continuation(values):
     params = _car(values)
     full = bifurcation(params, (20.0, 300.0))
     edges = edges_diagram(params, (20.0, 300.0))
     _same_band(full, edges)
     assert pd_ns_edges_kmh(full) == pd_ns_edges_kmh(edges) == []
+    if values is CROSSING_AXLE:
+        assert [(round(a, 2), round(b, 2)) for a, b in edges.hard_regions_kmh][2] == (82.41, 85.23)
     if values is GAP_AXLE:
         assert [(round(a, 2), round(b, 2)) for a, b in edges.gaps_after_pd_ns_kmh] == [(74.62, 75.41)]
