@@ -68,6 +68,13 @@ def test_step_budget_stops_an_evolution_that_would_take_too_many_steps():
     assert time.process_time() - start < 30.0
 
 
+def test_step_budget_at_the_default_k_e_points_to_the_steps_not_to_k_e():
+    """At the default k_e the key is not what to lower: the message says so and names the
+    settings that let the evolution go on."""
+    with pytest.raises(NumericalError, match=r"budget of 2 distance steps.*not above its default.*max_steps"):
+        wear_evolution(Params(), 8000.0, cycle=((120.0, 1.0),), settings=EvolutionSettings(max_steps=1))
+
+
 def test_step_budget_must_be_a_positive_integer():
     with pytest.raises(ValueError, match="max_steps"):
         EvolutionSettings(max_steps=0)

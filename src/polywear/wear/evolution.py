@@ -54,7 +54,7 @@ import numpy as np
 from ..errors import NumericalError
 from ..models import model_for
 from ..models.profile import coupled_model, patch_sinc, profile_vector
-from ..params import Params, to_toml
+from ..params import Params, Wear, to_toml
 from ..progress import Progress
 from ..results import Result
 from ..settings import check_count, check_positive
@@ -323,9 +323,10 @@ class EvolutionSettings:
     max_steps: int = 500
     """Step budget [-]: an evolution that needs more distance steps than this (rejected ones
     included) plus the fewest its distance takes at the longest step, ``distance / (8 step_km)``,
-    stops with a :class:`~polywear.errors.NumericalError` naming ``wear.energetic_rate_mm3_per_j``:
-    the profile then changes too fast for the steps (a k_e far above the default wears the
-    polygon ever deeper within the distance). The default settings take 15-40 steps over
+    stops with a :class:`~polywear.errors.NumericalError` that says what to change: the profile
+    then changes too fast for the steps (a k_e far above the default wears the polygon ever
+    deeper within the distance; at the default k_e, writes that change faster than the
+    tolerance from window to window). The default settings take 15-40 steps over
     60 000 km on the cars of docs/wear.md."""
 
     def __post_init__(self) -> None:
@@ -443,8 +444,7 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
             raise NumericalError(
                 f"wear evolution: over its budget of {budget} distance steps at {done:,.0f} of {distance_km:,.0f} km "
                 f"(EvolutionSettings.max_steps = {settings.max_steps}): the profile changes too fast for the steps; "
-                f"wear.energetic_rate_mm3_per_j = {params.wear.energetic_rate_mm3_per_j:g} mm^3/J (distances scale "
-                f"as 1/k_e: evolve a proportionally shorter distance, or lower it)")
+                + _budget_hint(params))
         h = min(h, distance_km - done)
         saved = ([s.copy() for s in states], [list(s) for s in settles], list(windows), list(linear))
         W_pred, h, n_revs = _predict(W, wins, h, cycle, R)
@@ -479,6 +479,19 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
                                      "largest_step_km": float(steps.max()), "tolerance": tolerance,
                                      "rejected_steps": rejected, "windows": simulated_windows[0],
                                      "revolutions": revolutions, "k_e_m3_per_j": k_e})
+
+
+def _budget_hint(params: Params) -> str:
+    """What to change when the step budget runs out: k_e where it is above its default
+    (distances scale as 1/k_e), else the steps themselves (the writes then change from
+    window to window faster than the tolerance, e.g. on the way into locking)."""
+    k_e = params.wear.energetic_rate_mm3_per_j
+    if k_e > Wear.model_fields["energetic_rate_mm3_per_j"].default:
+        return (f"wear.energetic_rate_mm3_per_j = {k_e:g} mm^3/J is above its default (distances scale as "
+                f"1/k_e: evolve a proportionally shorter distance, or lower it)")
+    return (f"wear.energetic_rate_mm3_per_j = {k_e:g} mm^3/J is not above its default: the writes change "
+            f"from window to window faster than the tolerance here (a larger EvolutionSettings.max_steps "
+            f"or tolerance lets the evolution go on)")
 
 
 def _step_error(W_new, W_pred) -> float:
