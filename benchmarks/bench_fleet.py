@@ -13,7 +13,6 @@ Sobol and fleet extrapolations, Dask 1 -> 2 workers, cost growth (nothing is ass
     .venv/bin/python benchmarks/bench_fleet.py dask --samples 200
     .venv/bin/python benchmarks/bench_fleet.py dask-sobol --samples 8 [--model axle4dof]
     .venv/bin/python benchmarks/bench_fleet.py growth
-    .venv/bin/python benchmarks/bench_fleet.py wear --samples 100 [--wear-km 60000]
     .venv/bin/python benchmarks/bench_fleet.py edges --samples 200 [--seed 7] [--workers 2]
     .venv/bin/python benchmarks/bench_fleet.py windows --samples 10 [--seed 7] [--workers 2]
 
@@ -336,25 +335,6 @@ def growth() -> None:
               f"fast path {result.summary()['fast_path_share']:.0%}")
 
 
-def wear(n: int, wear_km: float, target: int = 1000) -> None:
-    """Fleet wear risk: ``n`` tread1dof cars of the TOE_LOAD fleet (usage 110/130 km/h), every
-    car's wear evolved over ``wear_km`` on 2 local processes (the nominal reference made
-    outside the timing). Wall time, CPU per car (this process and the pool's workers), the
-    wear risk, and ``target`` cars extrapolated linearly (wall on 2 cores: CPU / 2)."""
-    spec = _fleet_spec(n)
-    reference = _fleet_reference(spec)
-    c, t = _cpu(), time.perf_counter()
-    result = fleet(Params(), spec, backend="processes", workers=2, reference=reference, wear_km=wear_km)
-    dt, dc = time.perf_counter() - t, _cpu() - c
-    s = result.summary()
-    print(f"tread1dof wear risk, {n} cars over {wear_km:,.0f} km on 2 processes: wall {dt:.1f} s, CPU {dc:.1f} s = "
-          f"{dc / n:.2f} s per car; failed {s['failed_samples']}; wear risk {s['wear_risk_probability']:.3f} "
-          f"{s['wear_risk_ci']}, most dangerous order {s['wear_most_dangerous_order']}, orders {s['wear_orders']}, "
-          f"band risk {s['risk_probability']:.3f}; {target} cars: CPU ~{dc / n * target / 60:.1f} min, "
-          f"wall on 2 free cores ~{dc / n * target / 2 / 60:.1f} min (measured wall x{target / n:g}: "
-          f"{dt * target / n / 60:.1f} min at this load)")
-
-
 def _hopf_count(params) -> int:
     """Number of Hopf points of ``params`` in 20-300 km/h (the stability analysis's default grid)."""
     from polywear.dynamics.stability import stability
@@ -474,8 +454,8 @@ def windows(n: int, seed: int, workers: int = 1) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("what", choices=("agreement", "sobol", "fleet", "pilot", "dask", "dask-sobol", "growth", "wear",
-                                         "edges", "windows"))
+    parser.add_argument("what", choices=("agreement", "sobol", "fleet", "pilot", "dask", "dask-sobol", "growth", "edges",
+                                         "windows"))
     parser.add_argument("--model", default="tread1dof")
     parser.add_argument("--samples", type=int, default=200)
     parser.add_argument("--seed", type=int, default=20261201)
@@ -489,7 +469,6 @@ def main() -> None:
                         help="agreement: speeds [km/h] of the amplitudes (none: the bands alone, as fleets need)")
     parser.add_argument("--band-every", type=int, default=1, help="pilot: whole bands for every k-th car")
     parser.add_argument("--spread", type=float, default=0.1, help="sobol: parameter ranges +-spread of the defaults")
-    parser.add_argument("--wear-km", type=float, default=60000.0, help="wear: distance of every car's evolution [km]")
     parser.add_argument("--workers", type=int, default=1, help="edges: local processes")
     args = parser.parse_args()
     if args.what == "agreement":
@@ -504,8 +483,6 @@ def main() -> None:
         dask(args.samples)
     elif args.what == "dask-sobol":
         dask_sobol(args.samples, args.model, args.spread)
-    elif args.what == "wear":
-        wear(args.samples, args.wear_km)
     elif args.what == "edges":
         edges(args.samples, args.seed, args.workers)
     elif args.what == "windows":
