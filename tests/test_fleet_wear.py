@@ -113,7 +113,8 @@ def test_cli_wear_risk_json(tmp_path):
 def test_a_car_over_the_step_budget_stops_there():
     """The evaluator stops a car's evolution at its step budget, at the distance an
     unstopped evolution of the same car has after that many steps, and says so; with the
-    default budget the same car ends with the evolution's own visible distance."""
+    default budget the same car ends with the evolution's own visible distance and order
+    (its evolution stopped once visible: the same steps up to there)."""
     from polywear.studies.fleet import FleetEvaluator, wear_step_budget
 
     params = with_updates(Params(), {"wear.energetic_rate_mm3_per_j": K_NOM})
@@ -121,11 +122,13 @@ def test_a_car_over_the_step_budget_stops_there():
     full = wear_evolution(params, D_KM, cycle)
     budget = wear_step_budget(D_KM, 1)
     assert budget == 2 and full.distance_km.size - 1 > budget  # ceil(3000 / 8000) + 1: fewer than it takes
+    assert full.settings["rejected_steps"] == 0  # so the budget's 2 attempts are its first 2 steps
     stopped = FleetEvaluator(params, (), None, (110.0,), wear_km=D_KM, wear_max_steps=1, usage_cycle=cycle)._wear(params)
     assert np.isnan(stopped[0]) and np.isnan(stopped[1])
     assert stopped[2] == f"over the budget of 2 distance steps at {full.distance_km[2]:,.0f} of {D_KM:,.0f} km"
     ended = FleetEvaluator(params, (), None, (110.0,), wear_km=D_KM, usage_cycle=cycle)._wear(params)
-    assert ended[0] == full.visible_km and ended[2] == ""
+    seen = np.flatnonzero(full.depth_mm >= params.wear.visible_depth_mm)
+    assert ended[0] == full.visible_km and ended[1] == full.dominant_order[seen[0]] and ended[2] == ""
 
 
 def test_cars_over_the_budget_are_listed_and_kept_out_of_the_wear_risk():

@@ -103,3 +103,18 @@ def test_reused_steady_rolling_window_is_simulated_again_as_the_profile_grows():
     assert abs(simulated.harmonics[-1, 10]) > 10.0 * abs(simulated.harmonics[0, 10])  # order 11 grew
     assert abs(reused.harmonics[-1, 10]) == pytest.approx(abs(simulated.harmonics[-1, 10]), rel=0.02)
     assert reused.depth_mm[-1] == pytest.approx(simulated.depth_mm[-1], rel=0.02)
+
+
+def test_until_visible_stops_at_the_first_visible_step_with_the_whole_evolutions_steps():
+    """Stopped once visible, the evolution has the whole evolution's steps up to the first
+    step at or past the visible depth, and the same visible distance, bit for bit."""
+    params = with_updates(Params(), {"wear.energetic_rate_mm3_per_j": 0.05})
+    cycle = ((110.0, 1.0),)
+    full = wear_evolution(params, 3000.0, cycle)
+    short = wear_evolution(params, 3000.0, cycle, settings=EvolutionSettings(until_visible=True))
+    first = int(np.flatnonzero(full.depth_mm >= params.wear.visible_depth_mm)[0])
+    assert 0 < first < full.distance_km.size - 1  # visible before the end: there is something to stop
+    assert short.distance_km.size == first + 1
+    np.testing.assert_array_equal(short.distance_km, full.distance_km[:first + 1])
+    np.testing.assert_array_equal(short.harmonics, full.harmonics[:first + 1])
+    assert short.visible_km == full.visible_km and short.settings["until_visible"]

@@ -435,22 +435,15 @@ class FleetEvaluator:
     def _wear(self, params) -> tuple[float, float, str] | CarOutcome:
         """(distance [km] at which the polygon becomes visible, inf if not within ``wear_km``;
         its order: the dominant order where it first is visible, else at the end; "") by the
-        nonlinear evolution on the usage cycle; (nan, nan, why) where it stopped at the step
-        budget (:func:`wear_step_budget`); or the failure."""
-        from ..wear.evolution import wear_evolution
+        nonlinear evolution on the usage cycle, stopped once the polygon is visible; (nan, nan,
+        why) where it stopped at the step budget (:func:`wear_step_budget`); or the failure."""
+        from ..wear.evolution import EvolutionSettings, StepBudgetError, wear_evolution
 
-        budget = wear_step_budget(self.wear_km, self.wear_max_steps)
-        steps = [0]
-
-        def count(done: float, total: float | None, message: str = "") -> None:
-            steps[0] += 1
-            if steps[0] >= budget and done < self.wear_km * (1.0 - 1e-12):
-                raise _OverBudget(f"over the budget of {budget} distance steps at {done:,.0f} of {self.wear_km:,.0f} km")
-
+        settings = EvolutionSettings(max_steps=self.wear_max_steps, until_visible=True)
         try:
-            worn = wear_evolution(params, self.wear_km, self.usage_cycle, progress=count)
-        except _OverBudget as exc:
-            return np.nan, np.nan, str(exc)
+            worn = wear_evolution(params, self.wear_km, self.usage_cycle, settings=settings)
+        except StepBudgetError as exc:
+            return np.nan, np.nan, f"over the budget of {exc.budget} distance steps at {exc.done_km:,.0f} of {self.wear_km:,.0f} km"
         except SAMPLE_FAILURES as exc:
             return CarOutcome(failure="wear evolution", detail=f"{type(exc).__name__}: {exc}")
         visible = worn.visible_km
@@ -459,16 +452,12 @@ class FleetEvaluator:
         return (math.inf if visible is None else visible), float(order), ""
 
 
-class _OverBudget(Exception):
-    """A car's wear evolution stopped at its step budget (message: where)."""
-
-
 def wear_step_budget(wear_km: float, max_steps: int = WEAR_MAX_STEPS) -> int:
-    """Most distance steps of one car's evolution over ``wear_km`` [km]: ``max_steps`` beyond
-    the fewest the distance takes at the evolution's longest step (``MAX_STEP_FACTOR * step_km``)."""
-    from ..wear.evolution import MAX_STEP_FACTOR, EvolutionSettings
+    """Most distance steps (rejected ones included) of one car's evolution over ``wear_km`` [km]:
+    ``max_steps`` beyond the fewest the distance takes at the evolution's longest step."""
+    from ..wear.evolution import EvolutionSettings, step_budget
 
-    return max_steps + math.ceil(wear_km / (MAX_STEP_FACTOR * EvolutionSettings().step_km))
+    return step_budget(wear_km, EvolutionSettings(max_steps=max_steps))
 
 
 def _spec_hash(params: Params, spec: FleetSpec) -> str:

@@ -65,7 +65,7 @@ from .windows import (LOCK_TOLERANCE, MAX_WINDOW, SETTLED_PHASE, WindowWear, _de
                       _settle_times, coherence, window_wear)
 
 __all__ = ["WindowWear", "window_wear", "EvolutionResult", "EvolutionSettings", "wear_evolution", "initial_roughness",
-           "coherence",
+           "coherence", "StepBudgetError", "step_budget",
            "LOCK_TOLERANCE", "SETTLED_PHASE"]
 
 MAX_CHANGE = 0.3
@@ -328,12 +328,34 @@ class EvolutionSettings:
     deeper within the distance; at the default k_e, writes that change faster than the
     tolerance from window to window). The default settings take 15-40 steps over
     60 000 km on the cars of docs/wear.md."""
+    until_visible: bool = False
+    """Stop at the first step whose depth reaches ``wear.visible_depth_mm`` (the visible
+    distance and the order there are then known; what a fleet's wear risk needs). The
+    steps up to there are those of the whole evolution."""
 
     def __post_init__(self) -> None:
         check_positive(self, "step_km")
         check_count(self, "revolutions", minimum=6)
         check_positive(self, "tolerance")
         check_count(self, "max_steps", minimum=1)
+        if not isinstance(self.until_visible, bool):
+            raise ValueError(f"until_visible = {self.until_visible!r}: must be True or False")
+
+
+class StepBudgetError(NumericalError):
+    """An evolution stopped at its step budget (:func:`step_budget`): ``budget`` [steps] and
+    ``done_km``, the distance it had reached [km]."""
+
+    def __init__(self, message: str, budget: int, done_km: float) -> None:
+        super().__init__(message)
+        self.budget = budget
+        self.done_km = done_km
+
+
+def step_budget(distance_km: float, settings: EvolutionSettings) -> int:
+    """Most distance steps (rejected ones included) of an evolution over ``distance_km`` [km]:
+    ``settings.max_steps`` beyond the fewest the distance takes at the longest step."""
+    return settings.max_steps + math.ceil(distance_km / (MAX_STEP_FACTOR * settings.step_km))
 
 
 def wear_evolution(params: Params, distance_km: float, cycle: Iterable[tuple[float, float]] | None = None,
@@ -438,13 +460,14 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
     h = min(settings.step_km, distance_km)
     longest_step = MAX_STEP_FACTOR * settings.step_km
     wins = window_set(W)
-    budget = settings.max_steps + math.ceil(distance_km / longest_step)
+    budget = step_budget(distance_km, settings)
+    visible_m = params.wear.visible_depth_mm * 1e-3
     while done < distance_km * (1.0 - 1e-12):
         if len(distance) - 1 + rejected >= budget:
-            raise NumericalError(
+            raise StepBudgetError(
                 f"wear evolution: over its budget of {budget} distance steps at {done:,.0f} of {distance_km:,.0f} km "
                 f"(EvolutionSettings.max_steps = {settings.max_steps}): the profile changes too fast for the steps; "
-                + _budget_hint(params))
+                + _budget_hint(params), budget, done)
         h = min(h, distance_km - done)
         saved = ([s.copy() for s in states], [list(s) for s in settles], list(windows), list(linear))
         W_pred, h, n_revs = _predict(W, wins, h, cycle, R)
@@ -470,6 +493,8 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
         h = min(longest_step, h * min(MAX_GROWTH, 0.9 * math.sqrt(tolerance / max(error, 1e-12))))
         if progress is not None:
             progress(done, distance_km, "")
+        if settings.until_visible and peak_to_valley(W, params.wear.profile_points) >= visible_m:
+            break
     distance = np.array(distance)
     steps = np.diff(distance)
     return EvolutionResult(params=params, distance_km=distance, harmonics=np.array(history),
@@ -478,7 +503,8 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
                            settings={"step_km": settings.step_km, "smallest_step_km": float(steps.min()),
                                      "largest_step_km": float(steps.max()), "tolerance": tolerance,
                                      "rejected_steps": rejected, "windows": simulated_windows[0],
-                                     "revolutions": revolutions, "k_e_m3_per_j": k_e})
+                                     "revolutions": revolutions, "k_e_m3_per_j": k_e,
+                                     "until_visible": settings.until_visible})
 
 
 def _budget_hint(params: Params) -> str:
