@@ -22,8 +22,10 @@ rule. Why its own interval: a branch from the lower Hopf point of the second int
 cross the gap below it, turn 2.5 km/h inside the first interval and come back across the
 gap stable, a hard region filling the gap (2 of the first 18 cars of the agreement run,
 when the branches stopped in any interval). The agreement run of
-``benchmarks/bench_fleet.py edges`` is the rule's proof on cars (docs/fleet.md, "Cars the
-fast path cannot label").
+``benchmarks/bench_fleet.py edges`` is the rule's check on cars (docs/fleet.md, "Cars the
+fast path cannot label"). It is not exact: a cascade branch can come back to an end of its
+interval from deep inside it (1 car in the first 85 there: a window of 0.078 km/h below the
+first Hopf point missed, the band's width off by as much, both bifurcation speeds right).
 
 Cost: the stretches a study needs are the branches' ends outside ``O`` (the hard
 regions, windows next to folds) and the excursions; the cascades inside ``O`` are skipped.
