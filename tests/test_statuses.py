@@ -20,7 +20,8 @@ from polywear.wear.design import Judge
 # the strings each status had before it was an enum
 OLD_STRINGS = {
     Regime: {"period-multiplied SEV (stick-slip)", "SEV on a cycle off the continued branches",
-             "quasi-periodic or chaotic SEV", "static divergence", "no SEV"},
+             "quasi-periodic or chaotic SEV", "static divergence", "no SEV",
+             "unstable rolling (soft SEV)", "hard SEV region"},  # the last two: the report's operating verdict
     SteadyOutcome: {"equilibrium", "cycle", "transient"},
     Criticality: {"soft", "hard"},
     DesignOutcome: {"", "the band vanishes", "the band moves above the range", "the band moves below the range",

@@ -45,8 +45,14 @@ __all__ = ["Attractor", "Regime", "reached_attractors", "dominant_frequency"]
 
 
 class Regime(StrEnum):
-    """The motion a simulation settled on (the value is the text of reports and JSON; the module says when)."""
+    """The motion at one speed (the value is the text of reports and JSON; the module says
+    when): one a simulation settled on, or, in the report's operating verdict, a stable
+    cycle of the continuation (``SOFT``, ``HARD``)."""
 
+    SOFT = "unstable rolling (soft SEV)"
+    """A stable cycle of the continuation where steady rolling is unstable."""
+    HARD = "hard SEV region"
+    """A stable cycle of the continuation beside stable steady rolling (a disturbance starts it)."""
     PERIOD_MULTIPLIED = "period-multiplied SEV (stick-slip)"
     OFF_BRANCH_CYCLE = "SEV on a cycle off the continued branches"
     QUASI_PERIODIC = "quasi-periodic or chaotic SEV"

@@ -141,7 +141,7 @@ def operating_verdict(diagram, params: Params, speed_kmh: float) -> dict:
     """
     import numpy as np
 
-    from ..dynamics.attractor import reached_attractors
+    from ..dynamics.attractor import Regime, reached_attractors
     from ..dynamics.bifurcation import statically_divergent
     from ..wear.indicators import wear_indicators
     from ..models import model_for
@@ -170,7 +170,7 @@ def operating_verdict(diagram, params: Params, speed_kmh: float) -> dict:
         verdict["divergence"] = True
     if stable:
         big = stable[-1]
-        verdict["regime"] = "hard SEV region" if rolling_stable else "unstable rolling (soft SEV)"
+        verdict["regime"] = Regime.HARD if rolling_stable else Regime.SOFT
         verdict["sev_amplitude_x_mm"] = 1e3 * float(big.amplitude[x])
         verdict["frequency_hz"] = 1.0 / big.period
         verdict["wear"] = wear_indicators(model, p, big.orbit, params.operating.rolling_radius_m).summary()
@@ -183,7 +183,7 @@ def operating_verdict(diagram, params: Params, speed_kmh: float) -> dict:
             verdict["sev_amplitude_x_mm"] = 1e3 * float(found.amplitude[x])
             verdict["frequency_hz"] = found.dominant_frequency_hz
     else:
-        verdict["regime"] = "no SEV"
+        verdict["regime"] = Regime.NO_SEV
     if unstable and rolling_stable and "sev_amplitude_x_mm" in verdict:
         verdict["trigger_amplitude_x_mm"] = 1e3 * float(min(c.amplitude[x] for c in unstable))
     open_at = diagram.open_edges
