@@ -24,8 +24,8 @@ gap stable, a hard region filling the gap (2 of the first 18 cars of the agreeme
 when the branches stopped in any interval). The agreement run of
 ``benchmarks/bench_fleet.py edges`` is the rule's check on cars (docs/fleet.md, "Cars the
 fast path cannot label"). It is not exact: a cascade branch can come back to an end of its
-interval from deep inside it (1 car in the first 85 there: a window of 0.078 km/h below the
-first Hopf point missed, the band's width off by as much, both bifurcation speeds right).
+interval from deep inside it (2 of 200 cars there: windows of 0.078 and 0.0002 km/h below
+the first Hopf point missed, the band's width off by as much, both bifurcation speeds right).
 
 Cost: the stretches a study needs are the branches' ends outside ``O`` (the hard
 regions, windows next to folds) and the excursions; the cascades inside ``O`` are skipped.
