@@ -18,6 +18,7 @@ section 5:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
@@ -625,7 +626,7 @@ def bifurcation(
     stability_settings: StabilitySettings = StabilitySettings(),
     progress: Progress | None = None,
     extend: bool = True,
-    stop=None,
+    stop: Callable[[StabilityResult], Callable[[Branch], bool]] | None = None,
 ) -> BifurcationDiagram:
     """Continuation of equilibria and of the cycles from every Hopf point in the speed range.
 
