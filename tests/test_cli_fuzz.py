@@ -61,6 +61,10 @@ def _run(args: list[str], note: str = "") -> tuple[int, str, str]:
     import time
 
     def stop(signum, frame):
+        # armed again: a raise that lands where Python only prints it (a garbage-collection
+        # callback, a __del__) is swallowed there; the next one lands in the call
+        signal.setitimer(signal.ITIMER_PROF, 0.05)
+        signal.setitimer(signal.ITIMER_REAL, 0.5)
         raise CallTooSlow(f"over {CALL_CPU_S:g} s CPU or {WALL_PER_CPU * CALL_CPU_S:g} s wall: "
                           f"polywear {' '.join(args)} {note}")
 
