@@ -503,8 +503,8 @@ def fast_linear_band(
     The largest real part ``r(V)`` of the equilibrium eigenvalues is sampled on
     ``n_grid`` speeds; every sign change is refined by Brent's method to ``xtol_ms``
     [m/s]. Where ``r`` has a negative local maximum (or positive local minimum) on the
-    grid, a bounded scalar search decides whether it crosses zero between the grid
-    points, so a band narrower than the grid step is not missed. The ends of an
+    grid (the range ends included), a bounded scalar search decides whether it crosses
+    zero between the grid points, so a band narrower than the grid step is not missed. The ends of an
     interval are Hopf speeds (or, where a real eigenvalue crosses zero, that speed),
     or the range ends where the band reaches them.
     """
@@ -523,17 +523,18 @@ def fast_linear_band(
         return brentq(rate, a, b, xtol=xtol_ms, rtol=4 * np.finfo(float).eps)
 
     crossings = [root(speeds[i], speeds[i + 1]) for i in np.flatnonzero((r[:-1] > 0) != (r[1:] > 0))]
-    for i in range(1, n_grid - 1):
-        window = r[i - 1 : i + 2]
+    for i in range(n_grid):  # the two ends too: a band inside the first or last grid step
+        a, b = max(i - 1, 0), min(i + 1, n_grid - 1)
+        window = r[a : b + 1]
         peak = r[i] >= window.max() and r[i] <= 0.0
         trough = r[i] <= window.min() and r[i] > 0.0
         if not (peak or trough):
             continue
         sign = -1.0 if peak else 1.0
-        best = minimize_scalar(lambda V: sign * rate(V), bounds=(speeds[i - 1], speeds[i + 1]), method="bounded",
+        best = minimize_scalar(lambda V: sign * rate(V), bounds=(speeds[a], speeds[b]), method="bounded",
                                options={"xatol": xtol_ms * 1e3})
         if (rate(best.x) > 0.0) == peak:
-            crossings += [root(speeds[i - 1], best.x), root(best.x, speeds[i + 1])]
+            crossings += [root(speeds[a], best.x), root(best.x, speeds[b])]
     edges = [lo, *sorted(crossings), hi]
     unstable = r[0] > 0.0
     intervals = []
