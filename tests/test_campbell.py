@@ -332,3 +332,23 @@ def test_ramp_correction_with_a_distant_hopf_point_warns(runup):
     assert abs(onset["corrected_speed_kmh"] - model_hopf) > 5.0
     assert "km/h from the ramp-corrected onset" in onset["warning"]
     assert result.observations() == []
+
+
+def test_plot_marks_the_operating_speed_where_the_run_covers_it(runup):
+    """The model's operating speed (part of the prediction) is drawn on the speed axis when
+    the run covers it, and not otherwise."""
+    import dataclasses
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path, _ = runup
+    result = campbell(read_run(path), Params(), predict=False, correct_ramp=False)
+    for speed, drawn in ((float(np.median(result.speeds_kmh)), True), (500.0, False)):
+        fig, ax = plt.subplots()
+        dataclasses.replace(result, prediction={"operating_speed_kmh": speed}).plot(ax)
+        labels = [line.get_label() for line in ax.get_lines()]
+        assert (f"operating speed {speed:g} km/h" in labels) is drawn
+        plt.close(fig)

@@ -164,7 +164,8 @@ class CampbellResult(Result):
 
     def plot(self, ax=None, channel: int = 0, orders: tuple[int, ...] = tuple(range(1, 31))):
         """Frequency against speed in dB, labelled order rays (:func:`~polywear.units.order_rays`:
-        the orders found as features first), Hopf points, SEV band, detected SEV; the
+        the orders found as features first), Hopf points, SEV band, the model's operating
+        speed where the run covers it, detected SEV; the
         frequency axis up to 1.2 times the highest feature or predicted frequency [Hz]
         (the whole map without either)."""
         import matplotlib.pyplot as plt
@@ -193,6 +194,9 @@ class CampbellResult(Result):
         if wear:
             ax.plot([w["speed_kmh"] for w in wear], [w["frequency_hz"] for w in wear], "o", mfc="none",
                     color="tab:olive", ms=4, label="wear map: fastest-growing order")
+        operating = self.prediction.get("operating_speed_kmh")
+        if operating is not None and self.speeds_kmh.min() <= operating <= self.speeds_kmh.max():
+            ax.axvline(operating, color="w", ls="-.", lw=1.2, label=f"operating speed {operating:g} km/h")
         if self.sev and self.sev.get("onset"):
             on = self.sev["onset"]
             ax.axvline(on["speed_kmh"], color="tab:green", ls="--", label="detected SEV onset")
@@ -210,13 +214,15 @@ class CampbellResult(Result):
 
 def _prediction(params: Params, speed_range, run_speeds_kmh) -> dict:
     """Hopf points and SEV band of the model; where steady rolling is stable, the wear
-    map's fastest-growing polygon order at 25 speeds of the run (its frequency n V/(2 pi R))."""
+    map's fastest-growing polygon order at 25 speeds of the run (its frequency n V/(2 pi R));
+    the model's operating speed [km/h]."""
     from ..dynamics.bifurcation import bifurcation
     from ..wear.map import wear_map
 
     diagram = bifurcation(params, speed_range)
     wear = wear_map(params, np.linspace(run_speeds_kmh.min(), run_speeds_kmh.max(), 25))
     return {
+        "operating_speed_kmh": params.operating.speed_kmh,
         "hopf_points": [h.summary() for h in diagram.hopf_points],
         "sev_band_kmh": [list(b) for b in diagram.sev_band_kmh],
         "linear_band_kmh": [list(b) for b in getattr(diagram, "linear_band_kmh", [])],
