@@ -35,3 +35,11 @@ def routh_hurwitz_hopf_speeds(p, lo, hi, n=2000):
         if a1 / a3 > 0.0:
             roots.append(root)
     return roots
+
+
+def complex_step_jacobian(model, u, V, p, h=1e-30):
+    """Jacobian d f / d u and speed derivative d f / d V of ``model.f`` at ``(u, V, p)`` by
+    complex steps (exact to round-off for a real-analytic right-hand side)."""
+    pc = np.asarray(p).astype(complex)
+    jac = np.array([model.f(u + 1j * h * e, V, pc).imag / h for e in np.eye(model.n)]).T
+    return jac, model.f(u + 0j, V + 1j * h, pc).imag / h
