@@ -74,7 +74,7 @@ from ..solvers.continuation import (BranchPoint, ContinuationSettings, cycle_alo
 from ..dynamics.points import PointKind
 from .sampling import SAMPLE_FAILURES, sample_params
 
-__all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "band_from_diagram", "band_reference",
+__all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "TopFold", "band_from_diagram", "band_reference",
            "Pilot", "pilot_indices", "pilot_references", "pilot_size", "pilot_stage"]
 
 
@@ -279,6 +279,11 @@ class BandReference:
     """Why the reference cannot serve the fast path ("" if it can)."""
     speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH
     """The range of the reference's diagram [km/h]."""
+    top_fold: int | None = None
+    """Index of the fold that ends the SEV band above the last Hopf point, a hard one (the
+    last hard region runs from that point to the fold), or None: what :meth:`FastBand.top_fold`
+    follows; set on unusable references too (a period doubling below it changes nothing
+    there), not where a branch failed or a real eigenvalue crosses."""
 
     def band_speed(self, label) -> float:
         """Speed [km/h] of a label: ("H", k) Hopf point, ("F", j) fold, ("lo"|"hi", 0) range end."""
@@ -362,7 +367,23 @@ def band_reference(diagram, amplitude_speeds_kmh=()) -> BandReference:
         cycles=tuple(cycles),
         unusable=unusable,
         speed_range_kmh=tuple(diagram.speed_range_kmh),
+        top_fold=_top_fold_index(diagram, band),
     )
+
+
+def _top_fold_index(diagram, band: Band) -> int | None:
+    """Index of the fold that ends ``band`` (of ``diagram``) above its last Hopf point, a hard
+    one, with the last hard region from that point to the fold; None if there is none, a
+    branch failed or a real eigenvalue crosses."""
+    if (not band.hopf_kmh or band.hopf_criticality[-1] != "hard" or not band.hard_regions_kmh
+            or diagram.stability.real_crossings_kmh or any(info["failed"] for info in diagram.branch_info)):
+        return None
+    top = band.sev_band_kmh[-1][1]
+    j = next((k for k, v in enumerate(band.folds_kmh) if abs(v - top) <= LABEL_TOL_KMH), None)
+    a, b = band.hard_regions_kmh[-1]
+    if j is None or abs(a - band.hopf_kmh[-1]) > LABEL_TOL_KMH or abs(b - top) > LABEL_TOL_KMH:
+        return None
+    return j
 
 
 # -- several references: a deterministic pilot stage -------------------------------------------------
@@ -479,6 +500,17 @@ class Fallback:
     detail: str = ""
 
 
+@dataclass(frozen=True)
+class TopFold:
+    """The top of a SEV band from :meth:`FastBand.top_fold`: the last Hopf point (hard) and
+    the fold above it where the stable cycles of the last hard region end [km/h], and the
+    fold's tread amplitude [m]."""
+
+    hopf_kmh: float
+    fold_kmh: float
+    amplitude_x_m: float
+
+
 class _Fallback(Exception):
     """The fast path does not apply to this sample (``reason``; the message says more)."""
 
@@ -577,6 +609,45 @@ class FastBand:
             return self._fast(model, params, p, ref, stab)
         except _Fallback as exc:
             return exc.fallback
+
+    def top_fold(self, params: Params) -> TopFold | Fallback:
+        """The fold that ends the SEV band of ``params`` above its last Hopf point, a hard one,
+        followed in the parameters from the nearest reference that has such a fold
+        (:attr:`BandReference.top_fold`, any Hopf signature, usable or not), as the fast
+        path follows folds; or why not (no such Hopf point or reference, the fold not
+        followed, its amplitude below ``min_fold_amplitude`` of the reference's, or not
+        between that Hopf point and the range's upper end)."""
+        from ..dynamics.stability import StabilitySettings, stability
+
+        model = model_for(params)
+        p = model.pack(params)
+        try:
+            stab = stability(params, self.speed_range_kmh, StabilitySettings(n_speeds=self.n_grid))
+        except RuntimeError as exc:
+            return Fallback(FallbackReason.STABILITY_FAILED, f"stability: {exc}")
+        if stab.real_crossings_kmh:
+            return Fallback(FallbackReason.REAL_CROSSING, "real eigenvalue crossing")
+        if not stab.hopf_points or stab.hopf_points[-1].criticality != "hard":
+            return Fallback(FallbackReason.HOPF_SIGNATURE, "the last Hopf point is not a hard one")
+        refs = [r for r in self.references if r.p.shape == p.shape and r.top_fold is not None]
+        if not refs:
+            return Fallback(FallbackReason.NO_REFERENCE, "no reference with a fold above a hard last Hopf point")
+        ref = min(refs, key=lambda r: float(np.sum((_difference(p, r.p) / (np.abs(r.p) + 1e-12)) ** 2)))
+        j = ref.top_fold
+        try:
+            point = self._fold(model, p, ref, j)
+        except _Fallback as exc:
+            return exc.fallback
+        amplitude = float(point.orbit.amplitude()[model.index("x")])
+        if amplitude < self.min_fold_amplitude * ref.band.fold_amplitude_x_m[j]:
+            return Fallback(FallbackReason.FOLD_AMPLITUDE, f"top fold: amplitude {amplitude:.3g} m, below "
+                            f"{self.min_fold_amplitude} of the reference's")
+        hopf, fold = stab.hopf_points[-1].speed_kmh, ms_to_kmh(point.orbit.speed)
+        if not hopf < fold < self.speed_range_kmh[1]:
+            return Fallback(FallbackReason.ORDER_CHANGED if fold <= hopf else FallbackReason.FOLD_OUT_OF_RANGE,
+                            f"top fold at {fold:.2f} km/h, not between the last Hopf point ({hopf:.2f} km/h) "
+                            f"and {self.speed_range_kmh[1]:g} km/h")
+        return TopFold(hopf, fold, amplitude)
 
     def usage_verdict(self, params: Params, speeds_kmh) -> tuple | None:
         """From the Hopf points alone: (SEV band holds a usage speed, a hard region holds one,

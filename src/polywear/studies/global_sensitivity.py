@@ -56,7 +56,8 @@ from ..params import (
 from ..parallel import Executor
 from ..progress import Progress
 from ..results import Result, with_deprecated_keys
-from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH
+from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH, ms_to_kmh
+from ..dynamics.intervals import union
 from ..dynamics.stability import fast_linear_band
 from .sampling import SAMPLE_FAILURES, sample_params
 
@@ -113,6 +114,10 @@ class SampleOutcome:
     ``max_amplitude_mm`` is NaN (the cycles inside the linear band were not all computed)."""
     gap_after_pd_ns: bool = False
     """The band has a gap after a PD/NS point with rolling stable (undecided, not counted in the width)."""
+    top_fold: bool = False
+    """Edges only, with the band's top from the fold above the last Hopf point followed in the
+    parameters (:meth:`~polywear.studies.fast_band.FastBand.top_fold`) instead of that Hopf
+    point's branch."""
 
     def __str__(self) -> str:
         """``"status: detail"`` (the status alone without a detail), as recorded per sample."""
@@ -227,6 +232,48 @@ def _fast_outputs(band, speed_range_kmh, operating_range_kmh):
 
 
 @dataclass(frozen=True)
+class WithoutBranchFrom:
+    """Stop criterion of the branches (``bifurcation(stop=...)``): ``inner``'s, and the branch
+    from the Hopf point nearest to ``hopf_kmh`` [km/h] stopped at its first point (the edge
+    it would decide is known otherwise: :meth:`~polywear.studies.fast_band.FastBand.top_fold`)."""
+
+    hopf_kmh: float
+    inner: object
+    """The stop criterion of the other branches (e.g. :class:`~polywear.studies.edges.BranchStop`)."""
+
+    def __call__(self, stab):
+        inner = self.inner(stab)
+        speeds = [h.speed_kmh for h in stab.hopf_points]
+        nearest = lambda v: min(range(len(speeds)), key=lambda k: abs(speeds[k] - v))
+        skipped = nearest(self.hopf_kmh) if speeds else None
+
+        def stop(branch) -> bool:
+            return nearest(ms_to_kmh(branch.points[0].orbit.speed)) == skipped or inner(branch)
+
+        return stop
+
+
+def edges_band(params: Params, speed_range_kmh=DEFAULT_SPEED_RANGE_KMH, fast=None):
+    """The SEV band [km/h] of ``params`` by the edges-only continuation, and the diagram and
+    :class:`~polywear.studies.fast_band.TopFold` it came from: with ``fast`` (a
+    :class:`~polywear.studies.fast_band.FastBand`) the band's top is the fold above a hard
+    last Hopf point followed in the parameters where that succeeds (then that Hopf point's
+    branch is not continued, and the last hard region runs from it to the fold), else
+    (TopFold None) :func:`~polywear.studies.edges.edges_diagram`'s band."""
+    from ..dynamics.bifurcation import bifurcation
+    from .edges import BranchStop, edges_diagram
+    from .fast_band import TopFold
+
+    top = None if fast is None else fast.top_fold(params)
+    if not isinstance(top, TopFold):
+        diagram = edges_diagram(params, speed_range_kmh)
+        return diagram.sev_band_kmh, diagram, None
+    diagram = bifurcation(params, speed_range_kmh, stop=WithoutBranchFrom(top.hopf_kmh, BranchStop()))
+    hopf = min((h.speed_kmh for h in diagram.hopf_points), key=lambda v: abs(v - top.hopf_kmh))
+    return union([*diagram.sev_band_kmh, (hopf, top.fold_kmh)], gap=1e-9), diagram, top
+
+
+@dataclass(frozen=True)
 class StudyEvaluator:
     """The study's outputs for one sample: picklable, deterministic (a task of any backend)."""
 
@@ -241,6 +288,10 @@ class StudyEvaluator:
     edges_only: bool = False
     """Where the fast path does not apply, continue the branches only as far as the SEV
     band's edges need (:func:`~polywear.studies.edges.edges_diagram`; ``max_amplitude_mm`` NaN)."""
+    top_fold: bool = False
+    """With ``edges_only``: where the last Hopf point is hard and a reference has the fold
+    above it, that fold followed in the parameters (:meth:`~polywear.studies.fast_band.FastBand.top_fold`)
+    is the band's top, and the branch from that Hopf point is not continued."""
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -262,34 +313,33 @@ class StudyEvaluator:
 
     def _bifurcation(self, params):
         from ..dynamics.bifurcation import bifurcation
+        from .edges import pd_ns_edges_kmh
+        from .fast_band import Band
 
         if self.fast is not None:
-            from .fast_band import Band
-
             band = self.fast.try_fast(params)
             if isinstance(band, Band):
                 return _fast_outputs(band, self.speed_range_kmh, self.operating_range_kmh)
 
-        from .edges import edges_diagram, pd_ns_edges_kmh
-
         if self.edges_only:
-            diagram = edges_diagram(params, self.speed_range_kmh)
+            sev, diagram, top = edges_band(params, self.speed_range_kmh, self.fast if self.top_fold else None)
         else:
-            diagram = bifurcation(params, self.speed_range_kmh)
+            diagram, top = bifurcation(params, self.speed_range_kmh), None
+            sev = diagram.sev_band_kmh
         for info in diagram.branch_info:
             if info["failed"]:
                 return (np.nan,) * 4, SampleOutcome(
                     SampleStatus.FAILED, f"continuation from {info['from_hopf_kmh']:.2f} km/h: {info['end_reason']}",
-                    edges_only=self.edges_only)
-        band, outcome = _band_outputs(diagram.sev_band_kmh, diagram.speed_range_kmh)  # the range as widened
-        undecided = pd_ns_edges_kmh(diagram)
+                    edges_only=self.edges_only, top_fold=top is not None)
+        band, outcome = _band_outputs(sev, diagram.speed_range_kmh)  # the range as widened
+        undecided = [v for v in pd_ns_edges_kmh(diagram) if sev and v in (sev[0][0], sev[-1][1])]
         if undecided:
             first, last, _ = band
             band = tuple(np.nan if v in undecided else v for v in (first, last)) + (np.nan,)
             outcome = SampleOutcome(SampleStatus.UNDECIDED, "at " + ", ".join(f"{v:.3f}" for v in undecided)
                                     + " km/h")
         amplitude = np.nan if self.edges_only else max_stable_amplitude(diagram, self.operating_range_kmh) * 1e3
-        return (*band, amplitude), replace(outcome, edges_only=self.edges_only,
+        return (*band, amplitude), replace(outcome, edges_only=self.edges_only, top_fold=top is not None,
                                            gap_after_pd_ns=bool(diagram.gaps_after_pd_ns_kmh))
 
 
@@ -500,6 +550,7 @@ def study(
     progress: Progress | None = None,
     fast_band: bool = True,
     edges_only: bool = True,
+    top_fold: bool = True,
 ) -> GlobalSensitivityResult:
     """Run ``study`` around ``params`` on an executor (:class:`polywear.parallel.Executor`).
 
@@ -539,6 +590,11 @@ def study(
         Hopf points); those samples have ``max_amplitude_mm`` NaN (counted in ``settings``
         as ``edges_only_samples``), so the amplitude's indices come from the other blocks.
         False: the whole diagram (amplitudes too).
+    top_fold : bool
+        With ``edges_only``: where the last Hopf point is hard, the fold above it followed in
+        the parameters from the nearest reference that has one
+        (:meth:`~polywear.studies.fast_band.FastBand.top_fold`) instead of that point's
+        branch (counted in ``settings`` as ``top_fold_samples``).
 
     Returns
     -------
@@ -568,7 +624,7 @@ def study(
         fast = FastBand(pilot.references, tuple(study.speed_range_kmh), tuple(study.operating_range_kmh))
     evaluator = StudyEvaluator(
         params, tuple(problem["names"]), study.outputs, study.speed_range_kmh, study.operating_range_kmh, fast,
-        edges_only=fast is not None and edges_only,
+        edges_only=fast is not None and edges_only, top_fold=top_fold,
     )
     results = executor.map(evaluator, list(X), progress)
     Y = np.array([r[0] for r in results], dtype=float)
@@ -608,6 +664,7 @@ def study(
         settings={**settings, "backend": executor.backend, "seed": study.seed, "n_base": study.n_base,
                   "fast_band_samples": n_fast,
                   "edges_only_samples": sum(r[1].edges_only for r in results),
+                  "top_fold_samples": sum(r[1].top_fold for r in results),
                   "gap_after_pd_ns_samples": sum(r[1].gap_after_pd_ns for r in results),
                   "speed_range_kmh": list(study.speed_range_kmh),
                   "operating_range_kmh": list(study.operating_range_kmh)},
