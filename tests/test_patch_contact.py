@@ -50,9 +50,9 @@ def test_point_contact_is_the_papers_model_itself():
     assert model_for(Params().with_updates({"model": "axle4dof"})) is get_model("axle4dof")
 
 
-def test_patch_refused_where_not_implemented():
-    with pytest.raises(ParameterError, match="friction.contact = 'patch'.*'tread1dof' only"):
-        Params().with_updates({"model": "axle4dof", **PATCH})
+def test_patch_on_axle4dof_is_its_own_model():
+    """axle4dof with the patch (docs/patch_contact.md section 6; tests/test_axle4dof_patch.py)."""
+    assert model_for(Params().with_updates({"model": "axle4dof", **PATCH})).name == "axle4dof+patch"
 
 
 @pytest.mark.parametrize("value", [1, 401, 2.5])

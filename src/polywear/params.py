@@ -131,7 +131,7 @@ class Friction(_Table):
     contact: Literal["point", "patch"] = Field(
         default="point",
         description='"point": one tread element under the whole load (the paper); "patch": '
-        "patch_elements tread elements travelling through the contact patch (tread1dof)",
+        "patch_elements tread elements travelling through the contact patch",
     )
     patch_elements: int = Field(
         default=40, description="tread elements M along the contact patch (contact = patch) [-]", ge=2, le=400
@@ -462,14 +462,6 @@ class Params(_Table):
     axle: Axle = Axle()
     tire: Tire = Tire()
     wear: Wear = Wear()
-
-    @model_validator(mode="after")
-    def _patch_on_tread1dof(self) -> Params:
-        if self.friction.contact == "patch" and self.model != "tread1dof":
-            raise ParameterError(
-                f"friction.contact = 'patch': implemented for model = 'tread1dof' only, not {self.model!r}"
-            )
-        return self
 
     def with_updates(self, updates: dict[str, Any]) -> Params:
         """A new parameter set with ``{"table.key": value}`` updates, validated again.

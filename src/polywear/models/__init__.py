@@ -23,16 +23,24 @@ def get_model(name: str):
 def model_for(params):
     """The model a parameter set asks for: ``params.model`` with its contact
     (``friction.contact``: "point", the paper's, is ``get_model(params.model)`` itself;
-    "patch" is the distributed contact of :mod:`polywear.models.patch`, tread1dof only)."""
+    "patch" is the distributed contact: :mod:`polywear.models.patch` on tread1dof,
+    :mod:`polywear.models.axle4dof_patch` on axle4dof)."""
     friction = params.friction
     if friction.contact == "point":
         return get_model(params.model)
+    if params.model == "axle4dof":
+        from .axle4dof_patch import axle4dof_patch_model
+
+        return axle4dof_patch_model(friction.patch_elements, friction.patch_pressure)
     from .patch import patch_model
 
     return patch_model(friction.patch_elements, friction.patch_pressure)
 
 
-_SUBMODULES = ("base", "patch", "tread1dof", "axle4dof", "axle4dof_kernels", "axle4dof_derivation", "kernels", "profile", "pure")
+_SUBMODULES = (
+    "base", "patch", "tread1dof", "axle4dof", "axle4dof_kernels", "axle4dof_derivation",
+    "axle4dof_patch", "axle4dof_patch_kernels", "kernels", "profile", "pure",
+)  # fmt: skip
 
 
 def __getattr__(name: str) -> object:

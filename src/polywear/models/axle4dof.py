@@ -110,22 +110,29 @@ def equilibrium(V, p):
     _kernels.running_equilibrium(float(V), p, u)
     if p[_REFERENCE] == 0.0:
         return u
+    return relax_preload(MODEL, u, V, p)
+
+
+def relax_preload(model, u, V, p):
+    """The unloaded-reference equilibrium of ``model`` (``axle4dof`` with either contact)
+    connected to its running one ``u``: Newton steps along the preload blend r from 0 to 1
+    (see :func:`equilibrium`)."""
     q = np.array(p, dtype=float)
     q[_REFERENCE] = 1.0
-    f1 = MODEL.f(u, V, q)
+    f1 = model.f(u, V, q)
     q[_REFERENCE] = 0.0
-    df_dr = f1 - MODEL.f(u, V, q)  # the preload, hence f, is linear in r: exact
+    df_dr = f1 - model.f(u, V, q)  # the preload, hence f, is linear in r: exact
     r, dr = 0.0, 0.1
     while r < 1.0:
         r_new = min(1.0, r + dr)
         q[_REFERENCE] = r
-        predicted = u - (r_new - r) * np.linalg.solve(MODEL.jacobian(u, V, q), df_dr)
+        predicted = u - (r_new - r) * np.linalg.solve(model.jacobian(u, V, q), df_dr)
         q[_REFERENCE] = r_new
-        corrected = _newton(predicted, V, q)
+        corrected = _newton(model, predicted, V, q)
         # accept only a small correction of the sliding velocity against its predicted change:
         # no jump across the |v_r| kink onto another (e.g. sticking) equilibrium
         if corrected is not None:
-            v0, vp, vc = (MODEL.diagnostics(w, V, q)[0] for w in (u, predicted, corrected))
+            v0, vp, vc = (model.diagnostics(w, V, q)[0] for w in (u, predicted, corrected))
             jump = abs(vc - vp)
             if np.sign(vc) == np.sign(v0) and jump <= 0.2 * abs(vp - v0) + 1e-12 and jump <= 0.1 * abs(vc):
                 u, r = corrected, r_new
@@ -134,16 +141,16 @@ def equilibrium(V, p):
         dr *= 0.5
         if dr < 1e-6:
             raise NumericalError(
-                f"axle4dof: no unloaded-reference equilibrium connected to the running state at "
+                f"{model.name}: no unloaded-reference equilibrium connected to the running state at "
                 f"V = {ms_to_kmh(V):.3f} km/h (the preload homotopy stalled at r = {r:.6f})"
             )
     return u
 
 
-def _newton(u, V, p, max_iter=20):
+def _newton(model, u, V, p, max_iter=20):
     """Newton from ``u``: the converged state, or None."""
     for _ in range(max_iter):
-        step = np.linalg.solve(MODEL.jacobian(u, V, p), MODEL.f(u, V, p))
+        step = np.linalg.solve(model.jacobian(u, V, p), model.f(u, V, p))
         if not np.all(np.isfinite(step)):
             return None
         u = u - step
