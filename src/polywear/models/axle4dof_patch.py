@@ -20,7 +20,7 @@ from ._axle4dof_generated import _PRELOAD_SPEED, _REFERENCE
 from .axle4dof import SLOTS as POINT_SLOTS
 from .axle4dof import relax_preload, running_alignment
 from .base import Model, ParamSlot
-from .patch import M_MAX, M_MIN, _share_slot, load_shares
+from .patch import M_MAX, _share_slot, load_shares
 from ..errors import NumericalError
 from ..units import ms_to_kmh
 
@@ -76,9 +76,11 @@ def _state_names(elements: int) -> tuple[str, ...]:
 @lru_cache(maxsize=None)
 def axle4dof_patch_model(elements: int, pressure: str) -> Model:
     """``axle4dof`` with a patch of ``elements`` tread elements under the ``pressure``
-    distribution ("parabolic" or "uniform")."""
-    if not M_MIN <= elements <= M_MAX:
-        raise ValueError(f"patch elements = {elements!r}: must be {M_MIN} to {M_MAX}")
+    distribution ("parabolic" or "uniform"). One element (below ``friction.patch_elements``'
+    bounds) sits at the centre of the patch: with no transport (an infinitely long patch)
+    it is the point contact (docs/patch_contact.md section 6)."""
+    if not 1 <= elements <= M_MAX:
+        raise ValueError(f"patch elements = {elements!r}: must be 1 to {M_MAX}")
     load_shares(pressure, elements)
     slots = (
         *POINT_SLOTS,
