@@ -4,7 +4,9 @@ Oracles: complex-step derivatives (Jacobian, df/dV, and d/dp through the running
 against central differences); the point-contact axle4dof, which one element at the
 centre of a patch with no transport is (the difference must vanish as 1/L); the
 tread1dof patch, whose steady force the running reference must reproduce (the carrier at
-rest); the flow map of a time integration without Jacobian, against exp(J T).
+rest); the flow map of a time integration without Jacobian, against exp(J T); with a
+worn profile, the load at an independent sum of the harmonics, complex steps, and the
+linear wear map against a brute-force time simulation.
 """
 
 from __future__ import annotations
@@ -17,8 +19,12 @@ from scipy.linalg import expm
 from polywear.models import axle4dof, get_model, model_for
 from polywear.models.axle4dof_patch import axle4dof_patch_model
 from polywear.models.axle4dof_patch_kernels import LEN
+from polywear.models.profile import coupled_model, patch_sinc, profile_vector
 from polywear.params import Params
+from polywear.solvers.integrate import integrate
 from polywear.units import kmh_to_ms
+from polywear.wear.law import friction_power, written_harmonics
+from polywear.wear.map import load_to_power, wear_map
 
 from .oracles import complex_step_jacobian
 
@@ -152,3 +158,71 @@ def test_flow_map_of_a_simulation_matches_the_linearization():
     mu = np.log(np.linalg.eigvals(phi).astype(complex)) / T
     for target in sorted(lam, key=lambda z: -z.real)[:4]:
         assert np.min(np.abs(mu - target)) < 1e-6 * abs(target)
+
+
+# -- the worn profile (models/profile.py) ---------------------------------------------------
+
+
+def _coupled(elements=6, V=30.0, **updates):
+    params, model, p = _setup(elements, **GEOMETRY, **updates)
+    return params, model, model.prepared(V, p), coupled_model(model), V
+
+
+def test_zero_profile_is_the_model_bit_for_bit():
+    params, model, q, coupled, V = _coupled()
+    pz = profile_vector(model, params, V, np.zeros(4), np.zeros(4))
+    u = model.equilibrium(V, q)
+    for x in (u, u * 1.01 + 1e-6):
+        uz = np.append(x, 0.7)
+        assert np.array_equal(coupled.f(uz, V, pz)[:-1], model.f(x, V, q))
+        assert np.array_equal(coupled.jacobian(uz, V, pz)[:-1, :-1], model.jacobian(x, V, q))
+        assert np.array_equal(coupled.diagnostics(uz, V, pz), model.diagnostics(x, V, q))
+
+
+def test_worn_profile_changes_the_load_and_its_derivatives_are_exact():
+    """The coupled rhs is the model's at N0 - k_z w_c - c_z dw_c/dt (the preloads stay the
+    nominal ones: the prepared vector); Jacobian and df/dV against complex steps."""
+    params, model, q, coupled, V = _coupled()
+    R = params.operating.rolling_radius_m
+    k_z, c_z = params.tire.vertical_stiffness_n_per_m, params.tire.vertical_damping_ns_per_m
+    a, b = np.array([3e-5, -1e-5, 2e-5]), np.array([1e-5, 2e-5, -2e-5])
+    pw = profile_vector(model, params, V, a, b)
+    n = np.arange(1, 4)
+    u = np.append(model.equilibrium(V, q) * 1.01, 1.1)
+    w_c = np.sum(a * np.cos(n * 1.1) + b * np.sin(n * 1.1))
+    dw_c = np.sum(n * (b * np.cos(n * 1.1) - a * np.sin(n * 1.1))) * V / R
+    loaded = q.copy()
+    loaded[model.param_names.index("N0")] -= k_z * w_c + c_z * dw_c
+    np.testing.assert_allclose(coupled.f(u, V, pw)[:-1], model.f(u[:-1], V, loaded), rtol=1e-12, atol=1e-12)
+    jac, dfdv = complex_step_jacobian(coupled, u, V, pw)
+    assert np.abs(coupled.jacobian(u, V, pw) - jac).max() <= 1e-9 * np.abs(jac).max()
+    assert np.any(jac[:-1, -1] != 0.0)
+
+
+def test_wear_map_agrees_with_brute_force_simulation():
+    """The map's per-revolution change of the fastest order at 40 km/h against a time
+    simulation of the coupled model with a worn harmonic of 1 um (as tests/test_patch_wear.py
+    does for tread1dof): the written harmonic over two revolutions after the transient."""
+    params = Params().with_updates({**AXLE_PATCH, "friction.patch_elements": 6})
+    m = wear_map(params, [40.0])
+    k = int(m.most_unstable()[0])
+    order = int(m.orders[k])
+    model = model_for(params)
+    coupled = coupled_model(model)
+    V, R = 40.0 / 3.6, params.operating.rolling_radius_m
+    u0, A, *_ = load_to_power(model, model.pack(params), V)
+    decay = -np.max(np.linalg.eigvals(A).real)
+    cos_coef = np.zeros(order)
+    cos_coef[-1] = patch_sinc([order], params.tire.contact_length_m, R)[0] * 1e-6
+    p = profile_vector(model, params, V, cos_coef, np.zeros(order))
+    T = 2 * np.pi * R / V
+    settle = np.ceil(14.0 / decay / T) * T
+    run = integrate(coupled, np.append(u0, 0.0), V, p, settle + 2 * T, rtol=1e-10, atol=1e-14, dense_from=settle)
+    t = settle + np.arange(2 * 64 * order + 1) * (T / (64 * order))
+    u = run.dense(t)
+    dW, _ = written_harmonics(t, friction_power(coupled, u, V, p), u[:, -1], [order], params)
+    sim = dW[0] / 2 / 1e-6
+    change = m.relative_change[0, k]
+    assert sim.real == pytest.approx(change.real, rel=1e-4)
+    assert sim.imag == pytest.approx(change.imag, rel=1e-4)
+    assert change.real > 0.0

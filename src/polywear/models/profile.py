@@ -50,6 +50,7 @@ import numpy as np
 from numba import njit
 
 from . import axle4dof_kernels as _axle
+from . import axle4dof_patch_kernels as _axle_patch
 from . import patch as _patch
 from . import tread1dof as _tread
 from .base import Model
@@ -63,7 +64,9 @@ _FLAG, _IN0, _R, _KZ, _CZ, _NH, _NT = range(7)
 _HEAD = 7
 _CSTEP = 1e-20
 """Complex step [N] for the load derivative of the base rhs (exact to rounding)."""
-_FLAGS = {"tread1dof": 0, "axle4dof": 1, "tread1dof+patch": 2}
+_FLAGS = {"tread1dof": 0, "axle4dof": 1, "tread1dof+patch": 2, "axle4dof+patch": 3}
+_AXLE_FLAGS = (1, 3)
+"""Models whose kernels clamp the load themselves (the load there includes the axle's motion)."""
 
 
 def patch_sinc(orders, contact_length_m: float, radius_m: float) -> np.ndarray:
@@ -87,8 +90,10 @@ def _base_rhs(flag, u, V, p, out):
         _tread.rhs(u, V, p, out)
     elif flag == 1:
         _axle.rhs(u, V, p, out)
-    else:
+    elif flag == 2:
         _patch.rhs(u, V, p, out)
+    else:
+        _axle_patch.rhs(u, V, p, out)
 
 
 @njit(cache=True, error_model="numpy")
@@ -97,8 +102,10 @@ def _base_jac(flag, u, V, p, out):
         _tread.jac(u, V, p, out)
     elif flag == 1:
         _axle.jac(u, V, p, out)
-    else:
+    elif flag == 2:
         _patch.jac(u, V, p, out)
+    else:
+        _axle_patch.jac(u, V, p, out)
 
 
 @njit(cache=True, error_model="numpy")
@@ -107,8 +114,10 @@ def _base_dfdv(flag, u, V, p, out):
         _tread.dfdv(u, V, p, out)
     elif flag == 1:
         _axle.dfdv(u, V, p, out)
-    else:
+    elif flag == 2:
         _patch.dfdv(u, V, p, out)
+    else:
+        _axle_patch.dfdv(u, V, p, out)
 
 
 @njit(cache=True, error_model="numpy")
@@ -117,8 +126,10 @@ def _base_rhs_jac_dfdv(flag, u, V, p, f, J, fv):
         _tread.rhs_jac_dfdv(u, V, p, f, J, fv)
     elif flag == 1:
         _axle.rhs_jac_dfdv(u, V, p, f, J, fv)
-    else:
+    elif flag == 2:
         _patch.rhs_jac_dfdv(u, V, p, f, J, fv)
+    else:
+        _axle_patch.rhs_jac_dfdv(u, V, p, f, J, fv)
 
 
 @njit(cache=True, error_model="numpy")
@@ -127,8 +138,10 @@ def _base_aux(flag, u, V, p, out):
         _tread.aux(u, V, p, out)
     elif flag == 1:
         _axle.aux(u, V, p, out)
-    else:
+    elif flag == 2:
         _patch.aux(u, V, p, out)
+    else:
+        _axle_patch.aux(u, V, p, out)
 
 
 @njit(cache=True, error_model="numpy")
@@ -197,7 +210,7 @@ def _loaded(u, V, p):
     i0 = int(p[_IN0].real)
     dn, dn_dtheta, dn_dv = _profile_load(u[n], V, p)
     load = q[i0] + dn
-    clamped = p[_FLAG].real != 1.0 and load.real < 0.0
+    clamped = int(p[_FLAG].real) not in _AXLE_FLAGS and load.real < 0.0
     q[i0] = 0.0 * load if clamped else load
     return q, clamped, dn_dtheta, dn_dv
 
@@ -213,7 +226,7 @@ def _load_in_place(u, V, p):
     i = start + int(p[_IN0].real)
     nominal = p[i]
     load = nominal + _profile_load(u[n], V, p)[0]
-    p[i] = 0.0 * load if p[_FLAG].real != 1.0 and load.real < 0.0 else load
+    p[i] = 0.0 * load if int(p[_FLAG].real) not in _AXLE_FLAGS and load.real < 0.0 else load
     return p[start:], i, nominal
 
 
@@ -332,7 +345,7 @@ def profile_vector(base: Model, params, V: float, a_patch=(), b_patch=(), table_
     p_base = base.prepared(float(V), base.pack(params))
     head = [
         float(_FLAGS[base.name]),
-        float(base.param_names.index("N0" if base.name == "axle4dof" else "N")),
+        float(base.param_names.index("N0" if base.name.startswith("axle4dof") else "N")),
         params.operating.rolling_radius_m,
         params.tire.vertical_stiffness_n_per_m,
         params.tire.vertical_damping_ns_per_m,
