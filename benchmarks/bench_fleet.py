@@ -15,6 +15,7 @@ Sobol and fleet extrapolations, Dask 1 -> 2 workers, cost growth (nothing is ass
     .venv/bin/python benchmarks/bench_fleet.py growth
     .venv/bin/python benchmarks/bench_fleet.py edges --samples 200 [--seed 7] [--workers 2]
     .venv/bin/python benchmarks/bench_fleet.py windows --samples 10 [--seed 7] [--workers 2]
+    .venv/bin/python benchmarks/bench_fleet.py top-fold --samples 50 [--seed 7] [--workers 2]
 
 ``agreement`` draws the paper's seven parameters uniformly within +-10 % of the model's
 defaults (the default study ranges), evaluates every sample by the fast path and by the
@@ -43,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from polywear.dynamics.bifurcation import bifurcation
-from polywear.studies.fast_band import _FIXED_RANGE, FastBand, band_reference, pilot_references
+from polywear.studies.fast_band import _FIXED_RANGE, Fallback, FastBand, band_reference, pilot_references
 from polywear.studies.fleet import FleetSpec, fleet
 from polywear.studies.global_sensitivity import DEFAULT_KEYS
 from polywear.studies.sampling import sample_params
@@ -128,35 +129,43 @@ def _cpu() -> float:
     return time.process_time() + kids.ru_utime + kids.ru_stime
 
 
-def sobol(n_base: int, modes=("edges", "full"), spread: float = 0.1) -> None:
+def _sobol_spec(n_base: int, spread: float):
+    """axle4dof and the study table of ``sobol``: first-order Sobol layout, N = n_base, the
+    paper's 7 parameters uniform within +-spread of the defaults, bifurcation outputs."""
+    params = with_updates(Params(), {"model": "axle4dof"})
+    ranges = [sorted((get_value(params, k) * (1 - spread), get_value(params, k) * (1 + spread))) for k in DEFAULT_KEYS]
+    return params, StudySpec().with_updates({"method": "sobol", "outputs": "bifurcation", "n_base": n_base,
+                                             "second_order": False, "bootstrap": 100,
+                                             "parameters": [{"key": k, "low": lo, "high": hi}
+                                                            for k, (lo, hi) in zip(DEFAULT_KEYS, ranges)]})
+
+
+def sobol(n_base: int, modes=("edges", "full"), spread: float = 0.1, workers: int = 2) -> None:
     """Sobol study of axle4dof, N = n_base (first-order layout: 9 runs per base sample),
     the paper's 7 parameters uniform within +-spread of the defaults (0.1: the default
-    study ranges), both bifurcation speeds, 2 local processes, with the fast band path (and
-    its pilot stage) and the edges-only continuation where it does not apply (``edges``,
-    the study's default), the fast band path and whole diagrams (``fast``), and/or the
-    continuation only (``full``). CPU time (this process and the pool's
-    workers) and wall time; N = 1024 extrapolated linearly from the CPU time on 2 cores."""
+    study ranges), both bifurcation speeds, ``workers`` local processes, with the fast band
+    path (and its pilot stage) and the edges-only continuation where it does not apply, the
+    band's top from the fold followed in the parameters where it can be (``edges``, the
+    study's default; ``edges-branch``: the top's branch continued instead), the fast band
+    path and whole diagrams (``fast``), and/or the continuation only (``full``). CPU time
+    (this process and the pool's workers) and wall time; N = 1024 extrapolated linearly
+    from the CPU time on 2 cores."""
     from polywear.studies.fast_band import pilot_size
     from polywear.studies.global_sensitivity import study
 
     for mode in modes:
-        params = with_updates(Params(), {"model": "axle4dof"})
-        ranges = [sorted((get_value(params, k) * (1 - spread), get_value(params, k) * (1 + spread)))
-                  for k in DEFAULT_KEYS]
-        spec = StudySpec().with_updates({"method": "sobol", "outputs": "bifurcation", "n_base": n_base,
-                                         "second_order": False, "bootstrap": 100,
-                                         "parameters": [{"key": k, "low": lo, "high": hi}
-                                                        for k, (lo, hi) in zip(DEFAULT_KEYS, ranges)]})
+        params, spec = _sobol_spec(n_base, spread)
         c, t = _cpu(), time.perf_counter()
-        result = study(params, spec, backend="processes", workers=2, fast_band=mode != "full",
-                       edges_only=mode == "edges")
+        result = study(params, spec, backend="processes", workers=workers, fast_band=mode != "full",
+                       edges_only=mode.startswith("edges"), top_fold=mode == "edges")
         dt, dc = time.perf_counter() - t, _cpu() - c
         runs = len(result.status)
         pilot = pilot_size(runs) if mode != "full" else 0
         print(f"axle4dof Sobol N = {n_base} ({runs} runs, +-{spread:.0%}), {mode}: wall {dt:.1f} s, CPU {dc:.1f} s "
               f"({1e3 * dc / runs:.0f} ms per run incl. {pilot} pilot diagrams), "
               f"{result.settings.get('fast_band_samples', 0)} on the fast path, "
-              f"{result.settings.get('edges_only_samples', 0)} edges only, "
+              f"{result.settings.get('edges_only_samples', 0)} edges only "
+              f"({result.settings.get('top_fold_samples', 0)} with the top fold followed), "
               f"{result.settings.get('gap_after_pd_ns_samples', 0)} with a gap after a PD/NS point, "
               f"failures {result.failures()}; "
               f"N = 1024 ({1024 * 9} runs) on 2 free cores: ~{dc / runs * 1024 * 9 / 2 / 60:.1f} min")
@@ -164,6 +173,72 @@ def sobol(n_base: int, modes=("edges", "full"), spread: float = 0.1) -> None:
             if outcome.status.value not in ("ok", "no band in the speed range", "band reaches the edge of the speed range"):
                 # failed or undecided: the parameter values to reproduce it
                 print(f"  {outcome}\n    {dict(zip(DEFAULT_KEYS, values.tolist()))}")
+
+
+def sobol_split(n_base: int, spread: float = 0.1) -> None:
+    """The runs of ``sobol``'s study (same design, pilot stage and references), serially in
+    this process, CPU of each by class: fast band path, edges only (each such run twice,
+    alternately: with the top fold followed and with the top's branch continued, outputs
+    compared), failed; and the time for N = 1024 on 2 cores from these per-class costs."""
+    from SALib.sample import sobol as sobol_sample
+
+    from polywear.studies.fast_band import pilot_stage
+    from polywear.studies.global_sensitivity import (StudyEvaluator, _salib_problem, _seeds,
+                                                      study_parameters)
+
+    params, spec = _sobol_spec(n_base, spread)
+    problem = _salib_problem(study_parameters(params, spec))
+    X = sobol_sample.sample(problem, n_base, calc_second_order=False, seed=np.random.default_rng(_seeds(spec.seed)[0]))
+    t = time.process_time()
+    pilot = pilot_stage(params, problem["names"], X, params, spec.speed_range_kmh, spec.operating_range_kmh,
+                        executor=Executor("serial"))
+    t_pilot = time.process_time() - t
+    fast = FastBand(pilot.references, tuple(spec.speed_range_kmh), tuple(spec.operating_range_kmh))
+    make = lambda top: StudyEvaluator(params, tuple(problem["names"]), "bifurcation", spec.speed_range_kmh,
+                                      spec.operating_range_kmh, fast, edges_only=True, top_fold=top)
+    evaluators = {True: make(True), False: make(False)}
+    cost, worst, differ = {}, 0.0, []
+    for i, x in enumerate(X):
+        order = (True, False) if i % 2 else (False, True)  # alternate which goes first
+        out = {}
+        for top in order:
+            t0 = time.process_time()
+            out[top] = evaluators[top](x)
+            out[top] = (*out[top], time.process_time() - t0)
+            if out[top][1].fast:
+                break
+        (y, o, dt) = out[True] if True in out else out[False]
+        kind = "fast" if o.fast else "failed" if o.status.value == "failed" else \
+            "edges + top fold" if o.top_fold else "edges, no top fold"
+        cost.setdefault(kind, []).append(dt)
+        if not o.fast:
+            cost.setdefault(f"{kind} (before)", []).append(out[False][2])
+            y0 = np.asarray(out[False][0])
+            d = np.abs(np.asarray(y) - y0)
+            same_nan = np.isnan(y) == np.isnan(y0)
+            worst = max(worst, float(np.nanmax(d, initial=0.0)))
+            if not same_nan.all() or np.nanmax(d, initial=0.0) > 1e-6 or str(o) != str(out[False][1]):
+                differ.append((i, y, y0, str(o), str(out[False][1])))
+    runs = len(X)
+    print(f"axle4dof Sobol N = {n_base} ({runs} runs, +-{spread:.0%}), serially: pilot stage "
+          f"{len(pilot.references)} references {t_pilot:.1f} s CPU")
+    total = {True: t_pilot, False: t_pilot}
+    for kind, v in cost.items():
+        print(f"  {kind}: {len(v)} runs, {sum(v):.1f} s CPU, mean {np.mean(v):.3f} s, median {np.median(v):.3f} s, "
+              f"largest {max(v):.2f} s")
+        if not kind.endswith("(before)"):
+            total[True] += sum(v)
+            total[False] += sum(v) if kind == "fast" else 0.0
+        else:
+            total[False] += sum(v)
+    print(f"  outputs of the edges-only runs with and without the top fold: largest difference {worst:.1e}; "
+          f"runs that differ: {len(differ)}")
+    for i, y, y0, a, b in differ:
+        print(f"    run {i}: {np.round(y, 9).tolist()} ({a}) vs {np.round(y0, 9).tolist()} ({b})")
+    for top in (False, True):
+        print(f"  {'with' if top else 'without'} the top fold: {total[top]:.1f} s CPU; N = 1024 at these per-class "
+              f"costs (the pilot of 33 diagrams at this one's mean) on 2 cores: "
+              f"~{((total[top] - t_pilot) * 1024 / n_base + 33 * t_pilot / len(pilot.references)) / 2 / 60:.1f} min")
 
 
 TOE_LOAD = [
@@ -405,6 +480,78 @@ def edges(n: int, seed: int, workers: int = 1) -> None:
           f"cycle points per car {points[0] / n:.0f} vs {points[1] / n:.0f}")
 
 
+def _top_fold_car(item):
+    """One car of ``top-fold``: (index, values, CPU of the full continuation, the edges-only
+    one and the edges-only one with the top fold followed [s], what differs from the full
+    continuation and from the edges-only one (empty: none), the top fold or why not)."""
+    from polywear.studies.edges import edges_diagram
+    from polywear.studies.global_sensitivity import edges_band
+
+    i, values, params, fast = item
+    t0 = time.process_time()
+    full = bifurcation(params, (20.0, 300.0))
+    t1 = time.process_time()
+    edges = edges_diagram(params, (20.0, 300.0))
+    t2 = time.process_time()
+    sev, diagram, top = edges_band(params, (20.0, 300.0), fast)
+    t3 = time.process_time()
+    diffs = []
+    for other in (full, edges):
+        diff = []
+        for name, a, b in (("sev_band_kmh", other.sev_band_kmh, sev),
+                           ("gaps_after_pd_ns_kmh", other.gaps_after_pd_ns_kmh, diagram.gaps_after_pd_ns_kmh)):
+            if len(a) != len(b):
+                diff.append(f"{name}: {len(a)} vs {len(b)} intervals: {a} vs {b}")
+            elif a and float(np.max(np.abs(np.subtract(a, b)))) > 1e-6:
+                diff.append(f"{name}: ends differ by {float(np.max(np.abs(np.subtract(a, b)))):.2e} km/h: {a} vs {b}")
+        failed = lambda d: sorted(round(info["from_hopf_kmh"], 3) for info in d.branch_info if info["failed"])
+        if failed(other) != failed(diagram):
+            diff.append(f"failed branches from {failed(other)} vs {failed(diagram)} km/h")
+        worst = float(np.max(np.abs(np.subtract(other.sev_band_kmh, sev)))) if len(other.sev_band_kmh) == len(sev) \
+            and sev else np.nan
+        diffs.append((diff, worst))
+    return i, values, (t1 - t0, t2 - t1, t3 - t2), diffs, top if top is not None else fast.top_fold(params)
+
+
+def top_fold(n: int, seed: int, workers: int = 1, n_pilot: int = 32) -> None:
+    """The first ``n`` axle4dof cars with four Hopf points (as ``edges`` draws them): the SEV
+    band of the studies' edges-only path with the top fold followed in the parameters
+    (:func:`polywear.studies.global_sensitivity.edges_band`, the nominal and ``n_pilot``
+    pilot references of another seed, as a study's) against the full continuation and the
+    edges-only continuation; CPU of the three per car."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    base = with_updates(Params(), {"model": "axle4dof"})
+    fast = FastBand(_references(base, n_pilot, seed), (20.0, 300.0))
+    rng = np.random.default_rng(seed)
+    nominal = np.array([get_value(base, k) for k in DEFAULT_KEYS])
+    cars, drawn = [], 0
+    with ProcessPoolExecutor(workers) as pool:
+        while len(cars) < n:
+            values = [nominal * (1.0 + 0.1 * (2.0 * rng.random(len(nominal)) - 1.0)) for _ in range(200)]
+            params = [sample_params(base, DEFAULT_KEYS, v) for v in values]
+            for k, count in enumerate(pool.map(_hopf_count, params, chunksize=20)):
+                if count == 4 and len(cars) < n:
+                    cars.append((drawn + k, values[k], params[k], fast))
+            drawn += len(values)
+        print(f"axle4dof, seed {seed}: {n} cars with four Hopf points", flush=True)
+        times, bad, worst, tops = np.zeros(3), [], np.zeros(2), 0
+        for i, values, dt, diffs, top in pool.map(_top_fold_car, cars):
+            times += dt
+            tops += not isinstance(top, Fallback)
+            worst = np.fmax(worst, [w for _, w in diffs])
+            print(f"  car {i}: full {dt[0]:.2f} s, edges {dt[1]:.2f} s, edges + top fold {dt[2]:.2f} s CPU; "
+                  f"{top}; vs full: {'; '.join(diffs[0][0]) or 'same'}; vs edges: {'; '.join(diffs[1][0]) or 'same'}",
+                  flush=True)
+            if diffs[0][0] or diffs[1][0]:
+                bad.append(i)
+                print(f"    {dict(zip(DEFAULT_KEYS, values.tolist()))}", flush=True)
+    print(f"  top fold followed on {tops} of {n} cars; cars with a difference: {len(bad)} {bad}; largest difference "
+          f"of the band's ends where the counts agree: {worst[0]:.1e} km/h (full), {worst[1]:.1e} km/h (edges only)")
+    print(f"  CPU per car: full {times[0] / n:.3f} s, edges only {times[1] / n:.3f} s, edges + top fold "
+          f"{times[2] / n:.3f} s -> {times[1] / times[2]:.2f}x less than edges only")
+
+
 def _window_car(item):
     """One car of ``windows``: (index, values, [(edge, speed simulated, SEV reached, regimes)])."""
     from polywear.dynamics.attractor import reached_attractors
@@ -455,26 +602,33 @@ def windows(n: int, seed: int, workers: int = 1) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("what", choices=("agreement", "sobol", "fleet", "pilot", "dask", "dask-sobol", "growth", "edges",
-                                         "windows"))
+                                         "windows", "top-fold"))
     parser.add_argument("--model", default="tread1dof")
     parser.add_argument("--samples", type=int, default=200)
     parser.add_argument("--seed", type=int, default=20261201)
     parser.add_argument("--backend", choices=("serial", "processes"), action="append",
                         help="fleet: backend(s) to time (default: both)")
-    parser.add_argument("--mode", choices=("edges", "fast", "full"), action="append",
-                        help="sobol: fast band path with pilot and edges-only fallbacks, the same with whole "
-                             "diagrams, or continuation only (default: edges and full)")
+    parser.add_argument("--mode", choices=("edges", "edges-branch", "fast", "full"), action="append",
+                        help="sobol: fast band path with pilot and edges-only fallbacks (with the top fold followed "
+                             "in the parameters; edges-branch: without), the same with whole diagrams, or "
+                             "continuation only (default: edges and full)")
+    parser.add_argument("--split", action="store_true",
+                        help="sobol: every run serially in this process, CPU per class of run (fast, edges only "
+                             "with and without the top fold, alternately, failed) instead of the study")
     parser.add_argument("--pilot", type=int, default=32, help="pilot samples (references besides the nominal one)")
     parser.add_argument("--amplitude-speeds", type=float, nargs="*", default=[80.0, 130.0],
                         help="agreement: speeds [km/h] of the amplitudes (none: the bands alone, as fleets need)")
     parser.add_argument("--band-every", type=int, default=1, help="pilot: whole bands for every k-th car")
     parser.add_argument("--spread", type=float, default=0.1, help="sobol: parameter ranges +-spread of the defaults")
-    parser.add_argument("--workers", type=int, default=1, help="edges: local processes")
+    parser.add_argument("--workers", type=int, help="local processes (edges, windows, top-fold: 1; sobol: 2)")
     args = parser.parse_args()
     if args.what == "agreement":
         agreement(args.model, args.samples, args.seed, args.pilot, tuple(args.amplitude_speeds))
     elif args.what == "sobol":
-        sobol(args.samples, args.mode or ("edges", "full"), args.spread)
+        if args.split:
+            sobol_split(args.samples, args.spread)
+        else:
+            sobol(args.samples, args.mode or ("edges", "full"), args.spread, args.workers or 2)
     elif args.what == "fleet":
         fleet_timing(args.samples, args.backend or ("serial", "processes"), args.model)
     elif args.what == "pilot":
@@ -484,9 +638,11 @@ def main() -> None:
     elif args.what == "dask-sobol":
         dask_sobol(args.samples, args.model, args.spread)
     elif args.what == "edges":
-        edges(args.samples, args.seed, args.workers)
+        edges(args.samples, args.seed, args.workers or 1)
     elif args.what == "windows":
-        windows(args.samples, args.seed, args.workers)
+        windows(args.samples, args.seed, args.workers or 1)
+    elif args.what == "top-fold":
+        top_fold(args.samples, args.seed, args.workers or 1, args.pilot)
     else:
         growth()
 

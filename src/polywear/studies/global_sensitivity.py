@@ -70,6 +70,8 @@ __all__ = [
     "GlobalSensitivityResult",
     "SampleStatus",
     "SampleOutcome",
+    "WithoutBranchFrom",
+    "edges_band",
     "study",
 ]
 
@@ -253,7 +255,8 @@ class WithoutBranchFrom:
         return stop
 
 
-def edges_band(params: Params, speed_range_kmh=DEFAULT_SPEED_RANGE_KMH, fast=None):
+def edges_band(params: Params, speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
+               fast: object = None) -> tuple[list, object, object]:
     """The SEV band [km/h] of ``params`` by the edges-only continuation, and the diagram and
     :class:`~polywear.studies.fast_band.TopFold` it came from: with ``fast`` (a
     :class:`~polywear.studies.fast_band.FastBand`) the band's top is the fold above a hard
