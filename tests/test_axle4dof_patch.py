@@ -197,6 +197,7 @@ def test_worn_profile_changes_the_load_and_its_derivatives_are_exact():
     jac, dfdv = complex_step_jacobian(coupled, u, V, pw)
     assert np.abs(coupled.jacobian(u, V, pw) - jac).max() <= 1e-9 * np.abs(jac).max()
     assert np.any(jac[:-1, -1] != 0.0)
+    assert np.abs(coupled.df_dspeed(u, V, pw) - dfdv).max() <= 1e-9 * np.abs(dfdv).max()
 
 
 def test_wear_map_agrees_with_brute_force_simulation():

@@ -11,18 +11,18 @@ like the point contact's tread. Parameters: ``axle4dof``'s, the patch length
 from __future__ import annotations
 
 import math
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
+from ..errors import NumericalError
+from ..units import ms_to_kmh
 from . import axle4dof_patch_kernels as _kernels
 from ._axle4dof_generated import _PRELOAD_SPEED, _REFERENCE
 from .axle4dof import SLOTS as POINT_SLOTS
 from .axle4dof import relax_preload, running_alignment
 from .base import Model, ParamSlot
 from .patch import M_MAX, _share_slot, load_shares
-from ..errors import NumericalError
-from ..units import ms_to_kmh
 
 __all__ = ["axle4dof_patch_model", "equilibrium", "prepare"]
 
@@ -73,7 +73,7 @@ def _state_names(elements: int) -> tuple[str, ...]:
     return (*names, "x", "xdot", "z")
 
 
-@lru_cache(maxsize=None)
+@cache
 def axle4dof_patch_model(elements: int, pressure: str) -> Model:
     """``axle4dof`` with a patch of ``elements`` tread elements under the ``pressure``
     distribution ("parabolic" or "uniform"). One element (below ``friction.patch_elements``'

@@ -23,7 +23,13 @@ import numpy as np
 from numba import njit
 from numpy import cos, sin
 
-from ..physics.lugre import bristle_rate, bristle_rate_partials, real_abs, stribeck, stribeck_dv
+from ..physics.lugre import (
+    bristle_rate,
+    bristle_rate_partials,
+    real_abs,
+    stribeck,
+    stribeck_dv,
+)
 from ._axle4dof_generated import (
     _C,
     _C_ALPHA,
@@ -195,7 +201,7 @@ def _partials(u, V, p, s, acc):
     """B = dQ/d(u, V) - d(M a)/du at fixed accelerations ``acc`` (3 + M) (rows body then
     elements, columns the states then V), and per element dz'/dv, dz'/dz, dv/d(element
     states, 8) and dv/dV, for the state ``s`` of :func:`_evaluate` (without dP/dV)."""
-    A, Bv, Dm, Qb, Qe, load, clamped, GN, GF, vs, gs, zds, fs, Fs = s
+    A, Dm, load, clamped, GN, GF, vs, gs, fs, Fs = s[0], s[2], s[5], s[6], s[7], s[8], s[9], s[10], s[12], s[13]
     dt = A.dtype
     n_el = Dm.shape[0]
     n = E0 + 3 * n_el
