@@ -39,6 +39,12 @@ CROSSING_AXLE = (922638.3281564085, 87.67354768717308, 0.5441591302855918, -0.94
 across the gap stable: a hard region 82.41-85.23 km/h, lost when a branch stops 2 km/h
 inside any interval rather than its own."""
 
+WINDOW_AXLE = (1049738.7045055712, 78.68203757388277, 0.5206277594463431, -0.9446788926859567,
+               0.9793248899556777, 0.9328097322971235, 4232.609023896524)
+"""Car 682: the branch from the first Hopf point (63.74 km/h) has a PD at 60.72 km/h, runs 2 km/h
+into the linear band, folds at 67.99 km/h and comes back to a window of stable cycles
+63.6893-63.6895 km/h just below that Hopf point; stopped at its first deep point it missed it."""
+
 
 def _car(values):
     return with_updates(Params(), {"model": "axle4dof", **dict(zip(KEYS, values))})
@@ -119,3 +125,15 @@ def test_edges_agree_with_the_full_continuation(values):
         assert [(round(a, 2), round(b, 2)) for a, b in edges.hard_regions_kmh][2] == (82.41, 85.23)
     if values is GAP_AXLE:
         assert [(round(a, 2), round(b, 2)) for a, b in edges.gaps_after_pd_ns_kmh] == [(74.62, 75.41)]
+
+
+@pytest.mark.slow
+def test_a_cascade_branch_that_comes_back_below_its_hopf_point_keeps_the_window():
+    params = _car(WINDOW_AXLE)
+    full = bifurcation(params, (20.0, 300.0))
+    edges = edges_diagram(params, (20.0, 300.0))
+    _same_band(full, edges)
+    window = [(round(a, 4), round(b, 4)) for a, b in edges.hard_regions_kmh if b - a < 1e-3]
+    assert window == [(63.6893, 63.6895)]
+    assert all(info["ended"] == "stopped" for info in edges.branch_info)
+    assert sum(len(b.points) for b in edges.branches) < sum(len(b.points) for b in full.branches)

@@ -105,9 +105,7 @@ class PeriodicOrbit:
 
     def interval_nodes(self) -> np.ndarray:
         """(N, m + 1, n) node values per interval, the closing node repeated."""
-        N, m = self.n_intervals, self.m
-        idx = (np.arange(N)[:, None] * m + np.arange(m + 1)[None, :]) % (N * m)
-        return self.nodes[idx]
+        return self.nodes[_interval_index(self.n_intervals, self.m)]
 
     def node_times(self) -> np.ndarray:
         """(N m,) tau of each distinct node."""
@@ -120,12 +118,8 @@ class PeriodicOrbit:
         j = np.clip(np.searchsorted(self.mesh, t, side="right") - 1, 0, self.n_intervals - 1)
         h = np.diff(self.mesh)
         s = (t - self.mesh[j]) / h[j]
-        nodes = scheme(self.m).nodes
-        basis = np.ones((len(t), self.m + 1))
-        for a in range(self.m + 1):
-            for b in range(self.m + 1):
-                if a != b:
-                    basis[:, a] *= (s - nodes[b]) / (nodes[a] - nodes[b])
+        others, denom = _lagrange_factors(self.m)
+        basis = np.prod(s[:, None, None] - others[None], axis=2) / denom  # (len(t), m + 1)
         return np.einsum("tl,tln->tn", basis, self.interval_nodes()[j])
 
     def dense(self, per_interval: int = 16) -> tuple[np.ndarray, np.ndarray]:
@@ -160,6 +154,25 @@ class PeriodicOrbit:
         h = np.diff(mesh)
         tau = (mesh[:-1, None] + h[:, None] * scheme(self.m).nodes[None, :-1]).ravel()
         return replace(self, mesh=np.asarray(mesh, dtype=float), nodes=self.evaluate(tau).reshape(N * self.m, -1))
+
+
+@lru_cache(maxsize=64)
+def _interval_index(N: int, m: int) -> np.ndarray:
+    """(N, m + 1) index of the nodes of each interval, the closing node the next one's first (read-only)."""
+    idx = (np.arange(N)[:, None] * m + np.arange(m + 1)[None, :]) % (N * m)
+    idx.flags.writeable = False
+    return idx
+
+
+@lru_cache(maxsize=8)
+def _lagrange_factors(m: int) -> tuple[np.ndarray, np.ndarray]:
+    """The Lagrange basis of the degree-``m`` nodes as products: ``(m + 1, m)`` the other
+    nodes of each node and ``(m + 1,)`` the product of its differences to them (read-only)."""
+    nodes = scheme(m).nodes
+    others = np.array([np.delete(nodes, a) for a in range(m + 1)])
+    denom = np.prod(nodes[:, None] - others, axis=1)
+    others.flags.writeable = denom.flags.writeable = False
+    return others, denom
 
 
 @lru_cache(maxsize=16)
@@ -329,9 +342,10 @@ class Collocation:
         give the monodromy matrix.
         """
         res, blocks, tcol, vcol = self.evaluate(X)
-        if not (np.all(np.isfinite(res)) and np.all(np.isfinite(blocks))
-                and np.all(np.isfinite(tcol)) and np.all(np.isfinite(vcol))):
-            return None  # a diverged Newton iterate (the kernels give inf/NaN, never raise)
+        # a diverged Newton iterate (the kernels give inf/NaN, never raise): one sum each
+        # carries any inf/NaN (and is not finite for finite entries beyond ~1e300 alone)
+        if not np.isfinite(res.sum() + blocks.sum() + tcol.sum() + vcol.sum()):
+            return None
         rhs = np.zeros((self.size, 2))
         rhs[:-2, 0] = -res
         rhs[-2:, 0] = -border_values
@@ -383,8 +397,13 @@ class Collocation:
 
 def monodromy(CL: np.ndarray, CR: np.ndarray) -> np.ndarray:
     """Monodromy matrix, the product of the interval transfer matrices -CR_j^{-1} CL_j."""
-    transfer = -np.linalg.solve(CR, CL)
-    M = np.eye(CL.shape[1])
-    for T in transfer:
-        M = T @ M
+    return _chain(-np.linalg.solve(CR, CL))
+
+
+@njit(cache=True)
+def _chain(transfer: np.ndarray) -> np.ndarray:
+    """The product ``transfer[N-1] ... transfer[1] transfer[0]`` of (N, n, n) matrices."""
+    M = np.eye(transfer.shape[1])
+    for j in range(transfer.shape[0]):
+        M = transfer[j] @ M
     return M

@@ -35,12 +35,15 @@ class ContinuationSettings:
     max_newton: int = 8
     adapt_every: int = 3
     fold_tol: float = 1e-9
-    crossing_tol: float = 1e-6
+    crossing_tol: float = 1e-8
     """A located period doubling (PD) has a multiplier within this of -1, a torus bifurcation
-    (NS) a complex pair within this of modulus 1. Above the accuracy of the multipliers on
-    most cycles (the trivial multiplier's error at 48 PD/NS points of 9 axle4dof samples:
-    median 8e-8); the speed error is this over |dmu/dV| (0.016 to 10 per km/h there):
-    median 8e-7, at most 6e-5 km/h."""
+    (NS) a complex pair within this of modulus 1. The multipliers themselves are accurate to
+    ~1e-7 (the trivial multiplier's error at 48 PD/NS points of 9 axle4dof samples: median
+    8e-8), but the location converges on the discrete problem's crossing, so the same point
+    reached from either end of a branch agrees to this over |dmu/dV| (0.016 to 10 per km/h
+    there): at most ~6e-7 km/h. With 1e-6 that was up to 6e-5 km/h (an NS point 5.1e-6 and
+    2.9e-5 km/h apart from the two ends, car 1181 of ``bench_fleet.py edges --seed 7``); 1e-8
+    costs ~0.5 more correctors per point (car 157: 60 instead of 54 for 12 points)."""
     min_amplitude: float = 1e-3
     """The branch ends (at a Hopf point) once the scaled amplitude falls below this."""
     max_amplitude: float = 1e3

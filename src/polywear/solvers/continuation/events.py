@@ -27,11 +27,16 @@ def _nontrivial(multipliers: np.ndarray) -> np.ndarray:
 def _event_counts(point: BranchPoint) -> dict[str, int]:
     """Multipliers outside the unit circle (trivial one excluded): real negative ("PD"), complex
     ("NS"), real positive ("+1")."""
-    mu = _nontrivial(point.multipliers)
-    outside = np.abs(mu) > 1.0
-    real = np.abs(mu.imag) < 1e-8 * np.abs(mu)
-    return {"PD": int(np.sum(outside & real & (mu.real < 0))), "NS": int(np.sum(outside & ~real)),
-            "+1": int(np.sum(outside & real & (mu.real > 0)))}
+    mu = [complex(z) for z in point.multipliers.tolist()]  # a few numbers: plain Python is faster
+    trivial = min(range(len(mu)), key=lambda k: abs(mu[k] - 1.0))
+    counts = {"PD": 0, "NS": 0, "+1": 0}
+    for k, z in enumerate(mu):
+        if k != trivial and abs(z) > 1.0:
+            if not abs(z.imag) < 1e-8 * abs(z):
+                counts["NS"] += 1
+            elif z.real != 0.0:
+                counts["PD" if z.real < 0 else "+1"] += 1
+    return counts
 
 
 def _multiplier_events(a: BranchPoint, b: BranchPoint) -> list[str]:

@@ -19,7 +19,7 @@ from .branch import (MAX_TRIVIAL_ERROR, Branch, BranchEnd, BranchPoint, Continua
                      certainly_unstable, same_special_point, stability_decided, trivial_error)
 from .events import _locate_crossing, _multiplier_events
 from .folds import _locate_fold
-from .stepper import _align_to_kinks, _hopf_start, _Out, _Step, _Stepper
+from .stepper import KINK_SAMPLES, _align_to_kinks, _hopf_start, _Out, _Step, _Stepper
 
 if TYPE_CHECKING:
     from ...models.base import Model
@@ -27,9 +27,11 @@ if TYPE_CHECKING:
 __all__ = ["continue_from_hopf"]
 
 
-def _first_harmonic(orbit: PeriodicOrbit, scales: np.ndarray) -> np.ndarray:
-    """Scaled first Fourier coefficient of the orbit about its mean."""
-    tau, u = orbit.dense(8)
+def _first_harmonic(orbit: PeriodicOrbit, scales: np.ndarray,
+                    samples: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """Scaled first Fourier coefficient of the orbit about its mean (``samples``:
+    ``orbit.dense(KINK_SAMPLES)`` if known)."""
+    tau, u = orbit.dense(KINK_SAMPLES) if samples is None else samples
     u = u[:-1] / scales
     tau = tau[:-1]
     weights = np.gradient(np.append(tau, 1.0))[:-1]
@@ -117,7 +119,8 @@ def continue_from_hopf(
             continue
         X, t, iterations, multipliers = out
         orbit = c.unpack(X)
-        harmonic = _first_harmonic(orbit, scales)
+        known = stepper.known(X)
+        harmonic = _first_harmonic(orbit, scales, known[2] if known else None)
         if prev_harmonic is not None and np.real(np.vdot(prev_harmonic, harmonic)) < 0:
             if ds > settings.hopf_approach_step:  # approach in shorter steps: a fold may lie just before it
                 ds *= 0.5
@@ -178,7 +181,7 @@ def continue_from_hopf(
             coarser = c.N > settings.n_intervals and all(
                 pt.resolved and pt.trivial_multiplier_error < 1e-2 * settings.multiplier_tol for pt in recent)
             n_new = max(settings.n_intervals, c.N // 2) if coarser else c.N
-            stepper, X0, t0, phase_ref = stepper.remesh(stepper.adapted_mesh(orbit, n_new), X0, t0, scales)
+            stepper, X0, t0, phase_ref = stepper.remesh(stepper.adapted_mesh(orbit, n_new, X), X0, t0, scales)
     else:
         finish(BranchEnd.MAX_STEPS, f"{settings.max_steps} steps, the last at {last_kmh():.3f} km/h")
     return branch

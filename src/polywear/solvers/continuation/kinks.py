@@ -22,8 +22,9 @@ KINK_SIGNALS = (("sliding_velocity", 0.0), ("contact_lost", 0.5))
 
 
 def switching_times(model: Model, p: np.ndarray, orbit: PeriodicOrbit, per_interval: int = 8,
-                    tol: float = 1e-13) -> np.ndarray:
-    """Normalized times where the orbit crosses a kink of the vector field (bisection-refined).
+                    tol: float = 1e-13, samples: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """Normalized times where the orbit crosses a kink of the vector field (bisection-refined);
+    ``samples``: ``orbit.dense(per_interval)`` if the caller has it.
 
     The vector field is continuous there (|v_r| and the clamp max(N, 0) are Lipschitz),
     so no jump (saltation) of the monodromy matrix occurs, but the Jacobian jumps: the
@@ -32,7 +33,7 @@ def switching_times(model: Model, p: np.ndarray, orbit: PeriodicOrbit, per_inter
     signals = [(model.aux_names.index(name), level) for name, level in KINK_SIGNALS if name in model.aux_names]
     if not signals:
         return np.empty(0)
-    tau, u = orbit.dense(per_interval)
+    tau, u = orbit.dense(per_interval) if samples is None else samples
     aux = model.diagnostics(u, orbit.speed, p)
     times = []
     for col, level in signals:

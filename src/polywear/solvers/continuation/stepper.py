@@ -49,6 +49,9 @@ class _Stepper:
         self.inv_scale = np.concatenate(
             [np.tile(1.0 / scales, c.N * c.m), [1.0 / period_scale, 1.0 / speed_scale]]
         )
+        self.kinks: tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]] | None = None
+        """(X, kink times, ``dense(KINK_SAMPLES)`` of its orbit) of the last point
+        :func:`_align_to_kinks` left on this mesh (see :meth:`known`)."""
 
     @classmethod
     def near(cls, model: Model, p: np.ndarray, orbit: PeriodicOrbit, speed: float, scales: np.ndarray,
@@ -94,15 +97,30 @@ class _Stepper:
         tangent = c.unpack(t0)
         new = _Stepper(self.model, self.p, mesh, self.settings, self.scales if scales is None else scales,
                        self.speed_scale, self.period_scale)
-        phase_ref = previous.with_mesh(mesh)
-        return new, new.coll.pack(phase_ref), new.unit(new.coll.pack(tangent.with_mesh(mesh))), phase_ref
+        # point and tangent interpolated in one evaluation, side by side
+        both = replace(previous, nodes=np.hstack([previous.nodes, tangent.nodes])).with_mesh(mesh).nodes
+        phase_ref = replace(previous, mesh=new.coll.mesh, nodes=both[:, :c.n].copy())
+        moved = replace(tangent, mesh=new.coll.mesh, nodes=both[:, c.n:])
+        return new, new.coll.pack(phase_ref), new.unit(new.coll.pack(moved)), phase_ref
 
-    def adapted_mesh(self, orbit: PeriodicOrbit, n_intervals: int) -> np.ndarray:
+    def adapted_mesh(self, orbit: PeriodicOrbit, n_intervals: int, X: np.ndarray | None = None) -> np.ndarray:
         """``n_intervals`` intervals equidistributed for ``orbit`` (AUTO's rule), kinks on mesh
-        points (with ``settings.align_kinks``)."""
+        points (with ``settings.align_kinks``). ``X``: the packed ``orbit``, whose kink times
+        :func:`_align_to_kinks` may have found already (``kinks``)."""
         mesh = self.coll.adapted_mesh(orbit, n_intervals)
-        return _with_kinks(mesh, switching_times(self.model, self.p, orbit)) if self.settings.align_kinks else mesh
+        if not self.settings.align_kinks:
+            return mesh
+        known = self.known(X)
+        return _with_kinks(mesh, known[1] if known else switching_times(self.model, self.p, orbit))
 
+    def known(self, X: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]] | None:
+        """``kinks`` if they belong to the point ``X`` (the same array), else None."""
+        return self.kinks if self.kinks is not None and X is not None and self.kinks[0] is X else None
+
+
+KINK_SAMPLES = 8
+"""Samples per mesh interval of the kink search (:func:`switching_times`) after a step; the
+first harmonic of the branch's orbits takes the same samples."""
 
 _Out = tuple[np.ndarray, np.ndarray, int, np.ndarray]
 """A converged corrector: point X, unit tangent, Newton iterations, Floquet multipliers."""
@@ -140,9 +158,11 @@ def _align_to_kinks(start: _Step, ds: float, out: _Out) -> tuple[
         if new is None:
             break
         orbit = stepper.coll.unpack(new[0])
-        times = switching_times(stepper.model, stepper.p, orbit)
+        samples = orbit.dense(KINK_SAMPLES)
+        times = switching_times(stepper.model, stepper.p, orbit, KINK_SAMPLES, samples=samples)
         mesh = stepper.coll.mesh
         if not _kinks_off_mesh(times, mesh):
+            stepper.kinks = (new[0], times, samples)
             break
         stepper, X0, t0, phase_ref = stepper.remesh(_with_kinks(mesh, times), X0, t0)
         new = stepper.correct(X0, t0, ds, phase_ref)
