@@ -71,3 +71,16 @@ def test_a_soft_last_hopf_point_has_no_top_fold(nominal):
     cut = (20.0, 0.5 * (nominal.band.hopf_kmh[0] + nominal.band.hopf_kmh[-1]))
     out = FastBand((nominal,), cut).top_fold(params)
     assert isinstance(out, Fallback) and out.reason is FallbackReason.HOPF_SIGNATURE
+
+
+def test_the_study_evaluator_uses_the_top_fold_and_gives_the_edges_paths_outputs(nominal):
+    from polywear.studies.global_sensitivity import StudyEvaluator
+
+    base, fast = with_updates(Params(), {"model": "axle4dof"}), FastBand((nominal,), RANGE)
+    with_top = StudyEvaluator(base, KEYS, "bifurcation", RANGE, fast=fast, edges_only=True, top_fold=True)
+    without = StudyEvaluator(base, KEYS, "bifurcation", RANGE, fast=fast, edges_only=True, top_fold=False)
+    values = np.array(GAP_AXLE)
+    (a, outcome_a), (b, outcome_b) = with_top(values), without(values)
+    assert outcome_a.top_fold and not outcome_b.top_fold
+    assert outcome_a.edges_only and outcome_a.status == outcome_b.status
+    assert np.allclose(a[:3], b[:3], rtol=0.0, atol=1e-6) and np.isnan(a[3]) and np.isnan(b[3])
