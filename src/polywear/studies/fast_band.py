@@ -525,6 +525,11 @@ def _difference(p: np.ndarray, p_ref: np.ndarray) -> np.ndarray:
     return np.where(both, p - np.where(both, p_ref, 0.0), 0.0)
 
 
+def _distance(p: np.ndarray, p_ref: np.ndarray) -> float:
+    """Squared relative distance [-] of two kernel parameter vectors (the nearest reference)."""
+    return float(np.sum((_difference(p, p_ref) / (np.abs(p_ref) + 1e-12)) ** 2))
+
+
 def _rescaled(model, p_ref, p, guess, V, labels, ref_interval, interval, v_kmh):
     """The reference's cycle at speed V [m/s] as a guess for ``p`` near a Hopf end of its
     stable interval: deviation from the steady state scaled by ``sqrt(|v - v_H| / |v - v_H,ref|)``
@@ -632,7 +637,7 @@ class FastBand:
         refs = [r for r in self.references if r.p.shape == p.shape and r.top_fold is not None]
         if not refs:
             return Fallback(FallbackReason.NO_REFERENCE, "no reference with a fold above a hard last Hopf point")
-        ref = min(refs, key=lambda r: float(np.sum((_difference(p, r.p) / (np.abs(r.p) + 1e-12)) ** 2)))
+        ref = min(refs, key=lambda r: _distance(p, r.p))
         j = ref.top_fold
         try:
             point = self._fold(model, p, ref, j)
@@ -716,7 +721,7 @@ class FastBand:
         usable = [r for r in same if not r.unusable]
         if not usable:
             raise _Fallback(FallbackReason.REFERENCE_UNUSABLE, same[0].unusable)
-        return min(usable, key=lambda r: float(np.sum((_difference(p, r.p) / (np.abs(r.p) + 1e-12)) ** 2)))
+        return min(usable, key=lambda r: _distance(p, r.p))
 
     # -- the steps --------------------------------------------------------------------------------
     def _hopf(self, params, p):
