@@ -62,7 +62,7 @@ from ..units import kmh_to_ms
 from .law import energetic_rate, profile_samples
 from .start import start_states
 from .windows import (LOCK_TOLERANCE, MAX_WINDOW, SETTLED_PHASE, WindowWear, _detuning, _separating_window,
-                      _settle_times, coherence, window_wear)
+                      _settle_times, coherence, continued, window_wear)
 
 __all__ = ["WindowWear", "window_wear", "EvolutionResult", "EvolutionSettings", "wear_evolution", "initial_roughness",
            "coherence", "StepBudgetError", "step_budget",
@@ -104,25 +104,52 @@ def initial_roughness(params: Params) -> np.ndarray:
     rms = math.sqrt(0.5 * float(np.sum(np.abs(W) ** 2)))
     return W * (params.wear.initial_roughness_um * 1e-6 / rms)
 
-def _update(W: np.ndarray, free: np.ndarray, forcing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+_GAUSS = np.polynomial.legendre.leggauss(16)
+_NODES, _WEIGHTS = 0.5 * (_GAUSS[0] + 1.0), 0.5 * _GAUSS[1]
+"""16-point Gauss-Legendre nodes and weights on [0, 1] for the turn of a pinned harmonic (:func:`_pinned`)."""
+
+
+def _update(W: np.ndarray, x: np.ndarray, forcing: np.ndarray,
+            pinned: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """W after a step (see module notes) and the part of the change that was added rather
-    than integrated exactly. ``free``: coherent writes of the speeds not locked, proportional
-    to W (rate a, ``x = free / W = a N``); ``forcing``: those of the locked speeds, a rate b
-    that does not depend on W. dW/dN = a W + b is integrated exactly,
-    ``W e^x + forcing (e^x - 1)/x``."""
+    than integrated exactly. ``x``: exponents ``a N`` of the writes proportional to W (the
+    speeds not locked); ``forcing``: writes ``b N`` [m] that do not depend on W (the locked
+    speeds'); ``pinned``: writes ``c N`` [m] of locked vibrations at their locking order,
+    whose direction keeps to that of W there (``dW/dN = c W/|W|``, :func:`_pinned`).
+    dW/dN = a W + b is integrated exactly, ``W e^x + forcing (e^x - 1)/x``."""
     rms = math.sqrt(0.5 * float(np.sum(np.abs(W) ** 2)))
-    out = W + free + forcing
-    added = free + forcing
+    pinned = np.zeros_like(W) if pinned is None else pinned
+    along = pinned * np.exp(1j * np.angle(W))  # the pinned writes in the direction of W
+    out = W + x * W + forcing + along
+    added = out - W
     big = np.abs(W) > 1e-6 * rms
-    x = np.zeros_like(W)
-    x[big] = free[big] / W[big]
     ok = big & (np.abs(x) <= MAX_EXPONENT)
     growth = np.exp(x[ok])
     small = np.abs(x[ok]) < 1e-12
     phi = np.where(small, 1.0, (growth - 1.0) / np.where(small, 1.0, x[ok]))  # (e^x - 1)/x
-    out[ok] = W[ok] * growth + forcing[ok] * phi
-    added[ok] = forcing[ok] * phi
+    out[ok] = W[ok] * growth + forcing[ok] * phi + along[ok]
+    added[ok] = forcing[ok] * phi + along[ok]
+    for n in np.flatnonzero(ok & (pinned != 0)):
+        turned = _pinned(W[n], x[n], pinned[n])
+        if turned is not None:  # else the pinned write all but erases W_n: added
+            out[n] += turned - W[n] * np.exp(x[n]) - along[n]
+            added[n] -= along[n]
     return out, added
+
+
+def _pinned(W: complex, x: complex, c: complex) -> complex | None:
+    """``W`` after a step of ``dW/ds = x W + c W/|W|``, s in [0, 1]: in polar form
+    ``rho' = Re(x) rho + Re(c)`` (exact: ``rho0 e^(ks) + Re(c) (e^(ks) - 1)/k``, k = Re x) and
+    ``alpha' = Im(x) + Im(c)/rho`` (16-point Gauss-Legendre over the step, rho smooth and
+    monotone). None where rho falls below a tenth of its start (the write erases W)."""
+    rho0, k = abs(W), x.real
+    grow = np.exp(k * _NODES)
+    rho = rho0 * grow + c.real * (_NODES if abs(k) < 1e-12 else (grow - 1.0) / k)
+    end = rho0 * math.exp(k) + c.real * (1.0 if abs(k) < 1e-12 else math.expm1(k) / k)
+    if end <= 0.1 * rho0 or float(np.min(rho)) <= 0.1 * rho0:
+        return None
+    turn = x.imag + c.imag * float(np.sum(_WEIGHTS / rho))
+    return end * np.exp(1j * (np.angle(W) + turn))
 
 
 def peak_to_valley(W: np.ndarray, points: int) -> float:
@@ -430,12 +457,17 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
         if params.tire.vertical_stiffness_n_per_m > 0 else math.inf
     simulated_windows = [0]
 
+    last = [None] * len(cycle)  # per speed: the last simulated window, whose vibration the next continues
+
     def window_set(W):
-        """The windows of every speed at profile W (simulated, or rescaled in the linear regime)."""
+        """The windows of every speed at profile W (simulated, or rescaled in the linear regime),
+        a locked vibration started at its phase to the worn profile (:func:`~.windows.continued`)."""
         small = float(np.sum(np.abs(sinc * W))) < load_scale  # |w_c| bounded by the sum of |sinc_n W_n|
         run = [j for j in range(len(cycle)) if not (small and linear[j] is not None and np.max(np.abs(W))
                                                      <= LINEAR_GROWTH * np.max(np.abs(linear[j].profile)))]
-        jobs = [(params, float(kmh_to_ms(cycle[j][0])), W, states[j], settles[j][0], windows[j]) for j in run]
+        jobs = [(params, float(kmh_to_ms(cycle[j][0])), W,
+                 states[j] if last[j] is None else continued(states[j], last[j], W), settles[j][0], windows[j])
+                for j in run]
         simulated = dict(zip(run, _windows(pool, jobs, base, longest)))
         simulated_windows[0] += len(run)
         out = []
@@ -449,6 +481,7 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
                 windows[j] = max(shortest[j], min(longest, drifting))
             settles[j][0] = settles[j][1]
             states[j] = win.end_state
+            last[j] = win
             linear[j] = win if (small and not math.isfinite(win.order)) else None
             out.append(win)
         return out
@@ -469,13 +502,14 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
                 f"(EvolutionSettings.max_steps = {settings.max_steps}): the profile changes too fast for the steps; "
                 + _budget_hint(params), budget, done)
         h = min(h, distance_km - done)
-        saved = ([s.copy() for s in states], [list(s) for s in settles], list(windows), list(linear))
+        saved = ([s.copy() for s in states], [list(s) for s in settles], list(windows), list(linear),
+                 list(last))
         W_pred, h, n_revs = _predict(W, wins, h, cycle, R)
         ends = window_set(W_pred)
         W_new = _step(W, wins, n_revs, ends, W_pred)
         error = _step_error(W_new, W_pred)
         if error > REJECT * tolerance and h > settings.step_km / MAX_STEP_FACTOR:
-            states, settles, windows, linear = saved  # the step again, shorter, from the same windows
+            states, settles, windows, linear, last[:] = saved  # the step again, shorter
             h *= max(0.2, 0.9 * math.sqrt(tolerance / error))
             rejected += 1
             continue
@@ -538,14 +572,35 @@ def _exponents(win: WindowWear) -> np.ndarray:
     return np.where(win.profile != 0, win.coherent / np.where(win.profile != 0, win.profile, 1), 0)
 
 
-def _rates(wins, n_revs) -> tuple[np.ndarray, np.ndarray]:
-    """Coherent writes of a step's windows as ``dW/dstep = x W + b``: ``x`` (K,) the summed
-    exponents ``N S_n / W_n`` of the speeds not locked (their write is proportional to the
-    profile they ran with), ``b`` (K,) [m] the summed writes ``N S`` of the locked ones."""
-    x = sum((n * _exponents(w) for n, w in zip(n_revs, wins) if _unlocked(w)), np.zeros(wins[0].coherent.size))
-    b = sum((n * w.coherent for n, w in zip(n_revs, wins) if not _unlocked(w)),
-            np.zeros(wins[0].coherent.size, dtype=complex))
-    return x, b
+def _rates(wins, n_revs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Coherent writes of a step's windows as ``dW/dstep = x W + b + c W/|W|``: ``x`` (K,) the
+    summed exponents ``N S_n / W_n`` of the speeds not locked (their write is proportional to
+    the profile they ran with); ``c`` (K,) [m] at the locking order m = round(nu) of a locked
+    speed its write ``N S_m`` turned into the direction of W_m (the locked vibration keeps its
+    phase to W_m, so its write there turns with W_m: a pattern worn across W_m travels around
+    the tire, :func:`_locking_index`); ``b`` (K,) [m] the other writes ``N S`` of the locked ones."""
+    K = wins[0].coherent.size
+    x, b, c = np.zeros(K, dtype=complex), np.zeros(K, dtype=complex), np.zeros(K, dtype=complex)
+    for n, w in zip(n_revs, wins):
+        if _unlocked(w):
+            x = x + n * _exponents(w)
+            continue
+        b = b + n * w.coherent
+        m = _locking_index(w)
+        if m is not None:
+            c[m] += n * w.coherent[m] * np.exp(-1j * np.angle(w.profile[m]))
+            b[m] -= n * w.coherent[m]
+    return x, b, c
+
+
+def _locking_index(win: WindowWear) -> int | None:
+    """Index of the locking order m = round(nu) of a locked window, whose write there keeps to
+    the direction of W_m (None: no such order, or W_m below 1e-6 of the profile's largest
+    harmonic, where the write is the pattern's own and does not turn with it)."""
+    m = round(win.order) - 1
+    if not 0 <= m < win.profile.size:
+        return None
+    return m if abs(win.profile[m]) > 1e-6 * float(np.max(np.abs(win.profile))) else None
 
 
 def _predict(W, wins, h, cycle, R):
@@ -554,12 +609,11 @@ def _predict(W, wins, h, cycle, R):
     the step and the revolutions per speed."""
     for _ in range(8):
         n_revs = [share * h * 1000.0 / (2.0 * math.pi * R) for _, share in cycle]
-        x, b = _rates(wins, n_revs)
+        W_new, added = _update(W, *_rates(wins, n_revs))
         drifting_total = sum(w.written(n) - n * w.coherent for n, w in zip(n_revs, wins))
-        W_new, added = _update(W, x * W, b)
         W_new = W_new + drifting_total
-        # what is not integrated exactly (the growth x W is, while x holds; the error estimate
-        # of the step tells when it does not)
+        # what is not integrated exactly (the growth x W and the turn of a pinned write are,
+        # while x and c hold; the error estimate of the step tells when they do not)
         change = float(np.max(np.abs(added + drifting_total))) / max(float(np.max(np.abs(W))), 1e-30)
         if change <= MAX_CHANGE:
             break
@@ -570,7 +624,6 @@ def _predict(W, wins, h, cycle, R):
 def _step(W, wins, n_revs, ends, W_pred):
     """Profile after the step with the mean of the writes at its start (``wins``, at W) and at
     its end (``ends``, run at the predicted ``W_pred``): the trapezoid rule, second order."""
-    x0, b0 = _rates(wins, n_revs)
-    x1, b1 = _rates(ends, n_revs)
+    start, end = _rates(wins, n_revs), _rates(ends, n_revs)
     drifting_total = sum(w.written(n) - n * w.coherent for n, w in zip(n_revs, wins))
-    return _update(W, 0.5 * (x0 + x1) * W, 0.5 * (b0 + b1))[0] + drifting_total
+    return _update(W, *(0.5 * (a + z) for a, z in zip(start, end)))[0] + drifting_total

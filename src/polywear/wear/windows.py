@@ -30,7 +30,7 @@ from ..params import Params
 from ..solvers.integrate import integrate
 from .law import energetic_rate, friction_power
 
-__all__ = ["WindowWear", "window_wear", "coherence", "table_points", "LOCK_TOLERANCE", "SETTLED_PHASE",
+__all__ = ["WindowWear", "window_wear", "continued", "coherence", "table_points", "LOCK_TOLERANCE", "SETTLED_PHASE",
            "SEPARATED_BEATS", "FITTED_LINES", "NEAR_SPAN", "MAX_WINDOW"]
 
 LOCK_TOLERANCE = 1e-6
@@ -174,6 +174,20 @@ class WindowWear:
             geometric = (1.0 - r ** revolutions) / (1.0 - r)
             out = out + c * r ** self.revolutions * geometric
         return out
+
+
+def continued(state, window: WindowWear, profile: np.ndarray) -> np.ndarray:
+    """``state`` (coupled model, the end of ``window``) restarted on the profile ``profile``
+    (harmonics [m]) worn since: a locked vibration keeps its phase to the profile's harmonic
+    W_m at its order m (a pattern worn across W_m turns W_m, and the vibration with it), so
+    the contact angle is turned back by ``arg(profile_m / W_m) / m`` and the next window starts
+    where continuous rolling would have the vibration (the profile's forced response settles
+    within the window's settling time). Unchanged where the window is not locked."""
+    out = np.array(state, dtype=float)
+    m = round(window.order) if window.locked and math.isfinite(window.order) else 0
+    if 1 <= m <= profile.size and window.profile[m - 1] != 0 and profile[m - 1] != 0:
+        out[-1] -= float(np.angle(profile[m - 1] / window.profile[m - 1])) / m
+    return out
 
 
 def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float, revolutions: int = 8,
