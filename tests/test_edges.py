@@ -137,3 +137,28 @@ def test_a_cascade_branch_that_comes_back_below_its_hopf_point_keeps_the_window(
     assert window == [(63.6893, 63.6895)]
     assert all(info["ended"] == "stopped" for info in edges.branch_info)
     assert sum(len(b.points) for b in edges.branches) < sum(len(b.points) for b in full.branches)
+
+
+def test_a_cascade_branch_is_stopped_only_deep_after_a_fold():
+    from types import SimpleNamespace as NS
+
+    from polywear.studies.edges import BranchStop
+
+    class Stab:
+        linear_band_kmh = [(60.0, 90.0)]
+        real_crossings_kmh = []
+
+    def branch(path, special=()):
+        """Points at the speeds [km/h] of ``path``, moving as the path does."""
+        dv = np.diff(path, append=path[-1] + (path[-1] - path[-2]))
+        return NS(points=[NS(orbit=NS(speed=kmh_to_ms(v)), tangent_speed=float(np.sign(d)))
+                          for v, d in zip(path, dv)], special=list(special))
+
+    stop = BranchStop()(Stab())
+    up = [60.0, 61.0, 61.8, 64.0]  # first 2 km/h deep at 64 km/h
+    assert stop(branch(up))  # no PD/NS before: stopped at its first deep point
+    cascade = [("PD", None, 1)]
+    assert not stop(branch(up, cascade))
+    assert not stop(branch(up + [68.0, 66.0], cascade))  # turned, but back towards 60 km/h
+    assert not stop(branch(up + [68.0, 66.0, 61.0, 59.5, 61.0], cascade))  # out of the band and back
+    assert stop(branch(up + [68.0, 66.0, 61.0, 59.5, 61.0, 63.0], cascade))  # deep again, moving away
