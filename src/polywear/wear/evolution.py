@@ -25,7 +25,10 @@ Fast dynamics and slow wear alternate (``docs/wear.md``). For a distance step ``
 3. **Update.** Unlocked, the coherent write of harmonic n is proportional to ``W_n``
    (the response to harmonic n lands on harmonic n only): a rate ``a_n = S_n / W_n``;
    locked, the cycle writes its own pattern at a rate ``b = S`` that does not depend on
-   ``W`` to first order. ``dW/dN = a W + b`` is integrated exactly over the step
+   ``W`` to first order, except at its locking order m, where it keeps its phase to W_m and
+   its write ``c W_m/|W_m|`` turns with W_m (a pattern worn across W_m travels around the
+   tire; the next window starts the vibration at its phase to the turned W_m,
+   :func:`~.windows.continued`). ``dW/dN = a W + b (+ c W/|W|)`` is integrated exactly over the step
    (:func:`_update`; harmonics below ``1e-6`` of the profile's RMS, or an exponent above
    ``MAX_EXPONENT`` in a step, take the additive form). A step is a predictor-corrector
    pair (:func:`_predict`, :func:`_step`): the writes at its start give the predicted
