@@ -43,3 +43,31 @@ def complex_step_jacobian(model, u, V, p, h=1e-30):
     pc = np.asarray(p).astype(complex)
     jac = np.array([model.f(u + 1j * h * e, V, pc).imag / h for e in np.eye(model.n)]).T
     return jac, model.f(u + 0j, V + 1j * h, pc).imag / h
+
+
+def simulated_wear_change(params, speed_kmh: float, order: int) -> complex:
+    """Per-revolution relative change dW_n/W_n of harmonic ``order`` by brute force: the
+    coupled model simulated (rtol 1e-10) with that harmonic worn to 1 um, past its slowest
+    transient (14 e-folds), and the harmonic written over the next two revolutions; no
+    linear algebra, the wear map's independent check."""
+    from polywear.models import model_for
+    from polywear.models.profile import coupled_model, patch_sinc, profile_vector
+    from polywear.solvers.integrate import integrate
+    from polywear.wear.law import friction_power, written_harmonics
+    from polywear.wear.map import load_to_power
+
+    base = model_for(params)
+    coupled = coupled_model(base)
+    V, R = speed_kmh / 3.6, params.operating.rolling_radius_m
+    u0, A, *_ = load_to_power(base, base.pack(params), V)
+    decay = -np.max(np.linalg.eigvals(A).real)
+    cos_coef = np.zeros(order)
+    cos_coef[-1] = patch_sinc([order], params.tire.contact_length_m, R)[0] * 1e-6
+    p = profile_vector(base, params, V, cos_coef, np.zeros(order))
+    T = 2 * math.pi * R / V
+    settle = math.ceil(14.0 / decay / T) * T
+    run = integrate(coupled, np.append(u0, 0.0), V, p, settle + 2 * T, rtol=1e-10, atol=1e-14, dense_from=settle)
+    t = settle + np.arange(2 * 64 * order + 1) * (T / (64 * order))
+    u = run.dense(t)
+    dW, _ = written_harmonics(t, friction_power(coupled, u, V, p), u[:, -1], [order], params)
+    return complex(dW[0] / 2 / 1e-6)

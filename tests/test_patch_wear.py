@@ -6,7 +6,6 @@ time simulation, the evolution's mean wear against the map's steady power (docs/
 from __future__ import annotations
 
 import json
-import math
 
 import numpy as np
 import pytest
@@ -14,12 +13,10 @@ import pytest
 from polywear.models import model_for
 from polywear.models.profile import coupled_model, patch_sinc, profile_vector
 from polywear.params import Params
-from polywear.solvers.integrate import integrate
-from polywear.wear.law import friction_power, written_harmonics
-from polywear.wear.map import load_to_power, wear_map
+from polywear.wear.map import wear_map
 
 from .cli_runner import run_main
-from .oracles import complex_step_jacobian
+from .oracles import complex_step_jacobian, simulated_wear_change
 
 PATCH = {"friction.contact": "patch", "friction.patch_elements": 8}
 
@@ -119,22 +116,7 @@ def test_patch_wear_map_agrees_with_brute_force_simulation(toe):
     params = Params().with_updates({"friction.contact": "patch", "operating.toe_deg": toe})
     m = wear_map(params, [40.0])
     k = int(m.most_unstable()[0])
-    order = int(m.orders[k])
-    base = model_for(params)
-    coupled = coupled_model(base)
-    V, R = 40.0 / 3.6, params.operating.rolling_radius_m
-    u0, A, *_ = load_to_power(base, base.pack(params), V)
-    decay = -np.max(np.linalg.eigvals(A).real)
-    cos_coef = np.zeros(order)
-    cos_coef[-1] = patch_sinc([order], params.tire.contact_length_m, R)[0] * 1e-6
-    p = profile_vector(base, params, V, cos_coef, np.zeros(order))
-    T = 2 * math.pi * R / V
-    settle = math.ceil(14.0 / decay / T) * T
-    run = integrate(coupled, np.append(u0, 0.0), V, p, settle + 2 * T, rtol=1e-10, atol=1e-14, dense_from=settle)
-    t = settle + np.arange(2 * 64 * order + 1) * (T / (64 * order))
-    u = run.dense(t)
-    dW, _ = written_harmonics(t, friction_power(coupled, u, V, p), u[:, -1], [order], params)
-    sim = dW[0] / 2 / 1e-6
+    sim = simulated_wear_change(params, 40.0, int(m.orders[k]))
     change = m.relative_change[0, k]
     assert sim.real == pytest.approx(change.real, rel=1e-4)
     assert sim.imag == pytest.approx(change.imag, rel=1e-4)
