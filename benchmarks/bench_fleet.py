@@ -445,24 +445,32 @@ def _edges_car(item):
     return i, values, t1 - t0, t2 - t1, diff, kinds
 
 
+def _four_hopf_cars(pool, n: int, seed: int) -> list:
+    """The first ``n`` axle4dof cars with four Hopf points, the paper's seven parameters within
+    +-10 % of the defaults drawn by ``seed`` (Hopf points counted in ``pool``): (index drawn,
+    values, params) each; prints how many were drawn."""
+    base = with_updates(Params(), {"model": "axle4dof"})
+    rng = np.random.default_rng(seed)
+    nominal = np.array([get_value(base, k) for k in DEFAULT_KEYS])
+    cars, drawn = [], 0
+    while len(cars) < n:
+        values = [nominal * (1.0 + 0.1 * (2.0 * rng.random(len(nominal)) - 1.0)) for _ in range(200)]
+        params = [sample_params(base, DEFAULT_KEYS, v) for v in values]
+        for k, count in enumerate(pool.map(_hopf_count, params, chunksize=20)):
+            if count == 4 and len(cars) < n:
+                cars.append((drawn + k, values[k], params[k]))
+        drawn += len(values) if len(cars) < n else cars[-1][0] + 1 - drawn
+    print(f"axle4dof, seed {seed}: {n} cars with four Hopf points among the first {drawn} drawn", flush=True)
+    return cars
+
+
 def edges(n: int, seed: int, workers: int = 1) -> None:
     """The first ``n`` axle4dof cars with four Hopf points (the paper's seven parameters within
     +-10 % of the defaults, drawn by ``seed``): edges-only continuation against the full one."""
     from concurrent.futures import ProcessPoolExecutor
 
-    base = with_updates(Params(), {"model": "axle4dof"})
-    rng = np.random.default_rng(seed)
-    nominal = np.array([get_value(base, k) for k in DEFAULT_KEYS])
-    cars, drawn = [], 0
     with ProcessPoolExecutor(workers) as pool:
-        while len(cars) < n:
-            values = [nominal * (1.0 + 0.1 * (2.0 * rng.random(len(nominal)) - 1.0)) for _ in range(200)]
-            params = [sample_params(base, DEFAULT_KEYS, v) for v in values]
-            for k, count in enumerate(pool.map(_hopf_count, params, chunksize=20)):
-                if count == 4 and len(cars) < n:
-                    cars.append((drawn + k, values[k], params[k]))
-            drawn += len(values) if len(cars) < n else cars[-1][0] + 1 - drawn
-    print(f"axle4dof, seed {seed}: {n} cars with four Hopf points among the first {drawn} drawn", flush=True)
+        cars = _four_hopf_cars(pool, n, seed)
     t_full = t_edges = 0.0
     bad, counts, points = [], Counter(), np.zeros(2)
     with ProcessPoolExecutor(workers) as pool:
@@ -521,20 +529,9 @@ def top_fold(n: int, seed: int, workers: int = 1, n_pilot: int = 32) -> None:
     edges-only continuation; CPU of the three per car."""
     from concurrent.futures import ProcessPoolExecutor
 
-    base = with_updates(Params(), {"model": "axle4dof"})
-    fast = FastBand(_references(base, n_pilot, seed), (20.0, 300.0))
-    rng = np.random.default_rng(seed)
-    nominal = np.array([get_value(base, k) for k in DEFAULT_KEYS])
-    cars, drawn = [], 0
+    fast = FastBand(_references(with_updates(Params(), {"model": "axle4dof"}), n_pilot, seed), (20.0, 300.0))
     with ProcessPoolExecutor(workers) as pool:
-        while len(cars) < n:
-            values = [nominal * (1.0 + 0.1 * (2.0 * rng.random(len(nominal)) - 1.0)) for _ in range(200)]
-            params = [sample_params(base, DEFAULT_KEYS, v) for v in values]
-            for k, count in enumerate(pool.map(_hopf_count, params, chunksize=20)):
-                if count == 4 and len(cars) < n:
-                    cars.append((drawn + k, values[k], params[k], fast))
-            drawn += len(values)
-        print(f"axle4dof, seed {seed}: {n} cars with four Hopf points", flush=True)
+        cars = [(*car, fast) for car in _four_hopf_cars(pool, n, seed)]
         times, bad, worst, tops = np.zeros(3), [], np.zeros(2), 0
         for i, values, dt, diffs, top in pool.map(_top_fold_car, cars):
             times += dt
