@@ -71,6 +71,7 @@ _RTOL = 1e-5
 2e-3 of the largest from 1e-8, near locking at 80 km/h; the evolution costs 0.7x that at
 1e-6 and its answers move by 0.01 %: docs/wear.md)."""
 _ATOL_FRACTION = 1e-9
+SAMPLES_PER_ORDER = 16
 """Absolute tolerance of each state, as a fraction of its size in steady rolling [-]."""
 
 
@@ -211,7 +212,7 @@ def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float,
     atol = np.append(_ATOL_FRACTION * scale, 1e-9)
     t_end = settle_s + revolutions * T
     run = integrate(coupled, state, V, p, t_end, rtol=_RTOL, atol=atol, dense_from=settle_s)
-    per_rev = max(32 * K, int(T * 8000.0))
+    per_rev = max(SAMPLES_PER_ORDER * K, int(T * 8000.0))
     t = settle_s + np.arange(revolutions * per_rev + 1) * (T / per_rev)
     t[-1] = min(t[-1], t_end)
     u = run.dense(t)
