@@ -18,7 +18,8 @@ the machine may be shared, and wall time then measures the load), best of N:
   process: the fast evolution (``polywear.wear.evolution.wear_evolution``) and the baseline
   (today's implementation before issue 22, fixed 1000 km steps) in the same run, CPU and
   wall time, their ratio, the load, and the answers side by side (visible distance, depth
-  at the end, dominant order).
+  at the end, dominant order); the fast one twice: in one thread, and with the cycle's
+  speeds in threads (the default, at most one per CPU; the same answer bit for bit).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import argparse
 import math
 import os
 import time
+from functools import partial
 
 import numpy as np
 
@@ -104,14 +106,16 @@ def main() -> None:
     for name in ("tread1dof",) + (("axle4dof",) if args.axle else ()):
         p_m = with_updates(params, {"model": name})
         runs = {}
-        for label, run in (("fast", wear_evolution), ("baseline", baseline.wear_evolution)):
-            if label == "baseline" and args.only_fast:
+        threads = min(os.cpu_count() or 1, len(cycle or params.wear.cycle))
+        for label, run in (("fast", partial(wear_evolution, workers=1)),
+                           (f"fast, {threads} threads", wear_evolution), ("baseline", baseline.wear_evolution)):
+            if label == "baseline" and args.only_fast or label.endswith("threads") and threads == 1:
                 continue
             load = os.getloadavg()[0]
             start, cpu = time.perf_counter(), time.process_time()
             result = run(p_m, args.km, cycle=cycle)
             wall, cpu = time.perf_counter() - start, time.process_time() - cpu
-            runs[label] = (cpu, result.summary())
+            runs[label] = (cpu, result.summary(), wall)
             s = runs[label][1]
             visible = f"{s['visible_km']:,.0f} km" if s["visible_km"] is not None else "not visible"
             print(f"evolution {name}, {args.km:,.0f} km, cycle {[c[0] for c in result.cycle]} km/h, {label}: "
@@ -119,13 +123,16 @@ def main() -> None:
                   f"{result.settings.get('windows', '')} windows); visible {visible}, depth "
                   f"{s['final_depth_mm']:.4f} mm, order {s['dominant_order']}")
         if "baseline" in runs:
-            (t_fast, fast), (t_base, old) = runs["fast"], runs["baseline"]
+            (t_fast, fast, _), (t_base, old, wall_base) = runs["fast"], runs["baseline"]
             visible = (f"{fast['visible_km'] / old['visible_km'] - 1:+.2%}"
                        if fast["visible_km"] is not None and old["visible_km"] is not None
                        else f"{fast['visible_km']} vs {old['visible_km']}")
             print(f"  fast / baseline: x{t_base / t_fast:.1f} less CPU; visible distance {visible}, depth "
                   f"{fast['final_depth_mm'] / old['final_depth_mm'] - 1:+.2%}, order {fast['dominant_order']} vs "
                   f"{old['dominant_order']}")
+            if f"fast, {threads} threads" in runs:
+                print(f"  fast in {threads} threads / baseline: x{wall_base / runs[f'fast, {threads} threads'][2]:.1f} "
+                      "less wall time")
 
 
 if __name__ == "__main__":

@@ -259,31 +259,36 @@ def test_locking_is_decided_from_the_settling_of_the_phase(tau_revs):
     assert _remaining_drift(_tire_phase(line(slip), angle, m, per_rev, M)) > SETTLED_PHASE
 
 
-def test_windows_in_worker_processes_give_the_same_evolution():
-    """``workers=2`` simulates the windows of the cycle's speeds in two processes at once:
-    the same profile, bit for bit, as one process."""
+def test_windows_in_threads_give_the_same_evolution():
+    """``workers=2`` simulates the windows of the cycle's speeds in two threads at once
+    (the integrator releases the GIL): the same profile, bit for bit, as one thread."""
     params = Params()
     cycle = ((50.0, 0.5), (120.0, 0.5))
-    serial = wear_evolution(params, 2000.0, cycle=cycle, settings=EvolutionSettings(step_km=1000.0))
+    serial = wear_evolution(params, 2000.0, cycle=cycle, settings=EvolutionSettings(step_km=1000.0), workers=1)
     parallel = wear_evolution(params, 2000.0, cycle=cycle, settings=EvolutionSettings(step_km=1000.0), workers=2)
     np.testing.assert_array_equal(parallel.harmonics, serial.harmonics)
     np.testing.assert_array_equal(parallel.distance_km, serial.distance_km)
     assert np.isfinite(serial.vibration_order[:, 1]).all()  # the 120 km/h windows vibrate
 
 
-def test_workers_with_another_blas_thread_count_give_the_same_evolution(monkeypatch):
+def test_a_worker_process_with_another_blas_thread_count_gives_the_same_evolution(monkeypatch):
     """``distributed.LocalCluster`` leaves ``OPENBLAS_NUM_THREADS=1`` (and OMP, MKL) in
-    ``os.environ``: worker processes started later run BLAS on one thread while this
-    process keeps the count it loaded with. The windows must not depend on it (they did
-    through ``np.dot`` of long windows). Discriminates wherever this process's BLAS runs
-    on more than one thread (several cores, none of these variables set at start)."""
+    ``os.environ``: worker processes started later (a fleet's cars) run BLAS on one thread
+    while this process keeps the count it loaded with. The windows must not depend on it
+    (they did through ``np.dot`` of long windows). Discriminates wherever this process's
+    BLAS runs on more than one thread (several cores, none of these variables set at start)."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
     for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         monkeypatch.setenv(name, "1")
     params = Params()
     cycle = ((50.0, 0.5), (120.0, 0.5))
-    serial = wear_evolution(params, 1000.0, cycle=cycle, settings=EvolutionSettings(step_km=1000.0))
-    parallel = wear_evolution(params, 1000.0, cycle=cycle, settings=EvolutionSettings(step_km=1000.0), workers=2)
-    np.testing.assert_array_equal(parallel.harmonics, serial.harmonics)
+    settings = EvolutionSettings(step_km=1000.0)
+    serial = wear_evolution(params, 1000.0, cycle=cycle, settings=settings, workers=1)
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        worker = pool.submit(wear_evolution, params, 1000.0, cycle, settings, workers=1).result()
+    np.testing.assert_array_equal(worker.harmonics, serial.harmonics)
     assert np.isfinite(serial.vibration_order[:, 1]).all()  # the 120 km/h window vibrates
 
 

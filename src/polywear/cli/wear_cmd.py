@@ -194,9 +194,9 @@ def evolve_(
     waterfall: Annotated[Optional[Path], typer.Option("--waterfall", help="Order amplitudes over distance (png, pdf, svg).")] = None,
     out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write w(distance, angle) and the harmonics (.nc).")] = None,
     workers: Annotated[
-        int, typer.Option("--workers", "-w", min=1, max=64,
-                          help="Processes that simulate the cycle's speeds side by side (same result; worth it on long multi-speed cycles).")
-    ] = 1,
+        Optional[int], typer.Option("--workers", "-w", min=1, max=64,
+                                    help="Threads that simulate the cycle's speeds side by side (same result; default: one per speed, at most the CPU count).")
+    ] = None,
     start: Annotated[
         str, typer.Option("--start", help="Where the tread starts at each speed: rest (steady rolling, as a car drives) "
                           "or cycle (on the large stable cycle where it coexists with stable rolling: hard "

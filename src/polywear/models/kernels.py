@@ -85,7 +85,7 @@ def aux_cfunc(kernels):
     return _first_class(kernels.aux.py_func, RHS_SIG)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def batch(kernel, states, V, p, out):
     """Apply a ``(u, V, p, out)`` kernel to every row of ``states`` (m, n) into ``out`` (m, k)."""
     for i in range(states.shape[0]):

@@ -219,8 +219,9 @@ def _loaded(u, V, p):
 def _load_in_place(u, V, p):
     """:func:`_loaded` without the copy (the hot path: rhs and diagnostics, 2-3x cheaper):
     the profile's load is written into ``p``'s base vector, returned as a view, with the
-    index written and the nominal value the caller puts back after the base kernel (the
-    kernels hold the GIL, so no other call sees ``p`` in between)."""
+    index written and the nominal value the caller puts back after the base kernel. Not for
+    a ``p`` shared between threads (the integrator releases the GIL): each simulation has
+    its own vector (:func:`profile_vector` builds one per window)."""
     n = u.size - 1
     start = _base_start(p)
     i = start + int(p[_IN0].real)

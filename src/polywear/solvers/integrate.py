@@ -140,7 +140,7 @@ class DenseOutput:
         return out[0] if np.ndim(t) == 0 else out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _dense_eval(t_start: np.ndarray, h: np.ndarray, coef: np.ndarray, times: np.ndarray, out: np.ndarray) -> bool:
     """Fill ``out[i]`` with the dense output at ``times[i]``; False if a time is outside."""
     m = h.size
@@ -257,12 +257,13 @@ def _grow_rows(a: np.ndarray, used: int) -> np.ndarray:
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _rodas4(rhs: Callable[..., None], jac: Callable[..., None], u0: np.ndarray, V: float, p: np.ndarray,
             t_end: float, rtol: float, atol: np.ndarray, h0: float, t_out: np.ndarray, record_steps: bool,
             dense_from: float, max_steps: int) -> tuple[int, float, np.ndarray, float, np.ndarray, np.ndarray,
                                                          np.ndarray, np.ndarray]:
-    """The Rodas4 step loop. Returns status, final t, y, h, stats and the recorded output."""
+    """The Rodas4 step loop. Returns status, final t, y, h, stats and the recorded output.
+    Releases the GIL (the wear evolution runs the windows of its speeds in threads)."""
     n = u0.size
     y = u0.copy()
     y_new = np.empty(n)

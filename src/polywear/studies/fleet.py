@@ -441,7 +441,7 @@ class FleetEvaluator:
 
         settings = EvolutionSettings(max_steps=self.wear_max_steps, until_visible=True)
         try:
-            worn = wear_evolution(params, self.wear_km, self.usage_cycle, settings=settings)
+            worn = wear_evolution(params, self.wear_km, self.usage_cycle, settings=settings, workers=1)  # cars in parallel
         except StepBudgetError as exc:
             return np.nan, np.nan, f"over the budget of {exc.budget} distance steps at {exc.done_km:,.0f} of {self.wear_km:,.0f} km"
         except SAMPLE_FAILURES as exc:

@@ -42,14 +42,17 @@ Fast dynamics and slow wear alternate (``docs/wear.md``). For a distance step ``
    than ``MAX_CHANGE``.
 4. **Linear regime.** At a speed where rolling is steady and the profile is small
    (``LINEAR_LOAD``), the window's rates ``S_n / W_n`` are reused instead of simulating.
-5. **Parallel.** The windows at a step's end are independent: with ``workers > 1`` they
-   run in a pool of processes at the same time (same result).
+5. **Parallel.** The windows at a step's end are independent: they run in threads at the
+   same time (``workers``; the compiled integrator and diagnostics release the GIL, each
+   window has its own parameter vector), with the same result bit for bit.
 """
 
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Iterable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -392,33 +395,29 @@ def step_budget(distance_km: float, settings: EvolutionSettings) -> int:
 
 def wear_evolution(params: Params, distance_km: float, cycle: Iterable[tuple[float, float]] | None = None,
            settings: EvolutionSettings = EvolutionSettings(),
-           progress: Progress | None = None, workers: int = 1, start: str = "rest") -> EvolutionResult:
+           progress: Progress | None = None, workers: int | None = None, start: str = "rest") -> EvolutionResult:
     """Worn profile from seeded roughness over ``distance_km`` [km] on a drive cycle.
 
     ``cycle``: ((speed [km/h], share), ...), default ``params.wear.cycle_shares()``;
     ``settings``: the distance step [km] and the revolutions per window
     (:class:`EvolutionSettings`);
     ``progress(km done, distance_km)`` after every step (:mod:`polywear.progress`);
-    ``workers``: processes that simulate the windows of the cycle's speeds at the same
-    time (1: all in this process; the result is the same);
+    ``workers``: threads that simulate the windows of the cycle's speeds at the same
+    time (default: one per speed, at most the CPU count; 1: all in this thread, e.g. where
+    the caller already runs evolutions in parallel; the result is the same);
     ``start``: ``"rest"`` (steady rolling) or ``"cycle"`` (on the large stable cycle where it
     coexists with stable rolling, :mod:`polywear.wear.start`).
     """
     if not (math.isfinite(distance_km) and distance_km > 0):
         raise ValueError(f"distance {distance_km!r} km: must be positive")
-    if workers < 1:
+    if workers is not None and workers < 1:
         raise ValueError(f"workers = {workers!r}: must be at least 1")
     cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
     starts = start_states(params, cycle, start)
-    if workers == 1 or len(cycle) == 1:
+    threads = min(workers or os.cpu_count() or 1, len(cycle))
+    if threads == 1:
         return _evolve(params, distance_km, cycle, settings, progress, None, starts)
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-
-    from ..parallel import _ignore_interrupt
-
-    with ProcessPoolExecutor(min(workers, len(cycle)), mp_context=multiprocessing.get_context("spawn"),
-                             initializer=_ignore_interrupt) as pool:
+    with ThreadPoolExecutor(threads) as pool:
         return _evolve(params, distance_km, cycle, settings, progress, pool, starts)
 
 
@@ -428,7 +427,7 @@ def _windows(pool, jobs, base, longest: int) -> list[WindowWear]:
     time), else here."""
     if pool is None or len(jobs) < 2:
         return [window_wear(*job, base=base, max_revolutions=longest) for job in jobs]
-    futures = [pool.submit(window_wear, *job, max_revolutions=longest) for job in jobs]
+    futures = [pool.submit(window_wear, *job, base=base, max_revolutions=longest) for job in jobs]
     return [future.result() for future in futures]
 
 

@@ -97,7 +97,7 @@ def _window_sum(x: np.ndarray):
     A BLAS dot product (``np.dot``) of a long vector splits the sum over BLAS threads,
     so its rounding depends on the thread count, which is fixed when BLAS loads and
     follows ``OPENBLAS_NUM_THREADS``/``OMP_NUM_THREADS``; a worker process started later
-    (``wear_evolution(..., workers=N)``) may get another count than this process (e.g. after
+    (a fleet's or a study's) may get another count than this process (e.g. after
     ``distributed.LocalCluster`` set those variables to 1 here) and a different window."""
     return np.sum(x)
 
