@@ -16,6 +16,7 @@ Sobol and fleet extrapolations, Dask 1 -> 2 workers, cost growth (nothing is ass
     .venv/bin/python benchmarks/bench_fleet.py edges --samples 200 [--seed 7] [--workers 2]
     .venv/bin/python benchmarks/bench_fleet.py windows --samples 10 [--seed 7] [--workers 2]
     .venv/bin/python benchmarks/bench_fleet.py top-fold --samples 50 [--seed 7] [--workers 2]
+    .venv/bin/python benchmarks/bench_fleet.py gap-fold --samples 60 --seed 7 [--workers 1] [--no-full]
 
 ``agreement`` draws the paper's seven parameters uniformly within +-10 % of the model's
 defaults (the default study ranges), evaluates every sample by the fast path and by the
@@ -501,7 +502,7 @@ def _top_fold_car(item):
     t1 = time.process_time()
     edges = edges_diagram(params, (20.0, 300.0))
     t2 = time.process_time()
-    sev, diagram, top = edges_band(params, (20.0, 300.0), fast)
+    sev, diagram, top, _ = edges_band(params, (20.0, 300.0), fast)
     t3 = time.process_time()
     diffs = []
     for other in (full, edges):
@@ -547,6 +548,91 @@ def top_fold(n: int, seed: int, workers: int = 1, n_pilot: int = 32) -> None:
           f"of the band's ends where the counts agree: {worst[0]:.1e} km/h (full), {worst[1]:.1e} km/h (edges only)")
     print(f"  CPU per car: full {times[0] / n:.3f} s, edges only {times[1] / n:.3f} s, edges + top fold "
           f"{times[2] / n:.3f} s -> {times[1] / times[2]:.2f}x less than edges only")
+
+
+def _band_differences(a_diagram, a_sev, b_diagram, b_sev) -> tuple[list[str], float]:
+    """What differs between two paths' SEV bands, gaps after PD/NS points and failed branches
+    (ends beyond 1e-6 km/h), and the largest difference of the band's ends [km/h] where the
+    counts agree (NaN otherwise)."""
+    diff = []
+    for name, a, b in (("sev_band_kmh", a_sev, b_sev),
+                       ("gaps_after_pd_ns_kmh", a_diagram.gaps_after_pd_ns_kmh, b_diagram.gaps_after_pd_ns_kmh)):
+        if len(a) != len(b):
+            diff.append(f"{name}: {len(a)} vs {len(b)} intervals: {a} vs {b}")
+        elif a and float(np.max(np.abs(np.subtract(a, b)))) > 1e-6:
+            diff.append(f"{name}: ends differ by {float(np.max(np.abs(np.subtract(a, b)))):.2e} km/h: {a} vs {b}")
+    failed = lambda d: sorted(round(info["from_hopf_kmh"], 3) for info in d.branch_info if info["failed"])
+    if failed(a_diagram) != failed(b_diagram):
+        diff.append(f"failed branches from {failed(a_diagram)} vs {failed(b_diagram)} km/h")
+    worst = float(np.max(np.abs(np.subtract(a_sev, b_sev)))) if len(a_sev) == len(b_sev) and a_sev else np.nan
+    return diff, worst
+
+
+def _gap_fold_car(item):
+    """One car of ``gap-fold``: (index, values, Hopf criticalities, CPU of the full continuation,
+    of the edges path with the top fold and of that with the gap fold too [s], what the latter
+    differs in from the full continuation and from the edges path with the top fold, and the
+    gap fold or why not). The two edges paths run in alternating order (``first``)."""
+    from polywear.studies.global_sensitivity import edges_band
+
+    i, values, params, fast, first, with_full = item
+    t0 = time.process_time()
+    full = bifurcation(params, (20.0, 300.0)) if with_full else None
+    dt = {"full": time.process_time() - t0}
+    out = {}
+    for gap in ((False, True) if first else (True, False)):
+        t = time.process_time()
+        out[gap] = edges_band(params, (20.0, 300.0), fast, gap_fold=gap)
+        dt[gap] = time.process_time() - t
+    sev, diagram, _, gap = out[True]
+    diffs = [_band_differences(full, full.sev_band_kmh, diagram, sev) if with_full else ([], np.nan),
+             _band_differences(out[False][1], out[False][0], diagram, sev)]
+    criticality = tuple(str(h.criticality) for h in diagram.hopf_points)
+    return i, values, criticality, (dt["full"], dt[False], dt[True]), diffs, gap if gap is not None \
+        else fast.gap_fold(params)
+
+
+def gap_fold(n: int, seed: int, workers: int = 1, n_pilot: int = 32, with_full: bool = True) -> None:
+    """The first ``n`` axle4dof cars with four Hopf points (as ``edges`` and ``top-fold`` draw
+    them): the SEV band of the studies' edges path with the top fold and the gap fold followed
+    in the parameters (:func:`polywear.studies.global_sensitivity.edges_band` with
+    ``gap_fold=True``; the nominal and ``n_pilot`` pilot references of another seed, as a
+    study's) against the full continuation and the edges path with the top fold alone; CPU of
+    the three per car (the two edges paths alternately first), and the gap fold's fallbacks
+    by reason."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from polywear.studies.fast_band import GAP_FOLD_CRITICALITY
+
+    refs = _references(with_updates(Params(), {"model": "axle4dof"}), n_pilot, seed)
+    print(f"  references with a gap fold: {sum(r.gap_fold is not None for r in refs)}; with the Hopf points "
+          f"{GAP_FOLD_CRITICALITY}: {sum(r.band.hopf_criticality == GAP_FOLD_CRITICALITY for r in refs)}", flush=True)
+    fast = FastBand(refs, (20.0, 300.0))
+    times, times_target, bad, worst, reasons, n_target = np.zeros(3), np.zeros(3), [], np.zeros(2), Counter(), 0
+    with ProcessPoolExecutor(workers) as pool:
+        cars = [(*car, fast, k % 2 == 0, with_full) for k, car in enumerate(_four_hopf_cars(pool, n, seed))]
+        for i, values, criticality, dt, diffs, gap in pool.map(_gap_fold_car, cars):
+            times += dt
+            target = criticality == GAP_FOLD_CRITICALITY
+            n_target += target
+            if target:
+                times_target += dt
+                reasons["followed" if not isinstance(gap, Fallback) else gap.reason.value] += 1
+            worst = np.fmax(worst, [w for _, w in diffs])
+            print(f"  car {i} {'/'.join(c[0] for c in criticality)}: full {dt[0]:.2f} s, edges + top fold "
+                  f"{dt[1]:.2f} s, + gap fold {dt[2]:.2f} s CPU; {gap if target else '-'}; vs full: "
+                  f"{'; '.join(diffs[0][0]) or 'same'}; vs edges + top fold: {'; '.join(diffs[1][0]) or 'same'}",
+                  flush=True)
+            if diffs[0][0] or diffs[1][0]:
+                bad.append(i)
+                print(f"    {dict(zip(DEFAULT_KEYS, values.tolist()))}", flush=True)
+    print(f"  {n_target} of {n} cars with the Hopf points {GAP_FOLD_CRITICALITY}; gap fold: {dict(reasons)}")
+    print(f"  cars with a difference: {len(bad)} {bad}; largest difference of the band's ends where the counts "
+          f"agree: {worst[0]:.1e} km/h (full), {worst[1]:.1e} km/h (edges + top fold)")
+    for name, t, m in (("all cars", times, n), ("those cars", times_target, n_target)):
+        if m:
+            print(f"  CPU per car, {name}: full {t[0] / m:.3f} s, edges + top fold {t[1] / m:.3f} s, + gap fold "
+                  f"{t[2] / m:.3f} s -> {t[1] / t[2]:.2f}x less than with the top fold alone")
 
 
 def _window_car(item):
@@ -599,7 +685,7 @@ def windows(n: int, seed: int, workers: int = 1) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("what", choices=("agreement", "sobol", "fleet", "pilot", "dask", "dask-sobol", "growth", "edges",
-                                         "windows", "top-fold"))
+                                         "windows", "top-fold", "gap-fold"))
     parser.add_argument("--model", default="tread1dof")
     parser.add_argument("--samples", type=int, default=200)
     parser.add_argument("--seed", type=int, default=20261201)
@@ -617,7 +703,8 @@ def main() -> None:
                         help="agreement: speeds [km/h] of the amplitudes (none: the bands alone, as fleets need)")
     parser.add_argument("--band-every", type=int, default=1, help="pilot: whole bands for every k-th car")
     parser.add_argument("--spread", type=float, default=0.1, help="sobol: parameter ranges +-spread of the defaults")
-    parser.add_argument("--workers", type=int, help="local processes (edges, windows, top-fold: 1; sobol: 2)")
+    parser.add_argument("--workers", type=int, help="local processes (edges, windows, top-fold, gap-fold: 1; sobol: 2)")
+    parser.add_argument("--no-full", action="store_true", help="gap-fold: without the full continuation")
     args = parser.parse_args()
     if args.what == "agreement":
         agreement(args.model, args.samples, args.seed, args.pilot, tuple(args.amplitude_speeds))
@@ -640,6 +727,8 @@ def main() -> None:
         windows(args.samples, args.seed, args.workers or 1)
     elif args.what == "top-fold":
         top_fold(args.samples, args.seed, args.workers or 1, args.pilot)
+    elif args.what == "gap-fold":
+        gap_fold(args.samples, args.seed, args.workers or 1, args.pilot, not args.no_full)
     else:
         growth()
 

@@ -74,7 +74,8 @@ from ..solvers.continuation import (BranchPoint, ContinuationSettings, cycle_alo
 from ..dynamics.points import PointKind
 from .sampling import SAMPLE_FAILURES, sample_params
 
-__all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "TopFold", "band_from_diagram", "band_reference",
+__all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "GAP_FOLD_CRITICALITY", "GapFold", "TopFold",
+           "band_from_diagram", "band_reference",
            "Pilot", "pilot_indices", "pilot_references", "pilot_size", "pilot_stage"]
 
 
@@ -284,6 +285,11 @@ class BandReference:
     last hard region runs from that point to the fold), or None: what :meth:`FastBand.top_fold`
     follows; set on unusable references too (a period doubling below it changes nothing
     there), not where a branch failed or a real eigenvalue crosses."""
+    gap_fold: int | None = None
+    """Index into :attr:`folds` of the first fold ``F`` of the branch from the third of four
+    Hopf points (criticalities :data:`GAP_FOLD_CRITICALITY`) where the band's piece in the
+    gap between the two intervals of the linear band is [max(F, second Hopf point), third
+    Hopf point], or None: what :meth:`FastBand.gap_fold` follows (usable or not)."""
 
     def band_speed(self, label) -> float:
         """Speed [km/h] of a label: ("H", k) Hopf point, ("F", j) fold, ("lo"|"hi", 0) range end."""
@@ -368,6 +374,7 @@ def band_reference(diagram, amplitude_speeds_kmh=()) -> BandReference:
         unusable=unusable,
         speed_range_kmh=tuple(diagram.speed_range_kmh),
         top_fold=_top_fold_index(diagram, band),
+        gap_fold=_gap_fold_index(diagram, band, folds),
     )
 
 
@@ -384,6 +391,42 @@ def _top_fold_index(diagram, band: Band) -> int | None:
     if j is None or abs(a - band.hopf_kmh[-1]) > LABEL_TOL_KMH or abs(b - top) > LABEL_TOL_KMH:
         return None
     return j
+
+
+GAP_FOLD_CRITICALITY = ("hard", "soft", "hard", "hard")
+"""Hopf criticalities of the cars whose gap between the two intervals of the linear band is
+taken from the first fold of the third Hopf point's branch (:meth:`FastBand.gap_fold`)."""
+
+
+def _gap_fold_index(diagram, band: Band, folds) -> int | None:
+    """Index into ``folds`` (the LP points of ``diagram``'s branches, in order) of the first fold
+    ``F`` of the branch from the third of four Hopf points (:data:`GAP_FOLD_CRITICALITY`) when
+    it decides the band in the gap: ``F`` below that Hopf point, no PD or NS point on the
+    branch until it is back above that point's speed, and the SEV band's interval through
+    [max(F, second Hopf point), third Hopf point] starting there; None otherwise, or where a
+    branch failed or a real eigenvalue crosses."""
+    if (tuple(band.hopf_criticality) != GAP_FOLD_CRITICALITY or diagram.stability.real_crossings_kmh
+            or any(info["failed"] for info in diagram.branch_info)):
+        return None
+    second, third = band.hopf_kmh[1], band.hopf_kmh[2]
+    b = next((k for k, info in enumerate(diagram.branch_info)
+              if abs(info["from_hopf_kmh"] - third) <= LABEL_TOL_KMH), None)
+    if b is None:
+        return None
+    branch = diagram.branches[b]
+    lp = next(((point, k) for label, point, k in branch.special if label == "LP"), None)
+    if lp is None or not ms_to_kmh(lp[0].orbit.speed) < third:
+        return None
+    fold, k_fold = lp[0], lp[1]
+    speeds = [ms_to_kmh(pt.orbit.speed) for pt in branch.points]
+    back = next((k for k in range(k_fold + 1, len(speeds)) if speeds[k] >= third), len(speeds))
+    if any(label in ("PD", "NS") and k <= back for label, _, k in branch.special):
+        return None
+    low = max(ms_to_kmh(fold.orbit.speed), second)
+    piece = next(((a, c) for a, c in band.sev_band_kmh if a - LABEL_TOL_KMH <= low and third <= c), None)
+    if piece is None or (low > second and abs(piece[0] - low) > LABEL_TOL_KMH):
+        return None
+    return next(j for j, f in enumerate(folds) if f is fold)
 
 
 # -- several references: a deterministic pilot stage -------------------------------------------------
@@ -509,6 +552,23 @@ class TopFold:
     hopf_kmh: float
     fold_kmh: float
     amplitude_x_m: float
+
+
+@dataclass(frozen=True)
+class GapFold:
+    """The band in the gap between the two intervals of the linear band from
+    :meth:`FastBand.gap_fold`: the second and third Hopf points and the first fold of the
+    third's branch below it [km/h], and the fold's tread amplitude [m]."""
+
+    second_hopf_kmh: float
+    hopf_kmh: float
+    fold_kmh: float
+    amplitude_x_m: float
+
+    @property
+    def piece_kmh(self) -> tuple[float, float]:
+        """The band's piece [max(fold, second Hopf point), third Hopf point] [km/h]."""
+        return max(self.fold_kmh, self.second_hopf_kmh), self.hopf_kmh
 
 
 class _Fallback(Exception):
@@ -653,6 +713,50 @@ class FastBand:
                             f"top fold at {fold:.2f} km/h, not between the last Hopf point ({hopf:.2f} km/h) "
                             f"and {self.speed_range_kmh[1]:g} km/h")
         return TopFold(hopf, fold, amplitude)
+
+    def gap_fold(self, params: Params) -> GapFold | Fallback:
+        """The band in the gap between the two intervals of the linear band of a car with
+        four Hopf points of criticalities :data:`GAP_FOLD_CRITICALITY`: the first fold ``F``
+        of the third Hopf point's branch followed in the parameters from the nearest
+        reference of the same criticalities that has it (:attr:`BandReference.gap_fold`,
+        usable or not), as :meth:`top_fold` follows the top; the piece of the band is
+        [max(F, second Hopf point), third Hopf point]. Or why not (other criticalities, no
+        such reference, the fold not followed, its amplitude below ``min_fold_amplitude`` of
+        the reference's, or not between the range's lower end and the third Hopf point)."""
+        from ..dynamics.stability import StabilitySettings, stability
+
+        model = model_for(params)
+        p = model.pack(params)
+        try:
+            stab = stability(params, self.speed_range_kmh, StabilitySettings(n_speeds=self.n_grid))
+        except RuntimeError as exc:
+            return Fallback(FallbackReason.STABILITY_FAILED, f"stability: {exc}")
+        if stab.real_crossings_kmh:
+            return Fallback(FallbackReason.REAL_CROSSING, "real eigenvalue crossing")
+        criticality = tuple(h.criticality for h in stab.hopf_points)
+        if criticality != GAP_FOLD_CRITICALITY:
+            return Fallback(FallbackReason.HOPF_SIGNATURE, f"Hopf points {tuple(str(c) for c in criticality)}, "
+                            f"not {GAP_FOLD_CRITICALITY}")
+        refs = [r for r in self.references if r.p.shape == p.shape and r.gap_fold is not None]
+        if not refs:
+            return Fallback(FallbackReason.NO_REFERENCE, "no reference with the third Hopf point's fold")
+        ref = min(refs, key=lambda r: _distance(p, r.p))
+        j = ref.gap_fold
+        try:
+            point = self._fold(model, p, ref, j)
+        except _Fallback as exc:
+            return exc.fallback
+        ix = model.index("x")
+        amplitude, ref_amplitude = float(point.orbit.amplitude()[ix]), float(ref.folds[j].orbit.amplitude()[ix])
+        if amplitude < self.min_fold_amplitude * ref_amplitude:
+            return Fallback(FallbackReason.FOLD_AMPLITUDE, f"gap fold: amplitude {amplitude:.3g} m, below "
+                            f"{self.min_fold_amplitude} of the reference's")
+        second, third, fold = stab.hopf_points[1].speed_kmh, stab.hopf_points[2].speed_kmh, ms_to_kmh(point.orbit.speed)
+        if not self.speed_range_kmh[0] < fold < third:
+            return Fallback(FallbackReason.ORDER_CHANGED if fold >= third else FallbackReason.FOLD_OUT_OF_RANGE,
+                            f"gap fold at {fold:.2f} km/h, not between {self.speed_range_kmh[0]:g} km/h and the "
+                            f"third Hopf point ({third:.2f} km/h)")
+        return GapFold(second, third, fold, amplitude)
 
     def usage_verdict(self, params: Params, speeds_kmh) -> tuple | None:
         """From the Hopf points alone: (SEV band holds a usage speed, a hard region holds one,

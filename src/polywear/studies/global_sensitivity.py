@@ -120,6 +120,10 @@ class SampleOutcome:
     """Edges only, with the band's top from the fold above the last Hopf point followed in the
     parameters (:meth:`~polywear.studies.fast_band.FastBand.top_fold`) instead of that Hopf
     point's branch."""
+    gap_fold: bool = False
+    """Edges only, with the band in the gap between the two intervals of the linear band from
+    the third Hopf point's first fold followed in the parameters
+    (:meth:`~polywear.studies.fast_band.FastBand.gap_fold`) instead of that point's branch."""
 
     def __str__(self) -> str:
         """``"status: detail"`` (the status alone without a detail), as recorded per sample."""
@@ -256,24 +260,38 @@ class WithoutBranchFrom:
 
 
 def edges_band(params: Params, speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
-               fast: object = None) -> tuple[list, object, object]:
-    """The SEV band [km/h] of ``params`` by the edges-only continuation, and the diagram and
-    :class:`~polywear.studies.fast_band.TopFold` it came from: with ``fast`` (a
-    :class:`~polywear.studies.fast_band.FastBand`) the band's top is the fold above a hard
-    last Hopf point followed in the parameters where that succeeds (then that Hopf point's
-    branch is not continued, and the last hard region runs from it to the fold), else
-    (TopFold None) :func:`~polywear.studies.edges.edges_diagram`'s band."""
+               fast: object = None, gap_fold: bool = False) -> tuple[list, object, object, object]:
+    """The SEV band [km/h] of ``params`` by the edges-only continuation, and the diagram,
+    :class:`~polywear.studies.fast_band.TopFold` and :class:`~polywear.studies.fast_band.GapFold`
+    it came from: with ``fast`` (a :class:`~polywear.studies.fast_band.FastBand`) the band's
+    top is the fold above a hard last Hopf point followed in the parameters where that
+    succeeds (then that Hopf point's branch is not continued, and the last hard region runs
+    from it to the fold); with ``gap_fold`` too, the band in the gap between the two
+    intervals of the linear band is [max(F, second Hopf point), third Hopf point] from the
+    first fold F of the third Hopf point's branch followed in the parameters where that
+    succeeds (then that branch is not continued). Where neither does (both None):
+    :func:`~polywear.studies.edges.edges_diagram`'s band."""
     from ..dynamics.bifurcation import bifurcation
     from .edges import BranchStop, edges_diagram
-    from .fast_band import TopFold
+    from .fast_band import GapFold, TopFold
 
     top = None if fast is None else fast.top_fold(params)
-    if not isinstance(top, TopFold):
+    top = top if isinstance(top, TopFold) else None
+    gap = fast.gap_fold(params) if fast is not None and gap_fold else None
+    gap = gap if isinstance(gap, GapFold) else None
+    if top is None and gap is None:
         diagram = edges_diagram(params, speed_range_kmh)
-        return diagram.sev_band_kmh, diagram, None
-    diagram = bifurcation(params, speed_range_kmh, stop=WithoutBranchFrom(top.hopf_kmh, BranchStop()))
-    hopf = min((h.speed_kmh for h in diagram.hopf_points), key=lambda v: abs(v - top.hopf_kmh))
-    return union([*diagram.sev_band_kmh, (hopf, top.fold_kmh)], gap=1e-9), diagram, top
+        return diagram.sev_band_kmh, diagram, None, None
+    stop = BranchStop()
+    for known in (top, gap):
+        if known is not None:
+            stop = WithoutBranchFrom(known.hopf_kmh, stop)
+    diagram = bifurcation(params, speed_range_kmh, stop=stop)
+    hopf = lambda v: min((h.speed_kmh for h in diagram.hopf_points), key=lambda w: abs(w - v))
+    pieces = [] if top is None else [(hopf(top.hopf_kmh), top.fold_kmh)]
+    if gap is not None:
+        pieces.append((max(gap.fold_kmh, hopf(gap.second_hopf_kmh)), hopf(gap.hopf_kmh)))
+    return union([*diagram.sev_band_kmh, *pieces], gap=1e-9), diagram, top, gap
 
 
 @dataclass(frozen=True)
@@ -295,6 +313,11 @@ class StudyEvaluator:
     """With ``edges_only``: where the last Hopf point is hard and a reference has the fold
     above it, that fold followed in the parameters (:meth:`~polywear.studies.fast_band.FastBand.top_fold`)
     is the band's top, and the branch from that Hopf point is not continued."""
+    gap_fold: bool = False
+    """With ``edges_only``: for four Hopf points of criticalities hard, soft, hard, hard, the
+    band in the gap between the two intervals of the linear band from the first fold of the
+    third Hopf point's branch followed in the parameters
+    (:meth:`~polywear.studies.fast_band.FastBand.gap_fold`); that branch is not continued."""
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -325,15 +348,16 @@ class StudyEvaluator:
                 return _fast_outputs(band, self.speed_range_kmh, self.operating_range_kmh)
 
         if self.edges_only:
-            sev, diagram, top = edges_band(params, self.speed_range_kmh, self.fast if self.top_fold else None)
+            sev, diagram, top, gap = edges_band(params, self.speed_range_kmh, self.fast if self.top_fold else None,
+                                                self.gap_fold)
         else:
-            diagram, top = bifurcation(params, self.speed_range_kmh), None
+            diagram, top, gap = bifurcation(params, self.speed_range_kmh), None, None
             sev = diagram.sev_band_kmh
         for info in diagram.branch_info:
             if info["failed"]:
                 return (np.nan,) * 4, SampleOutcome(
                     SampleStatus.FAILED, f"continuation from {info['from_hopf_kmh']:.2f} km/h: {info['end_reason']}",
-                    edges_only=self.edges_only, top_fold=top is not None)
+                    edges_only=self.edges_only, top_fold=top is not None, gap_fold=gap is not None)
         band, outcome = _band_outputs(sev, diagram.speed_range_kmh)  # the range as widened
         undecided = [v for v in pd_ns_edges_kmh(diagram) if sev and v in (sev[0][0], sev[-1][1])]
         if undecided:
@@ -343,6 +367,7 @@ class StudyEvaluator:
                                     + " km/h")
         amplitude = np.nan if self.edges_only else max_stable_amplitude(diagram, self.operating_range_kmh) * 1e3
         return (*band, amplitude), replace(outcome, edges_only=self.edges_only, top_fold=top is not None,
+                                           gap_fold=gap is not None,
                                            gap_after_pd_ns=bool(diagram.gaps_after_pd_ns_kmh))
 
 
@@ -554,6 +579,7 @@ def study(
     fast_band: bool = True,
     edges_only: bool = True,
     top_fold: bool = True,
+    gap_fold: bool = False,
 ) -> GlobalSensitivityResult:
     """Run ``study`` around ``params`` on an executor (:class:`polywear.parallel.Executor`).
 
@@ -598,6 +624,12 @@ def study(
         the parameters from the nearest reference that has one
         (:meth:`~polywear.studies.fast_band.FastBand.top_fold`) instead of that point's
         branch (counted in ``settings`` as ``top_fold_samples``).
+    gap_fold : bool
+        With ``top_fold``: for four Hopf points of criticalities hard, soft, hard, hard, the
+        band in the gap between the two intervals of the linear band from the first fold of
+        the third Hopf point's branch followed in the parameters from the nearest reference
+        that has it (:meth:`~polywear.studies.fast_band.FastBand.gap_fold`) instead of that
+        branch (counted in ``settings`` as ``gap_fold_samples``).
 
     Returns
     -------
@@ -627,7 +659,7 @@ def study(
         fast = FastBand(pilot.references, tuple(study.speed_range_kmh), tuple(study.operating_range_kmh))
     evaluator = StudyEvaluator(
         params, tuple(problem["names"]), study.outputs, study.speed_range_kmh, study.operating_range_kmh, fast,
-        edges_only=fast is not None and edges_only, top_fold=top_fold,
+        edges_only=fast is not None and edges_only, top_fold=top_fold, gap_fold=top_fold and gap_fold,
     )
     results = executor.map(evaluator, list(X), progress)
     Y = np.array([r[0] for r in results], dtype=float)
@@ -668,6 +700,7 @@ def study(
                   "fast_band_samples": n_fast,
                   "edges_only_samples": sum(r[1].edges_only for r in results),
                   "top_fold_samples": sum(r[1].top_fold for r in results),
+                  "gap_fold_samples": sum(r[1].gap_fold for r in results),
                   "gap_after_pd_ns_samples": sum(r[1].gap_after_pd_ns for r in results),
                   "speed_range_kmh": list(study.speed_range_kmh),
                   "operating_range_kmh": list(study.operating_range_kmh)},
