@@ -588,7 +588,8 @@ def _gap_fold_car(item):
     diffs = [_band_differences(full, full.sev_band_kmh, diagram, sev) if with_full else ([], np.nan),
              _band_differences(out[False][1], out[False][0], diagram, sev)]
     criticality = tuple(str(h.criticality) for h in diagram.hopf_points)
-    return i, values, criticality, (dt["full"], dt[False], dt[True]), diffs, gap if gap is not None \
+    points = tuple(sum(info["n_points"] for info in out[g][1].branch_info) for g in (False, True))
+    return i, values, criticality, (dt["full"], dt[False], dt[True]), points, diffs, gap if gap is not None \
         else fast.gap_fold(params)
 
 
@@ -609,18 +610,22 @@ def gap_fold(n: int, seed: int, workers: int = 1, n_pilot: int = 32, with_full: 
           f"{GAP_FOLD_CRITICALITY}: {sum(r.band.hopf_criticality == GAP_FOLD_CRITICALITY for r in refs)}", flush=True)
     fast = FastBand(refs, (20.0, 300.0))
     times, times_target, bad, worst, reasons, n_target = np.zeros(3), np.zeros(3), [], np.zeros(2), Counter(), 0
+    points, points_target = np.zeros(2), np.zeros(2)
     with ProcessPoolExecutor(workers) as pool:
         cars = [(*car, fast, k % 2 == 0, with_full) for k, car in enumerate(_four_hopf_cars(pool, n, seed))]
-        for i, values, criticality, dt, diffs, gap in pool.map(_gap_fold_car, cars):
+        for i, values, criticality, dt, n_points, diffs, gap in pool.map(_gap_fold_car, cars):
             times += dt
+            points += n_points
             target = criticality == GAP_FOLD_CRITICALITY
             n_target += target
             if target:
                 times_target += dt
+                points_target += n_points
                 reasons["followed" if not isinstance(gap, Fallback) else gap.reason.value] += 1
             worst = np.fmax(worst, [w for _, w in diffs])
             print(f"  car {i} {'/'.join(c[0] for c in criticality)}: full {dt[0]:.2f} s, edges + top fold "
-                  f"{dt[1]:.2f} s, + gap fold {dt[2]:.2f} s CPU; {gap if target else '-'}; vs full: "
+                  f"{dt[1]:.2f} s, + gap fold {dt[2]:.2f} s CPU, cycle points {n_points[0]} / {n_points[1]}; "
+                  f"{gap if target else '-'}; vs full: "
                   f"{'; '.join(diffs[0][0]) or 'same'}; vs edges + top fold: {'; '.join(diffs[1][0]) or 'same'}",
                   flush=True)
             if diffs[0][0] or diffs[1][0]:
@@ -629,10 +634,11 @@ def gap_fold(n: int, seed: int, workers: int = 1, n_pilot: int = 32, with_full: 
     print(f"  {n_target} of {n} cars with the Hopf points {GAP_FOLD_CRITICALITY}; gap fold: {dict(reasons)}")
     print(f"  cars with a difference: {len(bad)} {bad}; largest difference of the band's ends where the counts "
           f"agree: {worst[0]:.1e} km/h (full), {worst[1]:.1e} km/h (edges + top fold)")
-    for name, t, m in (("all cars", times, n), ("those cars", times_target, n_target)):
+    for name, t, pts, m in (("all cars", times, points, n), ("those cars", times_target, points_target, n_target)):
         if m:
             print(f"  CPU per car, {name}: full {t[0] / m:.3f} s, edges + top fold {t[1] / m:.3f} s, + gap fold "
-                  f"{t[2] / m:.3f} s -> {t[1] / t[2]:.2f}x less than with the top fold alone")
+                  f"{t[2] / m:.3f} s -> {t[1] / t[2]:.2f}x less than with the top fold alone; cycle points per car "
+                  f"{pts[0] / m:.1f} / {pts[1] / m:.1f}")
 
 
 def _window_car(item):

@@ -401,7 +401,7 @@ taken from the first fold of the third Hopf point's branch (:meth:`FastBand.gap_
 def _gap_fold_index(diagram, band: Band, folds) -> int | None:
     """Index into ``folds`` (the LP points of ``diagram``'s branches, in order) of the first fold
     ``F`` of the branch from the third of four Hopf points (:data:`GAP_FOLD_CRITICALITY`) when
-    it decides the band in the gap: ``F`` below that Hopf point, no PD or NS point on the
+    it decides the band in the gap: ``F`` between the first and that Hopf point, no PD or NS point on the
     branch until it is back above that point's speed, and the SEV band's interval through
     [max(F, second Hopf point), third Hopf point] starting there; None otherwise, or where a
     branch failed or a real eigenvalue crosses."""
@@ -415,7 +415,7 @@ def _gap_fold_index(diagram, band: Band, folds) -> int | None:
         return None
     branch = diagram.branches[b]
     lp = next(((point, k) for label, point, k in branch.special if label == "LP"), None)
-    if lp is None or not ms_to_kmh(lp[0].orbit.speed) < third:
+    if lp is None or not band.hopf_kmh[0] < ms_to_kmh(lp[0].orbit.speed) < third:
         return None
     fold, k_fold = lp[0], lp[1]
     speeds = [ms_to_kmh(pt.orbit.speed) for pt in branch.points]
@@ -722,7 +722,7 @@ class FastBand:
         usable or not), as :meth:`top_fold` follows the top; the piece of the band is
         [max(F, second Hopf point), third Hopf point]. Or why not (other criticalities, no
         such reference, the fold not followed, its amplitude below ``min_fold_amplitude`` of
-        the reference's, or not between the range's lower end and the third Hopf point)."""
+        the reference's, or not between the first and the third Hopf point)."""
         from ..dynamics.stability import StabilitySettings, stability
 
         model = model_for(params)
@@ -751,11 +751,11 @@ class FastBand:
         if amplitude < self.min_fold_amplitude * ref_amplitude:
             return Fallback(FallbackReason.FOLD_AMPLITUDE, f"gap fold: amplitude {amplitude:.3g} m, below "
                             f"{self.min_fold_amplitude} of the reference's")
-        second, third, fold = stab.hopf_points[1].speed_kmh, stab.hopf_points[2].speed_kmh, ms_to_kmh(point.orbit.speed)
-        if not self.speed_range_kmh[0] < fold < third:
-            return Fallback(FallbackReason.ORDER_CHANGED if fold >= third else FallbackReason.FOLD_OUT_OF_RANGE,
-                            f"gap fold at {fold:.2f} km/h, not between {self.speed_range_kmh[0]:g} km/h and the "
-                            f"third Hopf point ({third:.2f} km/h)")
+        first, second, third = (h.speed_kmh for h in stab.hopf_points[:3])
+        fold = ms_to_kmh(point.orbit.speed)
+        if not first < fold < third:
+            return Fallback(FallbackReason.ORDER_CHANGED, f"gap fold at {fold:.2f} km/h, not between the first "
+                            f"({first:.2f} km/h) and the third Hopf point ({third:.2f} km/h)")
         return GapFold(second, third, fold, amplitude)
 
     def usage_verdict(self, params: Params, speeds_kmh) -> tuple | None:

@@ -314,9 +314,9 @@ class StudyEvaluator:
     above it, that fold followed in the parameters (:meth:`~polywear.studies.fast_band.FastBand.top_fold`)
     is the band's top, and the branch from that Hopf point is not continued."""
     gap_fold: bool = False
-    """With ``edges_only``: for four Hopf points of criticalities hard, soft, hard, hard, the
-    band in the gap between the two intervals of the linear band from the first fold of the
-    third Hopf point's branch followed in the parameters
+    """With ``edges_only`` and ``top_fold``: for four Hopf points of criticalities hard, soft,
+    hard, hard, the band in the gap between the two intervals of the linear band from the
+    first fold of the third Hopf point's branch followed in the parameters
     (:meth:`~polywear.studies.fast_band.FastBand.gap_fold`); that branch is not continued."""
 
     @property
