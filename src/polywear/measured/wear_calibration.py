@@ -21,6 +21,7 @@ reduced chi^2 where it exceeds 1.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 from typing import Any, Iterable
@@ -47,9 +48,10 @@ MAX_ORDERS = 3
 MIN_SHARE = 0.3
 """... with at least this share of the dominant order's amplitude: a weaker order is ruled
 by the tire's own random initial roughness in that order, which no model knows."""
-MAX_REFINEMENTS = 6
-"""Rounds of fitting: the reference run longer where k_e reaches its reach, the roughness
-grid refined around the fitted level (factor ``REFINE`` either side) until it holds it."""
+MAX_REFINEMENTS = 10
+"""Rounds of fitting: the reference run longer where k_e or its interval reaches its reach,
+the roughness grid filled to steps of at most a factor ``REFINE`` around the fitted level
+(``REFINE`` either side), then over the whole range the profile intervals explore."""
 REFINE = 1.25
 RANGE = 4.0
 """The reference evolution covers k_e up to this multiple of the reference rate; it is
@@ -88,6 +90,75 @@ def _log_amplitude(run: EvolutionResult, distance_km: np.ndarray, order: int) ->
     """ln|W_n| [ln mm] of ``run`` at ``distance_km`` (linear in distance between steps)."""
     amp = np.log(np.maximum(np.abs(run.harmonics[:, order - 1]) * 1e3, 1e-12))
     return np.interp(distance_km, run.distance_km, amp)
+
+
+def _filled(levels: list[float], lo: float, hi: float) -> list[float]:
+    """Roughness levels [-] to add so that no gap between neighbouring ``levels`` that
+    reaches into ``[lo, hi]`` (ln level) is wider than a factor ``REFINE`` (equal steps in ln)."""
+    x = np.log(sorted(levels))
+    step = math.log(REFINE)
+    new = []
+    for a, b in itertools.pairwise(x):
+        if b > lo and a < hi and b - a > step * 1.001:
+            parts = math.ceil((b - a) / step)
+            new += [math.exp(a + (b - a) * i / parts) for i in range(1, parts)]
+    return new
+
+
+def _walk(chi2_at, start: float, lo: float, hi: float, target: float) -> tuple[float | None, float | None]:
+    """Ends of the interval around ``start`` where ``chi2_at <= target``: outwards in steps from
+    0.02 growing 1.6x, the last one clamped to the bound (``lo``, ``hi``), then 30 bisections;
+    None at an end whose bound is still within the target."""
+    ends = []
+    for direction, bound in ((-1, lo), (1, hi)):
+        step, x = 0.02, start
+        while True:
+            x_new = x + direction * step
+            clamped = direction * (x_new - bound) >= 0
+            if clamped:
+                x_new = bound
+            if chi2_at(x_new) > target:
+                a, b = x, x_new
+                for _ in range(30):
+                    m = 0.5 * (a + b)
+                    a, b = (m, b) if chi2_at(m) <= target else (a, m)
+                ends.append(0.5 * (a + b))
+                break
+            if clamped:
+                ends.append(None)
+                break
+            x, step = x_new, step * 1.6
+    return ends[0], ends[1]
+
+
+def _intervals(residuals, theta: np.ndarray, lo: list[float], hi: list[float], target: float,
+               visited: list[float]) -> list[tuple[float | None, float | None]]:
+    """Profile-likelihood interval of each parameter (theta's units: ln k-scale, ln r0-level):
+    where chi^2, the other parameter refitted, stays within ``target``; None at an end that
+    reaches the searched range. ``visited`` gets the ln r0-level of every profile point within
+    the target (the range the grid of levels must resolve)."""
+    from scipy.optimize import least_squares
+
+    out = []
+    for j in range(len(theta)):
+        def chi2_at(value: float, j: int = j) -> float:
+            if len(theta) == 1:
+                return float(np.sum(residuals(np.array([value])) ** 2))
+            other = 1 - j
+
+            def r_other(z: np.ndarray) -> np.ndarray:
+                t = np.empty(2)
+                t[j], t[other] = value, z[0]
+                return residuals(t)
+
+            f = least_squares(r_other, [theta[other]], bounds=([lo[other]], [hi[other]]))
+            chi2 = float(2.0 * f.cost)
+            if chi2 <= target:
+                visited.append(value if j == 1 else float(f.x[0]))
+            return chi2
+
+        out.append(_walk(chi2_at, theta[j], lo[j], hi[j], target))
+    return out
 
 
 @dataclass
@@ -250,6 +321,7 @@ def calibrate_wear(measured: MeasuredProfiles, params: Params, cycle: Iterable[t
 
     levels = list(ROUGHNESS_GRID) if fit_roughness else [1.0]
     previous = None
+    single_mileage = len(mileages) < 2 and not roughness_known
     for _ in range(MAX_REFINEMENTS):
         distance = max(mileages) * span
         runs = [run_at(level, distance) for level in levels]
@@ -274,74 +346,44 @@ def calibrate_wear(measured: MeasuredProfiles, params: Params, cycle: Iterable[t
             starts.append(np.clip(previous, lo, hi))
         fits = [least_squares(residuals, x0, bounds=(lo, hi), x_scale=1.0, diff_step=1e-4) for x0 in starts]
         best = min(fits, key=lambda f: f.cost)
-        previous = best.x
-        if best.x[0] >= hi[0] - 0.05:  # k at the top of the reference's reach: run it longer
+        previous = theta = best.x
+        chi2 = float(2.0 * best.cost)
+        target = chi2 + 3.84 * max(1.0, chi2 / max(len(y) - len(theta), 1))
+        singular = np.linalg.svd(best.jac, compute_uv=False) if best.jac.size else np.array([0.0])
+        identifiable = not single_mileage and singular.min() > 1e-6 * max(singular.max(), 1e-300)
+        ends = []
+        if theta[0] >= hi[0] - 0.05:  # k at the top of the reference's reach: run it longer
             span *= RANGE
             continue
-        if not fit_roughness:
-            break
-        # the grid refined around the fitted roughness, so that the interpolation is local
-        fitted = math.exp(best.x[1])
-        new = [level for level in (fitted / REFINE, fitted, fitted * REFINE)
-               if min(levels) <= level <= max(levels) and min(abs(math.log(level / v)) for v in levels) > 0.02]
+        # the grid no coarser than REFINE around the fitted roughness, then over the whole range the
+        # intervals explore: past the pull into locking ln|W_n| bends in ln r0 (module notes)
+        new = _filled(levels, theta[1] - math.log(REFINE), theta[1] + math.log(REFINE)) if fit_roughness else []
+        if new:
+            levels = sorted(levels + new)
+            continue
+        visited = [theta[1]] if fit_roughness else []  # ln r0 of the fit and of the profiles within the target
+        if identifiable:
+            ends = _intervals(residuals, theta, lo, hi, target, visited)
+            if ends[0][1] is None and theta[0] < hi[0] - 1e-9:  # the rate's interval reaches the reference's reach
+                span *= RANGE
+                continue
+        new = _filled(levels, min(visited) - math.log(REFINE), max(visited) + math.log(REFINE)) if visited else []
         if not new:
             break
         levels = sorted(levels + new)
-    theta = best.x
-    chi2 = float(2.0 * best.cost)
-    dof = max(len(y) - len(theta), 1)
-    inflate = max(1.0, chi2 / dof)
-    J = best.jac
-    singular = np.linalg.svd(J, compute_uv=False) if J.size else np.array([0.0])
-    single_mileage = len(mileages) < 2 and not roughness_known
-    identifiable = not single_mileage and singular.min() > 1e-6 * max(singular.max(), 1e-300)
+    if identifiable and not ends:  # the rounds ran out before the intervals: those of the last fit
+        ends = _intervals(residuals, theta, lo, hi, target, [])
 
-    def profile_interval(j: int) -> tuple[float, float] | None:
-        """Profile-likelihood interval of theta[j] (chi^2 + 3.84 inflate)."""
-        target = chi2 + 3.84 * inflate
-
-        def chi2_at(value: float) -> float:
-            if len(theta) == 1:
-                return float(np.sum(residuals(np.array([value])) ** 2))
-            other = 1 - j
-
-            def r_other(z: np.ndarray) -> np.ndarray:
-                t = np.empty(2)
-                t[j], t[other] = value, z[0]
-                return residuals(t)
-
-            f = least_squares(r_other, [theta[other]], bounds=([lo[other]], [hi[other]]))
-            return float(2.0 * f.cost)
-
-        ends = []
-        for direction, bound in ((-1, lo[j]), (1, hi[j])):
-            step, x = 0.02, theta[j]
-            while True:
-                x_new = x + direction * step
-                if (direction < 0 and x_new <= bound) or (direction > 0 and x_new >= bound):
-                    return None  # the interval reaches the searched range: not determined
-                if chi2_at(x_new) > target:
-                    a, b = x, x_new
-                    for _ in range(30):
-                        m = 0.5 * (a + b)
-                        a, b = (m, b) if chi2_at(m) <= target else (a, m)
-                    ends.append(0.5 * (a + b))
-                    break
-                x, step = x_new, step * 1.6
-        return (min(ends), max(ends))
-
-    run_index = int(np.argmin(np.abs(np.log(np.asarray(levels)) - (theta[1] if fit_roughness else 0.0))))
+    run_index = int(np.argmin(np.abs(x_levels - (theta[1] if fit_roughness else 0.0))))
     reference = runs[run_index]
     combination = None
     rate = rate_ci = rough_ci = None
     roughness = r_ref * (math.exp(theta[1]) if fit_roughness else 1.0)
     if identifiable:
         rate = k_ref * math.exp(theta[0])
-        ci = profile_interval(0)
-        rate_ci = None if ci is None else (k_ref * math.exp(ci[0]), k_ref * math.exp(ci[1]))
+        rate_ci = None if None in ends[0] else (k_ref * math.exp(ends[0][0]), k_ref * math.exp(ends[0][1]))
         if fit_roughness:
-            ci = profile_interval(1)
-            rough_ci = None if ci is None else (r_ref * math.exp(ci[0]), r_ref * math.exp(ci[1]))
+            rough_ci = None if None in ends[1] else (r_ref * math.exp(ends[1][0]), r_ref * math.exp(ends[1][1]))
         identifiable = rate_ci is not None
     if not identifiable:
         combination = _combination(readings, reference, k_ref, r_ref, theta[0], orders)
