@@ -6,8 +6,12 @@ distance ``d`` is the evolution at a reference rate ``k_ref`` to distance ``d k 
 (up to the distance step; tested). So the harmonics a tire with rate ``k`` shows at
 ``d`` are read off one reference evolution at ``d k / k_ref``. The initial roughness
 ``r0`` does not scale out (the locked, nonlinear part of the growth depends on the level),
-so where it is fitted the evolution runs once per level of a small grid and the log
-amplitudes are interpolated in ``log r0`` (exact while the growth is linear).
+so where it is fitted the evolution runs once per level of a grid and the log amplitudes
+are interpolated in ``log r0``: exact while the growth is linear, but past the pull into
+locking ``ln|W_n|`` bends in ``log r0`` (slope 1, up to 1.4 at the lock's onset, then
+0.2-0.4), and a grid a factor 3 apart is off there by up to 0.16, two to three standard
+deviations of a reading. So the grid is filled to steps of a factor ``REFINE`` around the
+fit and over the whole range the profile intervals explore (off by at most 0.03 there).
 
 What the data determine. One mileage gives, per order, one amplitude ``A = r0 c e^{g k d}``
 while the growth is exponential: k_e and r0 enter only as a combination, which is
