@@ -502,13 +502,13 @@ def _top_fold_car(item):
     t1 = time.process_time()
     edges = edges_diagram(params, (20.0, 300.0))
     t2 = time.process_time()
-    sev, diagram, top, _ = edges_band(params, (20.0, 300.0), fast)
+    sev, gaps, diagram, top, _ = edges_band(params, (20.0, 300.0), fast)
     t3 = time.process_time()
     diffs = []
     for other in (full, edges):
         diff = []
         for name, a, b in (("sev_band_kmh", other.sev_band_kmh, sev),
-                           ("gaps_after_pd_ns_kmh", other.gaps_after_pd_ns_kmh, diagram.gaps_after_pd_ns_kmh)):
+                           ("gaps_after_pd_ns_kmh", other.gaps_after_pd_ns_kmh, gaps)):
             if len(a) != len(b):
                 diff.append(f"{name}: {len(a)} vs {len(b)} intervals: {a} vs {b}")
             elif a and float(np.max(np.abs(np.subtract(a, b)))) > 1e-6:
@@ -550,13 +550,13 @@ def top_fold(n: int, seed: int, workers: int = 1, n_pilot: int = 32) -> None:
           f"{times[2] / n:.3f} s -> {times[1] / times[2]:.2f}x less than edges only")
 
 
-def _band_differences(a_diagram, a_sev, b_diagram, b_sev) -> tuple[list[str], float]:
-    """What differs between two paths' SEV bands, gaps after PD/NS points and failed branches
-    (ends beyond 1e-6 km/h), and the largest difference of the band's ends [km/h] where the
-    counts agree (NaN otherwise)."""
+def _band_differences(first, second) -> tuple[list[str], float]:
+    """What differs between two paths' (SEV band, gaps after PD/NS points, diagram) in the
+    bands, the gaps and the failed branches (ends beyond 1e-6 km/h), and the largest
+    difference of the band's ends [km/h] where the counts agree (NaN otherwise)."""
+    (a_sev, a_gaps, a_diagram), (b_sev, b_gaps, b_diagram) = first, second
     diff = []
-    for name, a, b in (("sev_band_kmh", a_sev, b_sev),
-                       ("gaps_after_pd_ns_kmh", a_diagram.gaps_after_pd_ns_kmh, b_diagram.gaps_after_pd_ns_kmh)):
+    for name, a, b in (("sev_band_kmh", a_sev, b_sev), ("gaps_after_pd_ns_kmh", a_gaps, b_gaps)):
         if len(a) != len(b):
             diff.append(f"{name}: {len(a)} vs {len(b)} intervals: {a} vs {b}")
         elif a and float(np.max(np.abs(np.subtract(a, b)))) > 1e-6:
@@ -584,11 +584,11 @@ def _gap_fold_car(item):
         t = time.process_time()
         out[gap] = edges_band(params, (20.0, 300.0), fast, gap_fold=gap)
         dt[gap] = time.process_time() - t
-    sev, diagram, _, gap = out[True]
-    diffs = [_band_differences(full, full.sev_band_kmh, diagram, sev) if with_full else ([], np.nan),
-             _band_differences(out[False][1], out[False][0], diagram, sev)]
+    new, diagram, gap = out[True][:3], out[True].diagram, out[True].gap
+    diffs = [_band_differences((full.sev_band_kmh, full.gaps_after_pd_ns_kmh, full), new) if with_full
+             else ([], np.nan), _band_differences(out[False][:3], new)]
     criticality = tuple(str(h.criticality) for h in diagram.hopf_points)
-    points = tuple(sum(info["n_points"] for info in out[g][1].branch_info) for g in (False, True))
+    points = tuple(sum(info["n_points"] for info in out[g].diagram.branch_info) for g in (False, True))
     return i, values, criticality, (dt["full"], dt[False], dt[True]), points, diffs, gap if gap is not None \
         else fast.gap_fold(params)
 
@@ -633,7 +633,7 @@ def gap_fold(n: int, seed: int, workers: int = 1, n_pilot: int = 32, with_full: 
                 print(f"    {dict(zip(DEFAULT_KEYS, values.tolist()))}", flush=True)
     print(f"  {n_target} of {n} cars with the Hopf points {GAP_FOLD_CRITICALITY}; gap fold: {dict(reasons)}")
     print(f"  cars with a difference: {len(bad)} {bad}; largest difference of the band's ends where the counts "
-          f"agree: {worst[0]:.1e} km/h (full), {worst[1]:.1e} km/h (edges + top fold)")
+          f"agree: {f'{worst[0]:.1e} km/h' if with_full else 'not run'} (full), {worst[1]:.1e} km/h (edges + top fold)")
     for name, t, pts, m in (("all cars", times, points, n), ("those cars", times_target, points_target, n_target)):
         if m:
             print(f"  CPU per car, {name}: full {t[0] / m:.3f} s, edges + top fold {t[1] / m:.3f} s, + gap fold "

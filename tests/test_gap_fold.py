@@ -22,6 +22,12 @@ PILOT_AXLE = (987100.0119213299, 72.31558762731393, 0.5178550792685728, -1.04481
 and 158.03 km/h (hard, soft, hard, hard); the third's branch folds at 79.40 km/h, the lower
 end of the band's interval through the gap."""
 
+PD_GAP_AXLE = (970518.2285072784, 76.52663821152005, 0.49506841428004555, -0.9207675324752159,
+               0.9691515682385714, 1.095914297779049, 4258.598876389745)
+"""Car 222 of ``bench_fleet.py gap-fold --seed 11``: hard, soft, hard, hard; without the third
+Hopf point's branch its diagram has a gap after a PD/NS point from the second Hopf point
+(92.45 km/h) to 92.97 km/h, which the gap fold's piece (its fold at 88.09 km/h) closes."""
+
 
 def _car(values):
     return with_updates(Params(), {"model": "axle4dof", **dict(zip(KEYS, values))})
@@ -44,20 +50,33 @@ def test_the_pilot_has_the_gap_fold_as_a_band_edge(pilot):
 def test_the_gap_of_a_four_hopf_car_is_the_full_continuations(pilot):
     params = _car(GAP_AXLE)
     fast = FastBand((pilot,), RANGE)
-    sev, diagram, top, gap = edges_band(params, RANGE, fast, gap_fold=True)
+    sev, gaps, diagram, top, gap = edges_band(params, RANGE, fast, gap_fold=True)
     assert isinstance(gap, GapFold) and top is not None
     full = bifurcation(params, RANGE)
     # the fold solved directly in the parameters is the one the continuation met on the branch
     branch = min(full.branch_info, key=lambda i: abs(i["from_hopf_kmh"] - gap.hopf_kmh))["branch"]
     first = next(pt for label, pt, _ in full.branches[branch].special if label == "LP").orbit.speed * 3.6
     assert abs(gap.fold_kmh - first) < 1e-6
-    assert gap.piece_kmh[0] == gap.fold_kmh  # above the second Hopf point: an edge of the band
+    assert gap.second_hopf_kmh < gap.fold_kmh  # above the second Hopf point: an edge of the band
+    assert any(abs(a - first) < 1e-6 for a, _ in full.sev_band_kmh)
     assert len(sev) == len(full.sev_band_kmh)
     assert np.max(np.abs(np.subtract(sev, full.sev_band_kmh))) < 1e-6
-    assert np.ravel(diagram.gaps_after_pd_ns_kmh) == pytest.approx(np.ravel(full.gaps_after_pd_ns_kmh), abs=1e-6)
+    assert np.ravel(gaps) == pytest.approx(np.ravel(full.gaps_after_pd_ns_kmh), abs=1e-6)
     # the branches from the third and fourth Hopf points were stopped at their first points
     for v in (gap.hopf_kmh, top.hopf_kmh):
         assert min(diagram.branch_info, key=lambda i: abs(i["from_hopf_kmh"] - v))["n_points"] == 1
+
+
+def test_the_piece_closes_a_gap_after_a_pd_that_the_skipped_branch_covered(pilot):
+    params = _car(PD_GAP_AXLE)
+    sev, gaps, diagram, _, gap = edges_band(params, RANGE, FastBand((pilot,), RANGE), gap_fold=True)
+    assert isinstance(gap, GapFold) and gap.fold_kmh < gap.second_hopf_kmh
+    full = bifurcation(params, RANGE)
+    assert len(diagram.gaps_after_pd_ns_kmh) == len(full.gaps_after_pd_ns_kmh) + 1  # the diagram's own: one more
+    assert len(gaps) == len(full.gaps_after_pd_ns_kmh)
+    assert np.ravel(gaps) == pytest.approx(np.ravel(full.gaps_after_pd_ns_kmh), abs=1e-6)
+    assert len(sev) == len(full.sev_band_kmh)
+    assert np.max(np.abs(np.subtract(sev, full.sev_band_kmh))) < 1e-6
 
 
 def test_other_hopf_points_or_no_reference_fall_back(pilot):

@@ -37,7 +37,7 @@ def test_the_nominal_reference_has_a_top_fold(nominal):
 
 def test_the_top_fold_of_a_four_hopf_car_is_the_full_continuations(nominal):
     params = with_updates(Params(), {"model": "axle4dof", **dict(zip(KEYS, GAP_AXLE))})
-    sev, diagram, top, _ = edges_band(params, RANGE, FastBand((nominal,), RANGE))
+    sev, gaps, diagram, top, _ = edges_band(params, RANGE, FastBand((nominal,), RANGE))
     assert isinstance(top, TopFold)
     full = bifurcation(params, RANGE)
     # the fold the continuation located on the branch (secants in the arclength) is the one
@@ -46,7 +46,7 @@ def test_the_top_fold_of_a_four_hopf_car_is_the_full_continuations(nominal):
     assert abs(top.hopf_kmh - full.hopf_points[-1].speed_kmh) < 1e-6
     assert len(sev) == len(full.sev_band_kmh)
     assert np.max(np.abs(np.subtract(sev, full.sev_band_kmh))) < 1e-6
-    assert np.ravel(diagram.gaps_after_pd_ns_kmh) == pytest.approx(np.ravel(full.gaps_after_pd_ns_kmh), abs=1e-6)
+    assert np.ravel(gaps) == pytest.approx(np.ravel(full.gaps_after_pd_ns_kmh), abs=1e-6)
     # the branch from the last Hopf point was stopped at its first point; the others were followed
     top_branch = min(diagram.branch_info, key=lambda i: abs(i["from_hopf_kmh"] - top.hopf_kmh))
     assert top_branch["n_points"] == 1
@@ -60,8 +60,8 @@ def test_without_a_reference_with_a_top_fold_the_edges_path_is_kept(nominal):
     fast = FastBand((replace(nominal, top_fold=None),), RANGE)
     out = fast.top_fold(params)
     assert isinstance(out, Fallback) and out.reason is FallbackReason.NO_REFERENCE
-    sev, diagram, top, _ = edges_band(params, RANGE, fast)
-    assert top is None and sev == diagram.sev_band_kmh
+    sev, gaps, diagram, top, _ = edges_band(params, RANGE, fast)
+    assert top is None and sev == diagram.sev_band_kmh and gaps == diagram.gaps_after_pd_ns_kmh
 
 
 def test_a_soft_last_hopf_point_has_no_top_fold(nominal):

@@ -401,10 +401,10 @@ taken from the first fold of the third Hopf point's branch (:meth:`FastBand.gap_
 def _gap_fold_index(diagram, band: Band, folds) -> int | None:
     """Index into ``folds`` (the LP points of ``diagram``'s branches, in order) of the first fold
     ``F`` of the branch from the third of four Hopf points (:data:`GAP_FOLD_CRITICALITY`) when
-    it decides the band in the gap: ``F`` between the first and that Hopf point, no PD or NS point on the
-    branch until it is back above that point's speed, and the SEV band's interval through
-    [max(F, second Hopf point), third Hopf point] starting there; None otherwise, or where a
-    branch failed or a real eigenvalue crosses."""
+    it decides the band in the gap: ``F`` between the first and that Hopf point, no PD or NS
+    point on the branch until it is back above that point's speed, and the SEV band's
+    interval through [max(F, second Hopf point), third Hopf point] starting there; None
+    otherwise, or where a branch failed or a real eigenvalue crosses."""
     if (tuple(band.hopf_criticality) != GAP_FOLD_CRITICALITY or diagram.stability.real_crossings_kmh
             or any(info["failed"] for info in diagram.branch_info)):
         return None
@@ -564,11 +564,6 @@ class GapFold:
     hopf_kmh: float
     fold_kmh: float
     amplitude_x_m: float
-
-    @property
-    def piece_kmh(self) -> tuple[float, float]:
-        """The band's piece [max(fold, second Hopf point), third Hopf point] [km/h]."""
-        return max(self.fold_kmh, self.second_hopf_kmh), self.hopf_kmh
 
 
 class _Fallback(Exception):

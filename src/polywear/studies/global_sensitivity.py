@@ -42,6 +42,7 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
+from typing import NamedTuple
 
 import numpy as np
 
@@ -57,7 +58,7 @@ from ..parallel import Executor
 from ..progress import Progress
 from ..results import Result, with_deprecated_keys
 from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH, ms_to_kmh
-from ..dynamics.intervals import union
+from ..dynamics.intervals import subtract
 from ..dynamics.stability import fast_linear_band
 from .sampling import SAMPLE_FAILURES, sample_params
 
@@ -71,6 +72,7 @@ __all__ = [
     "SampleStatus",
     "SampleOutcome",
     "WithoutBranchFrom",
+    "EdgesBand",
     "edges_band",
     "study",
 ]
@@ -259,19 +261,35 @@ class WithoutBranchFrom:
         return stop
 
 
+class EdgesBand(NamedTuple):
+    """The outcome of :func:`edges_band`."""
+
+    sev_band_kmh: list
+    """The SEV band [km/h]."""
+    gaps_after_pd_ns_kmh: list
+    """Its gaps after PD/NS points [km/h] (``sev_band``'s undecided gaps, the pieces from the
+    folds included)."""
+    diagram: object
+    """The edges-only diagram the band came from."""
+    top: object
+    """The :class:`~polywear.studies.fast_band.TopFold` used, or None."""
+    gap: object
+    """The :class:`~polywear.studies.fast_band.GapFold` used, or None."""
+
+
 def edges_band(params: Params, speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
-               fast: object = None, gap_fold: bool = False) -> tuple[list, object, object, object]:
-    """The SEV band [km/h] of ``params`` by the edges-only continuation, and the diagram,
-    :class:`~polywear.studies.fast_band.TopFold` and :class:`~polywear.studies.fast_band.GapFold`
-    it came from: with ``fast`` (a :class:`~polywear.studies.fast_band.FastBand`) the band's
-    top is the fold above a hard last Hopf point followed in the parameters where that
-    succeeds (then that Hopf point's branch is not continued, and the last hard region runs
-    from it to the fold); with ``gap_fold`` too, the band in the gap between the two
-    intervals of the linear band is [max(F, second Hopf point), third Hopf point] from the
-    first fold F of the third Hopf point's branch followed in the parameters where that
-    succeeds (then that branch is not continued). Where neither does (both None):
+               fast: object = None, gap_fold: bool = False) -> EdgesBand:
+    """The SEV band [km/h] of ``params`` by the edges-only continuation (:class:`EdgesBand`):
+    with ``fast`` (a :class:`~polywear.studies.fast_band.FastBand`) the band's top is the
+    fold above a hard last Hopf point followed in the parameters where that succeeds (then
+    that Hopf point's branch is not continued, and the last hard region runs from it to the
+    fold); with ``gap_fold`` too, the band in the gap between the two intervals of the
+    linear band is [max(F, second Hopf point), third Hopf point] from the first fold F of
+    the third Hopf point's branch followed in the parameters where that succeeds (then that
+    branch is not continued). Those pieces join the diagram's stable-cycle intervals in
+    :func:`~polywear.dynamics.bifurcation.sev_band`. Where neither fold is used (both None):
     :func:`~polywear.studies.edges.edges_diagram`'s band."""
-    from ..dynamics.bifurcation import bifurcation
+    from ..dynamics.bifurcation import bifurcation, sev_band
     from .edges import BranchStop, edges_diagram
     from .fast_band import GapFold, TopFold
 
@@ -281,7 +299,7 @@ def edges_band(params: Params, speed_range_kmh: tuple[float, float] = DEFAULT_SP
     gap = gap if isinstance(gap, GapFold) else None
     if top is None and gap is None:
         diagram = edges_diagram(params, speed_range_kmh)
-        return diagram.sev_band_kmh, diagram, None, None
+        return EdgesBand(diagram.sev_band_kmh, diagram.gaps_after_pd_ns_kmh, diagram, None, None)
     stop = BranchStop()
     for known in (top, gap):
         if known is not None:
@@ -291,7 +309,9 @@ def edges_band(params: Params, speed_range_kmh: tuple[float, float] = DEFAULT_SP
     pieces = [] if top is None else [(hopf(top.hopf_kmh), top.fold_kmh)]
     if gap is not None:
         pieces.append((max(gap.fold_kmh, hopf(gap.second_hopf_kmh)), hopf(gap.hopf_kmh)))
-    return union([*diagram.sev_band_kmh, *pieces], gap=1e-9), diagram, top, gap
+    oscillatory = subtract(diagram.linear_band_kmh, diagram.divergence_kmh)
+    sev, gaps = sev_band(oscillatory, [*diagram.stable_cycle_intervals_kmh(), *pieces], diagram.pd_ns_speeds_kmh)
+    return EdgesBand(sev, gaps, diagram, top, gap)
 
 
 @dataclass(frozen=True)
@@ -348,11 +368,11 @@ class StudyEvaluator:
                 return _fast_outputs(band, self.speed_range_kmh, self.operating_range_kmh)
 
         if self.edges_only:
-            sev, diagram, top, gap = edges_band(params, self.speed_range_kmh, self.fast if self.top_fold else None,
-                                                self.gap_fold)
+            sev, gaps, diagram, top, gap = edges_band(params, self.speed_range_kmh,
+                                                      self.fast if self.top_fold else None, self.gap_fold)
         else:
             diagram, top, gap = bifurcation(params, self.speed_range_kmh), None, None
-            sev = diagram.sev_band_kmh
+            sev, gaps = diagram.sev_band_kmh, diagram.gaps_after_pd_ns_kmh
         for info in diagram.branch_info:
             if info["failed"]:
                 return (np.nan,) * 4, SampleOutcome(
@@ -368,7 +388,7 @@ class StudyEvaluator:
         amplitude = np.nan if self.edges_only else max_stable_amplitude(diagram, self.operating_range_kmh) * 1e3
         return (*band, amplitude), replace(outcome, edges_only=self.edges_only, top_fold=top is not None,
                                            gap_fold=gap is not None,
-                                           gap_after_pd_ns=bool(diagram.gaps_after_pd_ns_kmh))
+                                           gap_after_pd_ns=bool(gaps))
 
 
 # -- analysis -------------------------------------------------------------------------------
