@@ -18,7 +18,7 @@ from polywear.dynamics.bifurcation import bifurcation
 from polywear.params import Params, with_updates
 from polywear.studies.fast_band import _FIXED_RANGE, band_reference
 from polywear.studies.fleet import OUTPUTS, fleet, load_fleet_spec
-from polywear.wear.evolution import wear_evolution
+from polywear.wear.evolution import EvolutionSettings, StepBudgetError, wear_evolution
 
 from .cli_runner import run_main
 
@@ -122,10 +122,13 @@ def test_a_car_over_the_step_budget_stops_there():
     full = wear_evolution(params, D_KM, cycle)
     budget = wear_step_budget(D_KM, 1)
     assert budget == 2 and full.distance_km.size - 1 > budget  # ceil(3000 / 8000) + 1: fewer than it takes
-    assert full.settings["rejected_steps"] == 0  # so the budget's 2 attempts are its first 2 steps
+    with pytest.raises(StepBudgetError) as stop:
+        wear_evolution(params, D_KM, cycle, EvolutionSettings(max_steps=1))
+    # the budget's 2 attempts (a rejected step counts) end on one of the unstopped run's first 2 steps
+    assert stop.value.done_km in full.distance_km[1 : budget + 1]
     stopped = FleetEvaluator(params, (), None, (110.0,), wear_km=D_KM, wear_max_steps=1, usage_cycle=cycle)._wear(params)
     assert np.isnan(stopped[0]) and np.isnan(stopped[1])
-    assert stopped[2] == f"over the budget of 2 distance steps at {full.distance_km[2]:,.0f} of {D_KM:,.0f} km"
+    assert stopped[2] == f"over the budget of 2 distance steps at {stop.value.done_km:,.0f} of {D_KM:,.0f} km"
     ended = FleetEvaluator(params, (), None, (110.0,), wear_km=D_KM, usage_cycle=cycle)._wear(params)
     seen = np.flatnonzero(full.depth_mm >= params.wear.visible_depth_mm)
     assert ended[0] == full.visible_km and ended[1] == full.dominant_order[seen[0]] and ended[2] == ""

@@ -352,15 +352,25 @@ def test_visible_distance_scales_as_one_over_k_e_where_the_tread_vibrates():
     k_e with every distance setting halved is the same evolution at half the distance,
     through the pull into locking (120 km/h), up to the vibration's drifting writes (they
     cancel over the wheel's revolutions, half as many at half the distance, and stay
-    bounded: measured 1e-4 of the visible distance, 1e-3 of the largest harmonic)."""
+    bounded: measured 1e-4 of the visible distance, 1e-3 of the largest harmonic).
+
+    That holds while both take the same steps. The drifting writes move the error estimate
+    a little, so a step whose estimate lies that close to its threshold can be accepted in
+    one run and taken again in the other: at the default tolerance 0.01 one step of 21 is
+    (visible distances 1.8e-3 apart, the step error); at 0.005 none is. So the exact
+    invariance is checked at 0.005, and at the default the two agree to the step error."""
     params = Params()
-    one = wear_evolution(params, 6000.0, cycle=((120.0, 1.0),), settings=EvolutionSettings(step_km=1000.0))
-    two = wear_evolution(with_updates(params, {"wear.energetic_rate_mm3_per_j": 2e-3}), 3000.0, cycle=((120.0, 1.0),),
-                 settings=EvolutionSettings(step_km=500.0))
-    assert one.visible_km is not None and one.locked[-1, 0]
-    assert two.visible_km == pytest.approx(0.5 * one.visible_km, rel=1e-3)
-    assert len(two.distance_km) == len(one.distance_km)
-    np.testing.assert_allclose(two.harmonics[-1], one.harmonics[-1], rtol=0, atol=0.01 * np.abs(one.harmonics).max())
+    doubled = with_updates(params, {"wear.energetic_rate_mm3_per_j": 2e-3})
+    for tolerance, bound in ((0.005, 1e-3), (EvolutionSettings().tolerance, 5e-3)):
+        one = wear_evolution(params, 6000.0, cycle=((120.0, 1.0),),
+                             settings=EvolutionSettings(step_km=1000.0, tolerance=tolerance))
+        two = wear_evolution(doubled, 3000.0, cycle=((120.0, 1.0),),
+                             settings=EvolutionSettings(step_km=500.0, tolerance=tolerance))
+        assert one.visible_km is not None and one.locked[-1, 0]
+        assert two.visible_km == pytest.approx(0.5 * one.visible_km, rel=bound)
+        np.testing.assert_allclose(two.harmonics[-1], one.harmonics[-1], rtol=0, atol=0.01 * np.abs(one.harmonics).max())
+        if tolerance == 0.005:
+            assert len(two.distance_km) == len(one.distance_km)
 
 
 
