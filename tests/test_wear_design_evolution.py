@@ -8,10 +8,10 @@ import math
 
 import pytest
 
-from polywear.dynamics.sensitivity import perturbed
+from polywear.dynamics.sensitivity import nominal_value, perturbed
 from polywear.params import Params, with_updates
 from polywear.wear.design import EVOLUTION_REFINE, Judge, WearDesignSettings, cycle_growth, wear_design
-from polywear.wear.evolution import wear_evolution
+from polywear.wear.evolution import EvolutionSettings, StepBudgetError, wear_evolution
 
 CYCLE = ((110.0, 1.0),)  # the default car vibrates at 110 km/h
 TARGET = 4000.0
@@ -54,3 +54,31 @@ def test_judge_is_checked():
         wear_design(Params(), keys=(KEY,), settings=WearDesignSettings(judge=Judge.EVOLUTION), cycle=CYCLE)
     with pytest.raises(ValueError, match="WearDesignSettings: judge = 'nonsense': must be one of auto, map, evolution"):
         WearDesignSettings(judge="nonsense")
+
+
+def test_a_probe_over_its_step_budget_is_undecided_and_reported():
+    """With a step budget of one step beyond the fewest the distance takes, every probe
+    whose tread vibrates stops at the budget: it is listed as undecided with the distance
+    it reached (checked against an evolution with the same budget), never an option."""
+    params = _car()
+    tight = EvolutionSettings(max_steps=1)
+    nominal = wear_evolution(params, TARGET, CYCLE)  # the search's nominal, with the default budget
+    result = wear_design(params, keys=(KEY,), target_km=TARGET, cycle=CYCLE, nominal=nominal,
+                         settings=WearDesignSettings(judge=Judge.EVOLUTION, evolution=tight, max_factor=1.5))
+    assert result.undecided and result.evolutions >= len(result.undecided)
+    assert all(u["key"] == KEY for u in result.undecided)
+    assert {u["value"] for u in result.undecided}.isdisjoint(o.value for o in result.options)
+    first = result.undecided[0]
+    with pytest.raises(StepBudgetError) as stopped:
+        wear_evolution(perturbed(params, KEY, first["value"]), TARGET, CYCLE, EvolutionSettings(max_steps=1))
+    assert first["at_km"] == pytest.approx(stopped.value.done_km, rel=1e-12)
+    assert first["relative_change"] == pytest.approx(first["value"] / nominal_value(params, KEY) - 1.0, rel=1e-12)
+    assert result.summary()["undecided"] == result.undecided
+
+
+def test_nominal_evolution_given_must_match_the_target_and_cycle():
+    params = _car()
+    short = wear_evolution(params, 500.0, CYCLE)
+    with pytest.raises(ValueError, match="nominal evolution given ran 500 km"):
+        wear_design(params, keys=(KEY,), target_km=TARGET, cycle=CYCLE, nominal=short,
+                    settings=WearDesignSettings(judge=Judge.EVOLUTION))

@@ -37,10 +37,11 @@ def report(
         typer.Option("--wear-km", help="Distance [km] of the wear evolutions at the operating speed and on the "
                      "drive cycle (default: wear.report_km, 100000; 0: not run); the wear map is always included."),
     ] = None,
-    wear_design: Annotated[bool, typer.Option(
-        "--wear-design", help="For a car that vibrates on the drive cycle: the least change of the first design "
-        "option's parameters after which the evolution shows no polygon within --wear-km (minutes: dozens of "
-        "evolutions).")] = False,
+    wear_design: Annotated[Optional[bool], typer.Option(
+        "--wear-design/--no-wear-design", help="For a car that vibrates on the drive cycle and wears a visible "
+        "polygon within --wear-km: the least change (toe, camber, bushings, tread; adhesion where none of those "
+        "does it) after which the evolution shows no polygon within --wear-km (about ten evolutions). Default: "
+        "on for tread1dof, off for axle4dof (minutes there).", show_default=False)] = None,
     json_: JsonOpt = False,
     quiet: QuietOpt = False,
 ) -> None:

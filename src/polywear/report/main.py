@@ -34,7 +34,13 @@ if TYPE_CHECKING:
     from ..wear.map import WearMap
     from .wear import WearSection
 
-__all__ = ["Report", "ReportSettings", "operating_verdict", "report"]
+__all__ = ["WEAR_DESIGN_BY_DEFAULT", "Report", "ReportSettings", "operating_verdict", "report"]
+
+WEAR_DESIGN_BY_DEFAULT = ("tread1dof",)
+"""Models whose report searches, by default, the least change judged by the evolution for
+a car that vibrates on the drive cycle: those where it fits the main job's budget
+(tread1dof: about 20-30 s of CPU time on the default car, docs/wear.md; axle4dof: its 16
+directions of the first grid level alone about 160 s, over the 3 min of its whole report)."""
 
 
 @dataclass(frozen=True)
@@ -48,7 +54,8 @@ class ReportSettings:
     wear_evolution_km: float
     """Distance of the wear evolutions [km] (0: not run)."""
     wear_design_by_evolution: bool
-    """Whether the least change judged by the evolution was searched (``--wear-design``)."""
+    """Whether the least change judged by the evolution is searched for a car that vibrates
+    on the drive cycle (``--wear-design/--no-wear-design``)."""
 
     def __post_init__(self) -> None:
         for name in ("speed_range_kmh", "operating_range_kmh"):
@@ -83,9 +90,10 @@ class Report(Result):
     overall: dict = field(default_factory=dict)
     """The one verdict on vibration and wear together (:func:`.verdict.verdict`)."""
     wear_design: dict | None = None
-    """Where the tread vibrates on the drive cycle: the least change of the first design
-    option's keys after which no polygon is visible within the report's distance, judged by
-    the evolution (:func:`polywear.wear.design.wear_design` summary); else None."""
+    """Where the tread vibrates on the drive cycle and its polygon becomes visible within the
+    report's distance: the least change (of the design keys, those an engineer sets first)
+    after which no polygon is visible within that distance, judged by the evolution
+    (:func:`polywear.wear.design.wear_design` summary, ``least_only``); else None."""
     settings: ReportSettings | None = None
     """What the report ran with (:class:`ReportSettings`)."""
 
@@ -274,7 +282,7 @@ def report(
     operating_range_kmh: tuple[float, float] | None = None,
     progress: Progress | None = None,
     wear_evolution_km: float | None = None,
-    wear_design_by_evolution: bool = False,
+    wear_design_by_evolution: bool | None = None,
     cornering_stiffness: tuple[float, str] | None = None,
 ) -> Report:
     """Run the main job and write figures, data, ``summary.json`` and ``report.html`` to ``out_dir``.
@@ -298,11 +306,14 @@ def report(
     wear_evolution_km : float, optional
         Distance [km] of the wear evolutions at the operating speed and on the drive cycle
         (default ``wear.report_km``; 0: not run); the wear map is always in the report.
-    wear_design_by_evolution : bool
-        For a car that vibrates on the drive cycle, also the least change of the first
-        design option's parameters after which the evolution shows no polygon within
-        ``wear_evolution_km`` (dozens of evolutions: minutes; ``polywear report
-        --wear-design``). Off by default: the verdict judges every option by the wear map.
+    wear_design_by_evolution : bool, optional
+        For a car that vibrates on the drive cycle and wears a visible polygon within
+        ``wear_evolution_km``: the least change (toe, camber, bushings, tread; adhesion only
+        where none of those does it) after which the evolution shows no polygon within that
+        distance (about ten evolutions, side by side; ``polywear report --wear-design /
+        --no-wear-design``). Default: where it fits the main job's budget, the tread1dof
+        model (about 20-30 s of CPU time on the default car); axle4dof has twice the keys at
+        about five times the cost per evolution (:data:`WEAR_DESIGN_BY_DEFAULT`).
     cornering_stiffness : (float, str), optional
         The tire's cornering stiffness C_alpha [N/rad] and where it comes from (a .tir
         file's, at the load), against which the point contact's lateral force is judged
@@ -397,13 +408,18 @@ def report(
                         progress=stage.detail(""), diagram=diagram)
     files.update(_wear_data_files(wear))
 
-    from ..wear.design import cycle_growth, wear_design
+    from ..wear.design import Judge, WearDesignSettings, cycle_growth, wear_design
 
     stops = None
-    if wear_design_by_evolution and km and options.best is not None and not cycle_growth(params)[2]:  # vibrates on the cycle
+    if wear_design_by_evolution is None:
+        wear_design_by_evolution = params.model in WEAR_DESIGN_BY_DEFAULT
+    worn = dict(wear.evolutions).get("drive cycle")
+    if (wear_design_by_evolution and worn is not None and worn.visible_km is not None
+            and not cycle_growth(params)[2]):  # vibrates on the cycle and wears a visible polygon
         say("what stops the polygon: the least change judged by the evolution")
-        stops = wear_design(params, keys=options.best.keys, target_km=km,
-                            progress=stage.detail("wear design: ")).summary()
+        search = WearDesignSettings(judge=Judge.EVOLUTION, least_only=True, max_undecided=1)  # the least, in budget
+        stops = wear_design(params, target_km=km, settings=search, progress=stage.detail("wear design: "),
+                            nominal=worn).summary()
 
     say("one verdict: vibration and wear together, design options judged by the wear")
     from .verdict import verdict as overall_verdict
@@ -523,22 +539,39 @@ def _glance_item(line: str) -> str:
 
 def _wear_design_html(found: dict | None) -> str:
     """What stops the polygon for a car that vibrates on the drive cycle (the least change
-    judged by the evolution), or nothing."""
+    judged by the evolution, the bracket the search left, the undecided probes and why the
+    other keys give no option), or nothing."""
     if found is None:
         return ""
     e = html.escape
-    head = (f"<p>What stops the polygon, judged by the nonlinear evolution over {found['target_km']:,.0f} km on the "
-            "drive cycle (the tread vibrates there, so the linear wear map does not apply): ")
+    km = found["target_km"]
+    head = (f"<p>What stops the polygon, judged by the nonlinear evolution over {km:,.0f} km on the drive cycle "
+            f"(the tread vibrates there, so the linear wear map does not apply; {found['evolutions']} evolutions): ")
     ev = found["nominal_evolution"]
     if ev is not None and ev["visible_km"] is None:
         return head + "nothing to change: no polygon becomes visible within that distance.</p>"
-    lines = [f"{e(o['label'])} {o['nominal']:.4g} &rarr; {o['value']:.4g} ({o['relative_change'] * 100:+.1f} %): "
-             f"depth {o['evolution']['depth_mm']:.3f} mm after {found['target_km']:,.0f} km, no visible polygon"
-             for o in found["options"] if o["evolution"] is not None]
+    lines = []
+    for o in found["options"]:
+        text = (f"{e(o['label'])} {o['nominal']:.4g} &rarr; {o['value']:.4g} ({o['relative_change'] * 100:+.1f} %): "
+                f"depth {o['evolution']['depth_mm']:.3f} mm after {km:,.0f} km, no visible polygon")
+        below = o["below"]
+        if below is not None:
+            text += (f"; at {below['value']:.4g} ({below['relative_change'] * 100:+.1f} %) "
+                     + (f"visible after {below['visible_km']:,.0f} km" if below["visible_km"] is not None
+                        else "not decided"))
+        else:
+            text += f"; the car as it is: visible after {ev['visible_km']:,.0f} km"
+        between = [u for u in found["undecided"] if u["key"] == o["key"]]
+        if between:
+            text += ("; undecided at " + ", ".join(f"{u['value']:.4g}" for u in between)
+                     + " (the evolution stopped at its step budget: the profile changes faster than its steps there)")
+        lines.append(text)
+    notes = "".join(f"<li>{e(n)}</li>" for n in found["not_found"])
     if not lines:
-        return head + e("; ".join(found["not_found"]) or "no option found") + ".</p>"
-    return head + "the least change of the first design option's parameters:</p><ul>" + \
-        "".join(f"<li>{line}</li>" for line in lines) + "</ul>"
+        return head + "no change within the search finds it:</p><ul>" + notes + "</ul>"
+    return (head + "the least change, then any other found at the same step of the search "
+            "(what an engineer sets first):</p><ul>" + "".join(f"<li>{line}</li>" for line in lines) + "</ul>"
+            + (f"<p>The other parameters:</p><ul>{notes}</ul>" if notes else ""))
 
 
 def _design_html(design: dict, verdict: dict) -> str:

@@ -263,7 +263,8 @@ def verdict(summary: dict, params: Params, vibration: str, cornering: tuple[floa
                        found.nominal_rolling_stable and not found.options and found.nominal_depth_at_target_mm
                        < params.wear.visible_depth_mm)
     out["wear_design_option"] = wear_option[1].summary() if wear_option and wear_option[1] else None
-    lines.append(_what_to_change(vibrates, bool(visible), bool(evs), design, judged, distance, wear_option))
+    lines.append(_what_to_change(vibrates, bool(visible), bool(evs), design, judged, distance, wear_option)
+                 + _stops(summary.get("wear_design")))
     out["lines"] = lines
     out["glance"] = glance(summary, out, params)
     return with_deprecated_keys(out, {"dominant_order": "sides"})
@@ -403,11 +404,12 @@ def glance(summary: dict, judged: dict, params: Params) -> list[str]:
     elif best is None:
         lines.append("What to change: no design option clears the SEV band from the operating range "
                      f"{design['operating_range_kmh'][0]:g}-{design['operating_range_kmh'][1]:g} km/h"
-                     + ("" if design["options"] else f" ({design['reason']})") + " (see the verdict below).")
+                     + ("" if design["options"] else f" ({design['reason']})") + " (see the verdict below)."
+                     + _stops(summary.get("wear_design")))
     else:
         o, j, good = best
         lines.append(f"What to change: {o.get('text') or o['change']}" + ("" if good else "; it brings the polygon sooner")
-                     + ".")
+                     + "." + _stops(summary.get("wear_design")))
     top = top_sensitivities(summary.get("sensitivity") or {"rows": []})
     if top:
         def s(x):
@@ -436,6 +438,32 @@ def _band_edges(b: dict) -> str:
     first, second = b["first_bifurcation_speed_kmh"], b["second_bifurcation_speed_kmh"]
     return (f"{f'{first:.1f}' if first is not None else f'open below {lo:g}'}-"
             f"{f'{second:.1f}' if second is not None else f'open above {hi:g}'} km/h")
+
+
+def _stops(found: dict | None) -> str:
+    """The least change judged by the evolution (the report's ``wear_design``) as a sentence
+    that follows the design answer, or nothing where it was not searched or found nothing."""
+    if not found or not found["options"]:
+        return ""
+    from ..dynamics.design import parameter_unit
+
+    o = found["options"][0]
+    unit = parameter_unit(o["key"])
+
+    def value(v: float) -> str:
+        return f"{v:.4g}°" if unit == "deg" else f"{v:.4g}{' ' + unit if unit else ''}"
+
+    text = (f" What stops the polygon (the nonlinear evolution over {found['target_km']:,.0f} km on the drive "
+            f"cycle): {o['label']} {value(o['nominal'])} → {value(o['value'])} ({o['relative_change'] * 100:+.1f} %)")
+    creeps = [u for u in found["undecided"] if u["key"] == o["key"]]
+    below = o["below"]
+    if below is not None and below["visible_km"] is not None:
+        text += (f"; at {below['relative_change'] * 100:+.1f} % the polygon is visible after about "
+                 f"{_km(below['visible_km'])} km")
+    if creeps:
+        text += ("; " + ", ".join(f"{u['relative_change'] * 100:+.1f} %" for u in creeps)
+                 + " undecided (the evolution creeps there)")
+    return text + "."
 
 
 def _what_to_change(vibrates: bool, visible: bool, evolved: bool, design: dict, judged: list,

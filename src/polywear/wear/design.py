@@ -20,12 +20,25 @@ Judged by the evolution (``Judge.EVOLUTION``, the default with a target distance
 the tread vibrates at a cycle speed, where the map does not apply). Every probe of the
 search runs the nonlinear evolution (:func:`~polywear.wear.evolution.wear_evolution`) over the
 target distance on the cycle; it meets the criterion when no polygon becomes visible
-within it, vibrating or not. The same search on a coarser grid (:data:`EVOLUTION_GRID`
-steps, bisection to :data:`EVOLUTION_REFINE`); a direction whose largest change
-(``max_factor``) does not meet it is not searched further (the search assumes the criterion
-holds beyond the least change). A probe where rolling is stable at every cycle speed and
-the linear map alone makes the polygon :data:`CLEARLY_VISIBLE` times the visible depth
-fails without an evolution. Each option keeps the evolution at its least change.
+within it, vibrating or not. A probe's evolution stops as soon as its polygon is visible
+(``until_visible``: a failing probe costs only the distance to it) and at a step budget
+of :data:`PROBE_MAX_STEPS` (a probe that creeps in short steps, e.g. at the edge of
+locking, is *undecided*: not an option, listed in ``undecided``). The search
+(:func:`_search_by_evolution`) goes by distance from the nominal car, level by level of a
+geometric grid of :data:`EVOLUTION_GRID` steps to ``max_factor``: at each level every open
+direction (more and less of each key) is probed, side by side (threads, or the
+executor); after the first level, a direction whose largest change fails is closed (the
+search assumes the criterion holds beyond the least change). A direction that meets the
+criterion at a level is refined by trisection in ``ln f`` (two probes per round, side by
+side) to :data:`EVOLUTION_REFINE`; an undecided probe is no end of the bracket, and after
+``max_undecided`` (:data:`MAX_UNDECIDED`) undecided probes the bracket stays as it is (its lower end, the
+largest change whose polygon is visible, is kept in the option as ``below``). With
+``least_only`` (the report) the search stops at the first level where a direction meets
+it (the other directions fail there, so their least change is larger), and keys that an engineer does not set (adhesion) are searched only
+where no alignment, bushing or tread key meets it. A probe where rolling is stable at
+every cycle speed and the linear map alone makes the polygon :data:`CLEARLY_VISIBLE` times
+the visible depth fails without an evolution. Each option keeps the evolution at its
+least change.
 
 Verification. Each option found by the map can be checked by the nonlinear evolution over
 the target distance (:func:`verify_option`): the depth it reaches and whether the polygon
@@ -35,8 +48,10 @@ becomes visible, with the original parameters beside it.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field, replace
 from enum import StrEnum
 
 import numpy as np
@@ -51,7 +66,7 @@ from ..settings import check_count, check_positive
 from ..dynamics.design import DEFAULT_KEYS, ENGINEERING, parameter_category, parameter_label
 from ..dynamics.least_change import least_factor
 from ..dynamics.sensitivity import nominal_value, parameter_direction, perturbed
-from .evolution import EvolutionSettings, wear_evolution
+from .evolution import EvolutionResult, EvolutionSettings, StepBudgetError, wear_evolution
 from .map import wear_map
 
 __all__ = ["Judge", "WearDesignOption", "WearDesignResult", "WearDesignSettings", "cycle_rates", "cycle_growth",
@@ -64,6 +79,16 @@ EVOLUTION_GRID = 8
 EVOLUTION_REFINE = 0.02
 """Relative accuracy of the least change judged by the evolution [-] (its error-controlled
 distance steps move the visible distance by about 1 %)."""
+PROBE_MAX_STEPS = 40
+"""Step budget of one probe's evolution [distance steps] beyond the fewest its distance
+takes (:func:`~polywear.wear.evolution.step_budget`): the default car takes 17-30 steps
+over 100 000 km; a probe that needs more is undecided [-]. Toe 0.53-0.547 deg on the
+default cycle creeps in steps of about 10 km (toe 0.545 deg: 4 300 km in 500 steps, 66 s
+CPU); a car just past its Hopf point (small vibration) can take about 90 steps and decide."""
+MAX_UNDECIDED = 2
+"""A bracket of the evolution search is refined no further after this many of its probes
+were undecided, by default [-] (inside a creeping stretch most probes creep, each to the
+budget: 4 of the 5 probes within toe 0.52-0.56 deg on the default cycle)."""
 CLEARLY_VISIBLE = 2.0
 """A probe with stable rolling at every cycle speed whose linear-map depth at the target
 exceeds this many visible depths fails without an evolution (the nonlinear evolution
@@ -95,12 +120,27 @@ class WearDesignSettings:
     """What judges an option (:class:`Judge`; its text is accepted too)."""
     evolution: EvolutionSettings = EvolutionSettings()
     """Settings of the evolutions where the evolution judges."""
+    least_only: bool = False
+    """Where the evolution judges: only the least change (the report): stop at the first grid
+    level where a direction meets the criterion, and search adhesion only where no key an
+    engineer sets meets it. False: the least change of every key."""
+    threads: int | None = None
+    """Threads that run the probes of one level side by side where the evolution judges and
+    no executor is given [-] (default: the CPU count; the result does not depend on it)."""
+    max_undecided: int = MAX_UNDECIDED
+    """Where the evolution judges: a bracket is refined no further after this many of its
+    probes were undecided [-] (integer >= 1; the report takes 1)."""
 
     def __post_init__(self) -> None:
         check_positive(self, "max_factor")
         if not self.max_factor > 1.0:
             raise ValueError(f"WearDesignSettings: max_factor = {self.max_factor!r}: must be above 1")
         check_count(self, "grid")
+        if not isinstance(self.least_only, bool):
+            raise ValueError(f"WearDesignSettings: least_only = {self.least_only!r}: must be True or False")
+        if self.threads is not None:
+            check_count(self, "threads")
+        check_count(self, "max_undecided")
         if self.judge not in tuple(Judge):
             raise ValueError(f"WearDesignSettings: judge = {self.judge!r}: must be one of "
                              f"{', '.join(j.value for j in Judge)}")
@@ -159,6 +199,10 @@ class WearDesignOption:
     evolution: dict | None = None
     """where the evolution judged: ``{"distance_km", "depth_mm", "visible_km", "dominant_order"}``
     at the least change"""
+    below: dict | None = None
+    """where the evolution judged: the largest change below the least one whose probe shows a
+    visible polygon within the target (the search's bracket): ``{"value", "relative_change",
+    "visible_km"}``; None: the nominal car (its evolution is the result's)"""
 
     def summary(self) -> dict:
         return dict(self.__dict__) | {"growth_per_1000km": _finite(self.growth_per_1000km)}
@@ -180,6 +224,12 @@ class WearDesignResult(Result):
     """The judge used: ``Judge.MAP`` or ``Judge.EVOLUTION`` (``AUTO`` resolved)"""
     nominal_evolution: dict | None = None
     """where the evolution judged: the nominal car's (as :attr:`WearDesignOption.evolution`)"""
+    undecided: list[dict] = field(default_factory=list)
+    """where the evolution judged: the probes whose evolution stopped at its step budget
+    (:data:`PROBE_MAX_STEPS`), counted as not meeting the criterion: ``{"key", "value",
+    "relative_change", "at_km"}``"""
+    evolutions: int = 0
+    """where the evolution judged: the evolutions run by the search (the nominal car's not counted)"""
     settings: WearDesignSettings = WearDesignSettings()
     """The settings of the search (``judge`` as given: ``AUTO`` stays ``AUTO``)"""
 
@@ -199,6 +249,9 @@ class WearDesignResult(Result):
                         "rolling_stable_at_every_cycle_speed": self.nominal_rolling_stable},
             "options": [o.summary() for o in self.options],
             "not_found": self.not_found,
+            "undecided": self.undecided,
+            "evolutions": self.evolutions,
+            "least_only": self.settings.least_only,
             "distances_scale_as": "1/k_e",
         }
 
@@ -236,22 +289,42 @@ def _finite(x: float):
 
 def _outcome(evolved: dict) -> str:
     """An evolution of :func:`_evolved` in words."""
+    if evolved.get("undecided"):
+        return f"undecided (over the step budget at {evolved['distance_km']:,.0f} km)"
     return ("no visible polygon" if evolved["visible_km"] is None
             else f"visible after {evolved['visible_km']:,.0f} km")
 
 
-def _evolved(params: Params, target_km: float, cycle, settings: EvolutionSettings) -> dict:
-    """The evolution over ``target_km`` [km] on ``cycle``: depth at its end [mm], visible
-    distance [km] (None: not within it) and dominant order at its end."""
-    worn = wear_evolution(params, target_km, cycle, settings)
+def _evolved(params: Params, target_km: float, cycle, settings: EvolutionSettings, workers: int | None = None) -> dict:
+    """The evolution over ``target_km`` [km] on ``cycle`` (``workers`` as in
+    :func:`~polywear.wear.evolution.wear_evolution`): the distance it reached [km] (less
+    than ``target_km`` only with ``until_visible``), its depth there [mm], the visible
+    distance [km] (None: not within it) and the dominant order there; or, where it stopped
+    at its step budget, ``undecided`` True with the distance it had reached."""
+    try:
+        worn = wear_evolution(params, target_km, cycle, settings, workers=workers)
+    except StepBudgetError as exc:
+        return {"distance_km": exc.done_km, "depth_mm": None, "visible_km": None, "dominant_order": None,
+                "undecided": True}
+    return {"distance_km": float(worn.distance_km[-1]), "depth_mm": float(worn.depth_mm[-1]),
+            "visible_km": worn.visible_km, "dominant_order": int(worn.dominant_order[-1])}
+
+
+def _from_result(worn: EvolutionResult, target_km: float, cycle) -> dict:
+    """:func:`_evolved` of an evolution already run (the report's on the drive cycle), which
+    must be over ``target_km`` [km] on ``cycle``."""
+    if tuple(worn.cycle) != tuple(cycle) or not math.isclose(float(worn.distance_km[-1]), target_km, rel_tol=1e-9):
+        raise ValueError(f"wear_design: the nominal evolution given ran {float(worn.distance_km[-1]):g} km on "
+                         f"{worn.cycle}: need {target_km:g} km on {cycle}")
     return {"distance_km": target_km, "depth_mm": float(worn.depth_mm[-1]), "visible_km": worn.visible_km,
             "dominant_order": int(worn.dominant_order[-1])}
 
 
 def _meets(params: Params, key: str, nominal: float, factor: float, cycle, target_km: float | None,
-           judge: Judge = Judge.MAP, settings: EvolutionSettings = EvolutionSettings()):
+           judge: Judge = Judge.MAP, settings: EvolutionSettings = EvolutionSettings(), workers: int | None = None):
     """(criterion met, growth [e-folds per 1000 km], order, the evolution or None) with
-    ``key`` at ``nominal * factor``; None where it cannot be evaluated."""
+    ``key`` at ``nominal * factor``; None where it cannot be evaluated. An evolution stopped
+    at its step budget does not meet it (``undecided`` in the evolution)."""
     try:
         changed = perturbed(params, key, nominal * factor)
     except ValueError:
@@ -267,8 +340,8 @@ def _meets(params: Params, key: str, nominal: float, factor: float, cycle, targe
         elif stable and linear_depth_mm(changed, target_km, cycle) > CLEARLY_VISIBLE * visible:
             ok = False
         else:
-            evolved = _evolved(changed, target_km, cycle, settings)
-            ok = evolved["visible_km"] is None
+            evolved = _evolved(changed, target_km, cycle, settings, workers)
+            ok = evolved["visible_km"] is None and not evolved.get("undecided")
             order = evolved["dominant_order"]
     except (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError):
         return None
@@ -277,63 +350,170 @@ def _meets(params: Params, key: str, nominal: float, factor: float, cycle, targe
 
 @dataclass(frozen=True)
 class _KeySearch:
-    """The least change of one key (a picklable task of :func:`wear_design`): its
-    :class:`WearDesignOption`, or the note why there is none."""
+    """The least change of one key judged by the map (a picklable task of :func:`wear_design`):
+    its :class:`WearDesignOption`, or the note why there is none."""
 
     params: Params
     cycle: tuple
     target_km: float | None
-    judge: Judge
     max_factor: float
     grid: int
-    settings: EvolutionSettings
-    progress: Progress | None = None
-    """Called after every probe judged by an evolution (a serial search only)."""
 
     def __call__(self, key: str) -> WearDesignOption | str:
         nominal = nominal_value(self.params, key)
-        cache: dict[float, tuple | None] = {}
-
-        def probe(factor: float):
-            if factor not in cache:
-                cache[factor] = _meets(self.params, key, nominal, factor, self.cycle, self.target_km, self.judge,
-                                       self.settings)
-                evolved = cache[factor][3] if cache[factor] is not None else None
-                if self.progress is not None and evolved is not None:
-                    self.progress(len(cache), None, f"{key} = {nominal * factor:.4g}: {_outcome(evolved)}")
-            return cache[factor]
-
-        evolution = self.judge == "evolution"
-        grid = EVOLUTION_GRID if evolution else self.grid
-        refine = EVOLUTION_REFINE if evolution else _REFINE
-        closed = set()  # directions (True: more) whose largest change fails: not searched
-        if evolution:
-            last = np.linspace(0.0, math.log(self.max_factor), grid + 1)[-1]  # the grid's last step, as least_factor's
-            for up, extreme in ((True, float(np.exp(last))), (False, float(np.exp(-last)))):
-                hit = probe(extreme)
-                if hit is not None and not hit[0]:
-                    closed.add(up)
 
         def meets(factor: float):
-            if (factor > 1.0) in closed:
-                return None
-            hit = probe(factor)
+            hit = _meets(self.params, key, nominal, factor, self.cycle, self.target_km)
             return hit if hit is not None and hit[0] else None
 
-        best = least_factor(meets, self.max_factor, grid, refine)
+        best = least_factor(meets, self.max_factor, self.grid, _REFINE)
         if best is None:
             return f"{key}: no change within x{self.max_factor:g} meets the criterion"
-        factor, (_, g, order, evolved) = best
-        return WearDesignOption(
-            key=key, label=parameter_label(key), category=parameter_category(key), nominal=nominal,
-            value=nominal * factor, relative_change=factor - 1.0, growth_per_1000km=g, order=order,
-            evolution=evolved)
+        factor, (_, g, order, _) = best
+        return _option(key, nominal, factor, g, order)
+
+
+def _option(key: str, nominal: float, factor: float, growth: float, order: int, evolved: dict | None = None,
+            below: dict | None = None) -> WearDesignOption:
+    return WearDesignOption(
+        key=key, label=parameter_label(key), category=parameter_category(key), nominal=nominal,
+        value=nominal * factor, relative_change=factor - 1.0, growth_per_1000km=growth, order=order,
+        evolution=evolved, below=below)
+
+
+@dataclass(frozen=True)
+class _Probe:
+    """One probe of the evolution search (a picklable task): :func:`_meets` judged by the
+    evolution with ``(key, nominal value, factor)``, its evolution in one thread."""
+
+    params: Params
+    cycle: tuple
+    target_km: float
+    settings: EvolutionSettings
+
+    def __call__(self, job: tuple[str, float, float]):
+        key, nominal, factor = job
+        return _meets(self.params, key, nominal, factor, self.cycle, self.target_km, Judge.EVOLUTION,
+                      self.settings, workers=1)
+
+
+def _search_by_evolution(params: Params, keys: Sequence[str], cycle, target_km: float,
+                         settings: WearDesignSettings, executor: Executor | None,
+                         progress: Progress | None) -> tuple[dict, list[dict], int]:
+    """The least change of ``keys`` judged by the evolution (module notes): ({key: its
+    :class:`WearDesignOption` or the note why there is none}, the undecided probes, the
+    evolutions run)."""
+    probe = _Probe(params, cycle, target_km,
+                   replace(settings.evolution, until_visible=True,
+                           max_steps=min(settings.evolution.max_steps, PROBE_MAX_STEPS)))
+    nominal = {key: nominal_value(params, key) for key in keys}
+    cache: dict[tuple[str, float], tuple | None] = {}
+    threads = settings.threads or os.cpu_count() or 1
+
+    def run(points: list[tuple[str, float]]) -> list:
+        """The probes at (key, |ln f| with its sign), side by side; cached."""
+        todo = list(dict.fromkeys(p for p in points if p not in cache))
+        jobs = [(key, nominal[key], math.exp(x)) for key, x in todo]
+        if executor is not None:
+            outs = executor.map(probe, jobs)
+        elif threads > 1 and len(jobs) > 1:
+            with ThreadPoolExecutor(min(threads, len(jobs))) as pool:
+                outs = list(pool.map(probe, jobs))
+        else:
+            outs = [probe(job) for job in jobs]
+        for (key, x), out in zip(todo, outs):
+            cache[key, x] = out
+            if progress is not None and out is not None and out[3] is not None:
+                progress(len(cache), None, f"{key} = {nominal[key] * math.exp(x):.4g}: {_outcome(out[3])}")
+        return [cache[p] for p in points]
+
+    def ok(out) -> bool:
+        return out is not None and out[0]
+
+    def failed(out) -> bool:  # decided: not met and not undecided
+        return not ok(out) and not (out is not None and out[3] is not None and out[3].get("undecided"))
+
+    top = math.log(settings.max_factor)
+    levels = np.linspace(0.0, top, EVOLUTION_GRID + 1)[1:]
+    found: dict[tuple[str, int], tuple[float, float]] = {}  # direction -> (|ln f| that fails, that meets)
+    notes: dict[tuple[str, int], str] = {}
+    engineering = [k for k in keys if parameter_category(k) in ENGINEERING]
+    tiers = [engineering, [k for k in keys if k not in engineering]] if settings.least_only else [list(keys)]
+    for tier in tiers:
+        if settings.least_only and found:
+            notes.update({(key, s): "not searched (a change of a key an engineer sets meets the criterion)"
+                          for key in tier for s in (1, -1)})
+            continue
+        open_ = [(key, s) for key in tier for s in (1, -1)]
+        failed_at = dict.fromkeys(open_, 0.0)  # |ln f| of the largest change that failed
+        for i, level in enumerate(levels):
+            if not open_:
+                break
+            outs = run([(key, s * level) for key, s in open_])
+            met = [d for d, out in zip(open_, outs) if ok(out)]
+            for d, out in zip(open_, outs):
+                if failed(out):
+                    failed_at[d] = level
+            for d in met:
+                found[d] = (failed_at[d], level)
+            open_ = [d for d in open_ if d not in met]
+            if met and settings.least_only:
+                notes.update({d: f"{_signed(d[1] * level)} does not meet the criterion, a change of another key "
+                                 "no larger does (not searched further)" for d in open_})
+                break
+            if i == 0 and len(levels) > 1 and open_:  # the largest change closes a direction that fails there
+                outs = run([(key, s * top) for key, s in open_])
+                for d, out in zip(list(open_), outs):
+                    if not ok(out):
+                        open_.remove(d)
+                        notes[d] = (f"no change within x{settings.max_factor:g} meets the criterion" if failed(out)
+                                    else f"the largest change (x{settings.max_factor:g}) is undecided (not searched)")
+    # trisection of every bracket, side by side: two probes per bracket and round; an
+    # undecided probe is no end of a bracket, and a bracket is refined no further after
+    # settings.max_undecided of its probes were undecided
+    undecided_in = dict.fromkeys(found, 0)
+    while True:
+        rounds = {d: [lo + (hi - lo) * j / 3.0 for j in (1, 2)] for d, (lo, hi) in found.items()
+                  if hi - lo > EVOLUTION_REFINE and undecided_in[d] < settings.max_undecided}
+        if not rounds:
+            break
+        outs = iter(run([(key, s * x) for (key, s), xs in rounds.items() for x in xs]))
+        for d, xs in rounds.items():
+            lo, hi = found[d]
+            got = [next(outs) for _ in xs]
+            undecided_in[d] += sum(not ok(out) and not failed(out) for out in got)
+            j = next((i for i, out in enumerate(got) if ok(out)), len(xs))
+            found[d] = (max([x for x, out in zip(xs[:j], got[:j]) if failed(out)], default=lo),
+                        xs[j] if j < len(xs) else hi)
+    by_key: dict[str, WearDesignOption | str] = {}
+    for key in keys:
+        best = min(((hi, s, lo) for (k, s), (lo, hi) in found.items() if k == key), default=None)
+        if best is None:
+            up, down = notes[key, 1], notes[key, -1]
+            by_key[key] = f"{key}: {up}" if up == down else f"{key}: more: {up}; less: {down}"
+            continue
+        hi, s, lo = best
+        _, g, order, evolved = cache[key, s * hi]
+        below = cache[key, s * lo] if lo > 0.0 else None
+        by_key[key] = _option(key, nominal[key], math.exp(s * hi), g, order, evolved, None if below is None else {
+            "value": nominal[key] * math.exp(s * lo), "relative_change": math.expm1(s * lo),
+            "visible_km": below[3]["visible_km"] if below is not None and below[3] is not None else None})
+    undecided = [{"key": key, "value": nominal[key] * math.exp(x), "relative_change": math.expm1(x),
+                  "at_km": out[3]["distance_km"]}
+                 for (key, x), out in cache.items() if out is not None and out[3] is not None and out[3].get("undecided")]
+    return by_key, undecided, sum(out is not None and out[3] is not None for out in cache.values())
+
+
+def _signed(x: float) -> str:
+    """The change ``f = exp(x)`` in percent of the nominal value, with its sign."""
+    return f"{math.expm1(x) * 100:+.0f} %"
 
 
 def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: float | None = None,
                 cycle: Sequence[tuple[float, float]] | None = None,
                 settings: WearDesignSettings = WearDesignSettings(),
-                executor: Executor | None = None, progress: Progress | None = None) -> WearDesignResult:
+                executor: Executor | None = None, progress: Progress | None = None,
+                nominal: EvolutionResult | None = None) -> WearDesignResult:
     """Least relative change of each key (both directions) that meets the wear criterion.
 
     ``keys`` default :data:`polywear.dynamics.design.DEFAULT_KEYS` (those that enter the
@@ -341,9 +521,12 @@ def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: fl
     stable); ``cycle``: ((speed [km/h], share), ...), default ``wear.cycle``; ``settings``
     (:class:`WearDesignSettings`): largest change, grid, judge, the evolutions' settings;
     ``executor`` (:class:`~polywear.parallel.Executor`, default in this process): where the
-    keys are searched, one task per key; ``progress`` (:mod:`polywear.progress`, without an
-    executor only) after every evolution (seconds to minutes each): ``(probes of the key,
-    None, "key = value: outcome")``.
+    map judges, where the keys are searched, one task per key; where the evolution judges,
+    where the probes of one grid level or refinement round run, one task per probe (default:
+    ``settings.threads`` threads); ``progress`` (:mod:`polywear.progress`) after every
+    evolution (seconds each): ``(probes so far, None, "key = value: outcome")``;
+    ``nominal``: the nominal car's evolution over ``target_km`` on ``cycle`` where it was
+    already run (the report's), else it is run here where the evolution judges.
     """
     if not isinstance(settings, WearDesignSettings):
         raise TypeError(f"wear_design: settings = {settings!r}: a WearDesignSettings")
@@ -359,7 +542,8 @@ def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: fl
     depth0 = None if target_km is None else linear_depth_mm(params, target_km, cycle)
     nominal_evolution = None
     if judge == Judge.EVOLUTION:
-        nominal_evolution = _evolved(params, target_km, cycle, settings.evolution)
+        nominal_evolution = (_evolved(params, target_km, cycle, settings.evolution) if nominal is None
+                             else _from_result(nominal, target_km, cycle))
         nominal_ok = nominal_evolution["visible_km"] is None
         if progress is not None:
             progress(0, None, f"nominal: {_outcome(nominal_evolution)}")
@@ -378,9 +562,15 @@ def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: fl
             entries.append(f"{key}: nominal value 0 (no relative change)")
         else:
             entries.append((key,))
-    search = _KeySearch(params, cycle, target_km, judge, settings.max_factor, settings.grid, settings.evolution,
-                        progress if executor is None else None)
-    found = iter((executor or Executor("serial")).map(search, [e[0] for e in entries if isinstance(e, tuple)]))
+    searched = [e[0] for e in entries if isinstance(e, tuple)]
+    undecided, evolutions = [], 0
+    if judge == Judge.EVOLUTION:
+        by_key, undecided, evolutions = _search_by_evolution(params, searched, cycle, target_km, settings, executor,
+                                                             progress)
+        found = iter([by_key[key] for key in searched])
+    else:
+        found = iter((executor or Executor("serial")).map(
+            _KeySearch(params, cycle, target_km, settings.max_factor, settings.grid), searched))
     entries = [next(found) if isinstance(e, tuple) else e for e in entries]
     options = [o for o in entries if isinstance(o, WearDesignOption)]
     not_found += [o for o in entries if isinstance(o, str)]
@@ -392,7 +582,7 @@ def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: fl
     return WearDesignResult(params=params, cycle=cycle, target_km=target_km, nominal_depth_at_target_mm=depth0,
                             nominal_growth_per_1000km=g0, nominal_order=order0, nominal_rolling_stable=stable0,
                             options=options, not_found=not_found, judge=judge, nominal_evolution=nominal_evolution,
-                            settings=settings)
+                            settings=settings, undecided=undecided, evolutions=evolutions)
 
 
 def verify_option(params: Params, option: WearDesignOption, distance_km: float, cycle=None,

@@ -1,0 +1,70 @@
+"""The report's design section for a car that vibrates on its drive cycle (issue 22 §4): by
+default (tread1dof) the least change after which no polygon is visible within the report's
+distance, checked by the nonlinear evolution. Oracles: independent evolutions at the
+change found and at the bracket's other end; the report's own drive-cycle evolution."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from polywear.dynamics.sensitivity import perturbed
+from polywear.params import Params, with_updates
+from polywear.wear.evolution import wear_evolution
+
+from .cli_runner import run_main
+
+KM = 4000.0
+
+
+def _car():
+    """The default car vibrating at 110 km/h, driven only there, with k_e = 0.01 mm^3/J: its
+    polygon visible after about 3 000 km (a tenth of the default's distance)."""
+    return with_updates(Params(), {"wear.energetic_rate_mm3_per_j": 0.01,
+                                   "wear.cycle": [{"speed_kmh": 110.0, "share": 1.0}]})
+
+
+@pytest.mark.slow
+def test_report_gives_the_least_change_checked_by_evolution(tmp_path):
+    from polywear.report.main import report
+
+    params = _car()
+    result = report(params, tmp_path, wear_evolution_km=KM)
+    assert result.settings.wear_design_by_evolution  # the default for tread1dof
+    found = result.wear_design
+    assert found == json.loads((tmp_path / "summary.json").read_text())["wear_design"]
+    assert found["judge"] == "evolution" and found["least_only"] and found["target_km"] == KM
+    # the nominal car is the report's own drive-cycle evolution, not run again
+    cycle = dict(result.wear.evolutions)["drive cycle"]
+    assert found["nominal_evolution"]["visible_km"] == cycle.visible_km < KM
+    option = found["options"][0]
+    assert option["category"] != "road/compound"  # what an engineer sets, where one does it
+    # independent evolutions: none visible with the change, visible at the bracket's other end
+    cycle_shares = params.wear.cycle_shares()
+    at = wear_evolution(perturbed(params, option["key"], option["value"]), KM, cycle_shares)
+    assert at.visible_km is None and at.depth_mm[-1] < params.wear.visible_depth_mm
+    below = option["below"]
+    if below is not None and below["visible_km"] is not None:
+        before = wear_evolution(perturbed(params, option["key"], below["value"]), KM, cycle_shares)
+        assert before.visible_km == pytest.approx(below["visible_km"], rel=1e-9)
+    # worded at the top and in the design section
+    assert "What stops the polygon" in result.overall["lines"][-1]
+    assert f"({option['relative_change'] * 100:+.1f} %)" in result.overall["lines"][-1]
+    html = (tmp_path / "report.html").read_text()
+    assert "What stops the polygon, judged by the nonlinear evolution" in html
+    assert f"{found['evolutions']} evolutions" in html
+
+
+def test_no_wear_design_turns_it_off(tmp_path):
+    """``--no-wear-design``: the evolutions run, the search does not (``wear_design`` null,
+    recorded as off); the command line has the flag pair."""
+    from polywear.report.main import report
+
+    off = report(_car(), tmp_path, wear_evolution_km=KM, wear_design_by_evolution=False)
+    assert dict(off.wear.evolutions)["drive cycle"].visible_km < KM  # a search would have run
+    assert off.wear_design is None and not off.settings.wear_design_by_evolution
+    assert json.loads((tmp_path / "summary.json").read_text())["wear_design"] is None
+    assert "What stops the polygon" not in " ".join(off.overall["lines"])
+    code, out, _ = run_main(["report", "--help"])
+    assert code == 0 and "--no-wear-design" in out
