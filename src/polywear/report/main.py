@@ -558,7 +558,7 @@ def _wear_design_html(found: dict | None) -> str:
         if below is not None:
             text += (f"; at {below['value']:.4g} ({below['relative_change'] * 100:+.1f} %) "
                      + (f"visible after {below['visible_km']:,.0f} km" if below["visible_km"] is not None
-                        else "not decided"))
+                        else "not an option"))
         else:
             text += f"; the car as it is: visible after {ev['visible_km']:,.0f} km"
         between = [u for u in found["undecided"] if u["key"] == o["key"]]
