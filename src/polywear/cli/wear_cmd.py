@@ -296,7 +296,7 @@ def design_(
                                           "cycle speed, else the map).")
     ] = "auto",
     workers: Annotated[
-        int, typer.Option("--workers", "-w", min=1, max=64, help="Processes that search the keys side by side (same result).")
+        int, typer.Option("--workers", "-w", min=1, max=64, help="Processes that run a search step's probes side by side (default 1: threads in this process; same result).")
     ] = 1,
     outputs: Outputs = Outputs(takes_plot=False),
 ) -> None:
