@@ -8,7 +8,14 @@ import numpy as np
 import pytest
 
 from polywear.measured.profile import read_profiles
-from polywear.measured.wear_calibration import REFINE, _filled, _walk, calibrate_wear
+from polywear.measured.wear_calibration import (
+    MODEL_SCATTER,
+    RANGE,
+    REFINE,
+    _filled,
+    _walk,
+    calibrate_wear,
+)
 from polywear.params import load_params, with_updates
 from polywear.wear.evolution import EvolutionSettings, wear_evolution
 from polywear.wear.law import profile_samples
@@ -82,16 +89,23 @@ def test_one_mileage_and_an_unknown_roughness_is_refused_with_the_combination(tr
     assert value * np.log(a_meas / r_true) == pytest.approx(K_TRUE, rel=0.15)
 
 
-def test_two_mileages_separate_k_e_and_the_initial_roughness(tmp_path):
-    """A tire that started twice as rough as the parameter set assumes: both come back
-    within their intervals (the roughness between two nodes of the fitted grid). Both
-    mileages lie after the pull into locking, where ln|W_n| bends in ln r0: the grid of
-    roughness levels must be fine over the whole range the intervals explore (issue 22)."""
+@pytest.fixture(scope="module")
+def rough():
+    """A tire that started twice as rough as the parameter set assumes, worn at K_TRUE, and
+    two mileages (80 % and 95 % of its visible distance)."""
     params = load_params()
     r_true = 2.0 * params.wear.initial_roughness_um
     run = wear_evolution(with_updates(params, {"wear.energetic_rate_mm3_per_j": K_TRUE, "wear.initial_roughness_um": r_true}),
                  7000.0, settings=EvolutionSettings(step_km=500.0))
     mileages = [float(run.distance_km[np.argmin(np.abs(run.distance_km - f * run.visible_km))]) for f in (0.8, 0.95)]
+    return params, r_true, run, mileages
+
+
+def test_two_mileages_separate_k_e_and_the_initial_roughness(rough, tmp_path):
+    """Both come back within their intervals (the roughness between two nodes of the fitted
+    grid). Both mileages lie after the pull into locking, where ln|W_n| bends in ln r0: the
+    grid of roughness levels must be fine over the whole range the intervals explore (issue 22)."""
+    params, r_true, run, mileages = rough
     measured = _gauge(tmp_path, run, mileages, 0.005, "rough.csv")
     cal = calibrate_wear(measured, params, roughness_known=False)
     assert cal.identifiable and cal.roughness_fitted
@@ -102,6 +116,30 @@ def test_two_mileages_separate_k_e_and_the_initial_roughness(tmp_path):
     # and the answer is not the assumption's: the fit with the roughness taken as known is off
     assumed = calibrate_wear(measured, params, roughness_known=True)
     assert not assumed.rate_interval[0] < K_TRUE < assumed.rate_interval[1] or assumed.chi2 > 3 * cal.chi2
+
+
+def test_an_interval_beyond_the_reference_reach_is_found_by_running_it_longer(rough, tmp_path):
+    """One mileage on one rib, the roughness (wrongly) taken as known: the rate's interval
+    ends beyond four times the reference rate, the reference evolution's first reach. It is
+    found by running the reference longer, not called open; evolutions run at each end (no
+    distance scaling, first steps 500 and 250 km) put the reading at chi^2 = 3.84 from the
+    model."""
+    params, _, run, mileages = rough
+    cal = calibrate_wear(_gauge(tmp_path, run, mileages[-1:], 0.02, "one_rib.csv", ribs=1), params,
+                         roughness_known=True)
+    assert cal.identifiable
+    lo, hi = cal.rate_interval
+    assert hi > RANGE * params.wear.energetic_rate_mm3_per_j
+    n = cal.orders[0]
+    p = cal.measured.profiles[0]
+    a, s = float(p.amplitude_mm[n - 1]), float(p.std_error_mm[n - 1])
+    sigma = np.hypot(s / a, MODEL_SCATTER)
+    for k in (lo, hi):
+        for step_km in (500.0, 250.0):
+            end = wear_evolution(with_updates(params, {"wear.energetic_rate_mm3_per_j": k}), mileages[-1],
+                                 settings=EvolutionSettings(step_km=step_km))
+            chi2 = ((np.log(abs(end.harmonics[-1, n - 1]) * 1e3) - np.log(a)) / sigma) ** 2
+            assert chi2 == pytest.approx(3.84, abs=0.4), (k, step_km, chi2)
 
 
 def test_the_profile_walk_evaluates_the_bound_and_says_open_only_where_chi2_stays_within():

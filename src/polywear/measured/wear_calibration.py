@@ -53,7 +53,7 @@ MIN_SHARE = 0.3
 """... with at least this share of the dominant order's amplitude: a weaker order is ruled
 by the tire's own random initial roughness in that order, which no model knows."""
 MAX_REFINEMENTS = 10
-"""Rounds of fitting: the reference run longer where k_e or its interval reaches its reach,
+"""Rounds of fitting: the reference run longer where k_e (or, once, its interval) reaches its reach,
 the roughness grid filled to steps of at most a factor ``REFINE`` around the fitted level
 (``REFINE`` either side), then over the whole range the profile intervals explore."""
 REFINE = 1.25
@@ -325,6 +325,7 @@ def calibrate_wear(measured: MeasuredProfiles, params: Params, cycle: Iterable[t
 
     levels = list(ROUGHNESS_GRID) if fit_roughness else [1.0]
     previous = None
+    widened = False
     single_mileage = len(mileages) < 2 and not roughness_known
     for _ in range(MAX_REFINEMENTS):
         distance = max(mileages) * span
@@ -368,8 +369,9 @@ def calibrate_wear(measured: MeasuredProfiles, params: Params, cycle: Iterable[t
         visited = [theta[1]] if fit_roughness else []  # ln r0 of the fit and of the profiles within the target
         if identifiable:
             ends = _intervals(residuals, theta, lo, hi, target, visited)
-            if ends[0][1] is None and theta[0] < hi[0] - 1e-9:  # the rate's interval reaches the reference's reach
-                span *= RANGE
+            if ends[0][1] is None and not widened:  # the rate's interval reaches the reference's reach:
+                span *= RANGE  # run it longer, once (open beyond that: not determined)
+                widened = True
                 continue
         new = _filled(levels, min(visited) - math.log(REFINE), max(visited) + math.log(REFINE)) if visited else []
         if not new:
