@@ -146,6 +146,9 @@ def main() -> None:
     # noise after the one "interrupted" line
     if "ignore:resource_tracker:UserWarning" not in sys.warnoptions:
         sys.warnoptions.append("ignore:resource_tracker:UserWarning")
+    from ..parallel import one_blas_thread
+
+    one_blas_thread()  # every matrix here is small: threads only add overhead on shared cores
     try:
         code = app(standalone_mode=False)  # typer returns an Exit's code here (a KeyboardInterrupt: 130)
         if code == 130:

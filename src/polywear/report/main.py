@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 
 from .. import __version__
 from ..io import atomic_path, write_text
+from ..parallel import on_one_blas_thread
 from ..params import Params, to_toml
 from ..progress import Progress, StepCounter
 from ..results import Result, with_deprecated_keys
@@ -275,6 +276,7 @@ def _motion(a: dict) -> str:
             f"{a['dominant_frequency_hz']:.1f} Hz{mpp}")
 
 
+@on_one_blas_thread
 def report(
     params: Params,
     out_dir: Path,
