@@ -146,8 +146,9 @@ def sobol(n_base: int, modes=("edges", "full"), spread: float = 0.1, workers: in
     the paper's 7 parameters uniform within +-spread of the defaults (0.1: the default
     study ranges), both bifurcation speeds, ``workers`` local processes, with the fast band
     path (and its pilot stage) and the edges-only continuation where it does not apply, the
-    band's top from the fold followed in the parameters where it can be (``edges``, the
-    study's default; ``edges-branch``: the top's branch continued instead), the fast band
+    band's top (and for hard, soft, hard, hard cars the gap) from the fold followed in the
+    parameters where it can be (``edges``, the study's default; ``edges-branch``: those
+    branches continued instead), the fast band
     path and whole diagrams (``fast``), and/or the continuation only (``full``). CPU time
     (this process and the pool's workers) and wall time; N = 1024 extrapolated linearly
     from the CPU time on 2 cores."""
@@ -166,7 +167,8 @@ def sobol(n_base: int, modes=("edges", "full"), spread: float = 0.1, workers: in
               f"({1e3 * dc / runs:.0f} ms per run incl. {pilot} pilot diagrams), "
               f"{result.settings.get('fast_band_samples', 0)} on the fast path, "
               f"{result.settings.get('edges_only_samples', 0)} edges only "
-              f"({result.settings.get('top_fold_samples', 0)} with the top fold followed), "
+              f"({result.settings.get('top_fold_samples', 0)} with the top fold followed, "
+              f"{result.settings.get('gap_fold_samples', 0)} with the gap fold), "
               f"{result.settings.get('gap_after_pd_ns_samples', 0)} with a gap after a PD/NS point, "
               f"failures {result.failures()}; "
               f"N = 1024 ({1024 * 9} runs) on 2 free cores: ~{dc / runs * 1024 * 9 / 2 / 60:.1f} min")
