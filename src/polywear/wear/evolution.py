@@ -97,8 +97,7 @@ MAX_EXPONENT = 3.0
 MAX_GROWTH = 2.0
 """Most a distance step grows from one step to the next [-]."""
 MAX_STEP_FACTOR = 8.0
-"""Distance steps stay below ``MAX_STEP_FACTOR * step_km``, and start at most that many
-times shorter than ``step_km`` [-]."""
+"""Distance steps stay below ``MAX_STEP_FACTOR * step_km`` [-]."""
 SHORTEST_REJECTED = 1e-3
 """A step shorter than this fraction of ``step_km`` is kept whatever its error estimate
 (the step budget then bounds the steps) [-]. It was ``1 / MAX_STEP_FACTOR``: a step the
