@@ -677,16 +677,10 @@ class FastBand:
         path follows folds; or why not (no such Hopf point or reference, the fold not
         followed, its amplitude below ``min_fold_amplitude`` of the reference's, or not
         between that Hopf point and the range's upper end)."""
-        from ..dynamics.stability import StabilitySettings, stability
-
-        model = model_for(params)
-        p = model.pack(params)
-        try:
-            stab = stability(params, self.speed_range_kmh, StabilitySettings(n_speeds=self.n_grid))
-        except RuntimeError as exc:
-            return Fallback(FallbackReason.STABILITY_FAILED, f"stability: {exc}")
-        if stab.real_crossings_kmh:
-            return Fallback(FallbackReason.REAL_CROSSING, "real eigenvalue crossing")
+        linear = self._linear(params)
+        if isinstance(linear, Fallback):
+            return linear
+        model, p, stab = linear
         if not stab.hopf_points or stab.hopf_points[-1].criticality != "hard":
             return Fallback(FallbackReason.HOPF_SIGNATURE, "the last Hopf point is not a hard one")
         refs = [r for r in self.references if r.p.shape == p.shape and r.top_fold is not None]
@@ -709,15 +703,10 @@ class FastBand:
                             f"and {self.speed_range_kmh[1]:g} km/h")
         return TopFold(hopf, fold, amplitude)
 
-    def gap_fold(self, params: Params) -> GapFold | Fallback:
-        """The band in the gap between the two intervals of the linear band of a car with
-        four Hopf points of criticalities :data:`GAP_FOLD_CRITICALITY`: the first fold ``F``
-        of the third Hopf point's branch followed in the parameters from the nearest
-        reference of the same criticalities that has it (:attr:`BandReference.gap_fold`,
-        usable or not), as :meth:`top_fold` follows the top; the piece of the band is
-        [max(F, second Hopf point), third Hopf point]. Or why not (other criticalities, no
-        such reference, the fold not followed, its amplitude below ``min_fold_amplitude`` of
-        the reference's, or not between the first and the third Hopf point)."""
+    def _linear(self, params: Params):
+        """``(model, packed parameters, stability)`` of the car for :meth:`top_fold` and
+        :meth:`gap_fold`, or the :class:`Fallback` where stability fails or a real
+        eigenvalue crosses."""
         from ..dynamics.stability import StabilitySettings, stability
 
         model = model_for(params)
@@ -728,6 +717,21 @@ class FastBand:
             return Fallback(FallbackReason.STABILITY_FAILED, f"stability: {exc}")
         if stab.real_crossings_kmh:
             return Fallback(FallbackReason.REAL_CROSSING, "real eigenvalue crossing")
+        return model, p, stab
+
+    def gap_fold(self, params: Params) -> GapFold | Fallback:
+        """The band in the gap between the two intervals of the linear band of a car with
+        four Hopf points of criticalities :data:`GAP_FOLD_CRITICALITY`: the first fold ``F``
+        of the third Hopf point's branch followed in the parameters from the nearest
+        reference of the same criticalities that has it (:attr:`BandReference.gap_fold`,
+        usable or not), as :meth:`top_fold` follows the top; the piece of the band is
+        [max(F, second Hopf point), third Hopf point]. Or why not (other criticalities, no
+        such reference, the fold not followed, its amplitude below ``min_fold_amplitude`` of
+        the reference's, or not between the first and the third Hopf point)."""
+        linear = self._linear(params)
+        if isinstance(linear, Fallback):
+            return linear
+        model, p, stab = linear
         criticality = tuple(h.criticality for h in stab.hopf_points)
         if criticality != GAP_FOLD_CRITICALITY:
             return Fallback(FallbackReason.HOPF_SIGNATURE, f"Hopf points {tuple(str(c) for c in criticality)}, "
