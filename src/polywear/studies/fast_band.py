@@ -58,7 +58,6 @@ count every difference as a failure.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from enum import Enum
 
 import numpy as np
 
@@ -66,13 +65,16 @@ from ..models import model_for
 from ..parallel import Executor
 from ..params import Params
 from ..progress import Progress
-from ..results import Result, with_deprecated_keys
 from ..units import DEFAULT_SPEED_RANGE_KMH, kmh_to_ms, ms_to_kmh
 from ..solvers.continuation import (BranchPoint, ContinuationSettings, cycle_along_branch, fold_at, fold_curvature,
                                     on_adapted_mesh, recentred, solve_at_speed, solve_at_speed_on_kinks,
                                     solve_fold)
 from ..dynamics.points import PointKind
 from .sampling import SAMPLE_FAILURES, sample_params
+from . import band_folds
+from .band import (LABEL_TOL_KMH, Band, BandPath, Fallback, FallbackReason, _difference, _distance, _Fallback,
+                   band_from_diagram)
+from .band_folds import GAP_FOLD_CRITICALITY, GapFold, TopFold, _gap_fold_index, _top_fold_index
 
 __all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "GAP_FOLD_CRITICALITY", "GapFold", "TopFold",
            "band_from_diagram", "band_reference",
@@ -90,170 +92,6 @@ def _fixed_range() -> dict:
 
 
 _FIXED_RANGE = _fixed_range()
-
-LABEL_TOL_KMH = 1e-9
-"""Largest distance [km/h] between a band end and the special point it is labelled with."""
-
-
-class BandPath(str, Enum):
-    """Which path gave a :class:`Band` (compares equal to its value: ``"fast"``, ``"full"``)."""
-
-    FAST = "fast"
-    FULL = "full"
-
-
-class FallbackReason(str, Enum):
-    """Why a sample took the full continuation (``Band.reason``; its value is a short tag)."""
-
-    NO_REFERENCE = "no_reference"
-    """No reference for this model (parameter vector of another length)."""
-    REFERENCE_UNUSABLE = "reference_unusable"
-    """Every reference with the sample's Hopf points has a PD/NS bifurcation, a real
-    crossing, a failed branch or a band end that is not a label."""
-    STABILITY_FAILED = "stability_failed"
-    """The eigenvalue analysis of the steady state failed."""
-    REAL_CROSSING = "real_crossing"
-    """A real eigenvalue crosses zero in the speed range."""
-    HOPF_SIGNATURE = "hopf_signature"
-    """No reference has the sample's number and criticalities of Hopf points (a band
-    opens or closes, a Bautin point is crossed)."""
-    NARROW_BAND = "narrow_band"
-    """A narrow band lies between two grid speeds."""
-    FOLD_NOT_FOLLOWED = "fold_not_followed"
-    """A fold could not be followed from the reference to the sample."""
-    FOLD_AMPLITUDE = "fold_amplitude"
-    """A fold's amplitude fell below ``min_fold_amplitude`` of the reference's (Bautin point near)."""
-    FOLD_OUT_OF_RANGE = "fold_out_of_range"
-    """A fold left the speed range."""
-    ORDER_CHANGED = "order_changed"
-    """The order of the Hopf and fold speeds differs from the reference's."""
-    AMPLITUDE_CYCLE = "amplitude_cycle"
-    """No stable cycle found at a chosen speed, neither from the reference's nor along the
-    sample's branch from the nearest end of its stable interval."""
-
-
-@dataclass(frozen=True)
-class Band(Result):
-    """Bifurcation speeds [km/h], bands [km/h] and amplitudes [m] of one parameter set.
-
-    ``amplitude_x_m[i]`` is the largest tread amplitude (half peak-to-peak of ``x``) of a
-    stable cycle at the i-th chosen speed (0 where there is none). ``path`` is
-    :class:`BandPath` (``"fast"`` or ``"full"``); ``reason`` is the :class:`FallbackReason`
-    when the fast path was tried and did not apply (None otherwise), ``detail`` its message.
-    """
-
-    hopf_kmh: tuple[float, ...]
-    hopf_criticality: tuple[str, ...]
-    folds_kmh: tuple[float, ...]
-    fold_amplitude_x_m: tuple[float, ...]
-    linear_band_kmh: tuple[tuple[float, float], ...]
-    sev_band_kmh: tuple[tuple[float, float], ...]
-    hard_regions_kmh: tuple[tuple[float, float], ...]
-    amplitude_speeds_kmh: tuple[float, ...] = ()
-    amplitude_x_m: tuple[float, ...] = ()
-    path: BandPath = BandPath.FULL
-    reason: FallbackReason | None = None
-    detail: str = ""
-    gaps_after_pd_ns_kmh: tuple[tuple[float, float], ...] = ()
-    """Gaps of the SEV band [km/h] that start or end at a period doubling or torus
-    bifurcation with steady rolling stable, where the motion past it may persist (full path
-    only: ``BifurcationDiagram.gaps_after_pd_ns_kmh``, by :func:`~polywear.dynamics.bifurcation.sev_band`;
-    the fast path's references have none)."""
-
-    def _dataset(self):
-        """Hopf points, folds and amplitudes [m] along their own dimensions; bands [km/h] as (n, 2)."""
-        import xarray as xr
-
-        def bands(b):
-            return np.array(b, dtype=float).reshape(-1, 2)
-
-        return xr.Dataset(
-            {
-                "hopf_kmh": ("hopf", np.array(self.hopf_kmh, dtype=float), {"units": "km/h"}),
-                "hopf_criticality": ("hopf", np.array(self.hopf_criticality, dtype=str)),
-                "folds_kmh": ("fold", np.array(self.folds_kmh, dtype=float), {"units": "km/h"}),
-                "fold_amplitude_x": ("fold", np.array(self.fold_amplitude_x_m, dtype=float), {"units": "m"}),
-                "amplitude_x": ("amplitude_speed_kmh", np.array(self.amplitude_x_m, dtype=float), {"units": "m"}),
-                "linear_band_kmh": (("linear_band", "end"), bands(self.linear_band_kmh), {"units": "km/h"}),
-                "sev_band_kmh": (("sev_band", "end"), bands(self.sev_band_kmh), {"units": "km/h"}),
-                "hard_regions_kmh": (("hard_region", "end"), bands(self.hard_regions_kmh), {"units": "km/h"}),
-                "gaps_after_pd_ns_kmh": (("gap", "end"), bands(self.gaps_after_pd_ns_kmh), {"units": "km/h"}),
-            },
-            coords={"amplitude_speed_kmh": np.array(self.amplitude_speeds_kmh, dtype=float), "end": ["low", "high"]},
-            attrs={"path": str(self.summary()["path"]), "reason": str(self.summary()["reason"] or "")},
-        )
-
-    def plot(self, ax=None):
-        """SEV band shaded, Hopf points and folds on the speed axis, amplitudes [mm]. Returns artists."""
-        import matplotlib.pyplot as plt
-
-        if ax is None:
-            _, ax = plt.subplots(figsize=(7, 3))
-        artists = [ax.axvspan(lo, hi, color="tab:orange", alpha=0.15) for lo, hi in self.sev_band_kmh]
-        artists += ax.plot(self.hopf_kmh, [0.0] * len(self.hopf_kmh), "o", color="tab:red", label="Hopf")
-        artists += ax.plot(self.folds_kmh, np.array(self.fold_amplitude_x_m) * 1e3, "s", color="k", label="fold")
-        artists += ax.plot(self.amplitude_speeds_kmh, np.array(self.amplitude_x_m) * 1e3, "^", color="tab:blue",
-                           label="stable cycle")
-        ax.set_xlabel("speed [km/h]")
-        ax.set_ylabel("amplitude x [mm]")
-        ax.set_title(f"SEV band ({self.summary()['path']} path)", fontsize=10)
-        ax.legend(fontsize=8)
-        return artists
-
-    @property
-    def first_bifurcation_speed_kmh(self) -> float:
-        """Lowest speed of the SEV band (NaN without a band)."""
-        return self.sev_band_kmh[0][0] if self.sev_band_kmh else np.nan
-
-    @property
-    def second_bifurcation_speed_kmh(self) -> float:
-        """Highest speed of the SEV band (NaN without a band)."""
-        return self.sev_band_kmh[-1][1] if self.sev_band_kmh else np.nan
-
-    def summary(self) -> dict:
-        """The band as JSON; tread amplitudes in mm (the attributes hold them in m)."""
-        return with_deprecated_keys({
-            "hopf_kmh": list(self.hopf_kmh),
-            "hopf_criticality": list(self.hopf_criticality),
-            "folds_kmh": list(self.folds_kmh),
-            "fold_amplitude_x_mm": [1e3 * a for a in self.fold_amplitude_x_m],
-            "linear_band_kmh": [list(b) for b in self.linear_band_kmh],
-            "sev_band_kmh": [list(b) for b in self.sev_band_kmh],
-            "hard_regions_kmh": [list(b) for b in self.hard_regions_kmh],
-            "gaps_after_pd_ns_kmh": [list(b) for b in self.gaps_after_pd_ns_kmh],
-            "amplitude_speeds_kmh": list(self.amplitude_speeds_kmh),
-            "amplitude_x_mm": [1e3 * a for a in self.amplitude_x_m],
-            "path": self.path.value,
-            "reason": None if self.reason is None else self.reason.value,
-            "detail": self.detail,
-        }, {"fold_amplitude_x_mm": ("fold_amplitude_x_m", 1e-3), "amplitude_x_mm": ("amplitude_x_m", 1e-3)})
-
-
-def _stable_amplitude(cycles, ix: int) -> float:
-    """Largest amplitude of state ``ix`` among the stable cycles (0 if none)."""
-    return max((float(c.amplitude[ix]) for c in cycles if c.stable), default=0.0)
-
-
-def band_from_diagram(diagram, amplitude_speeds_kmh=(), fallback=None) -> Band:
-    """The :class:`Band` of a full bifurcation diagram (amplitudes by Newton at each speed);
-    ``fallback`` (a :class:`Fallback`) when the fast path was tried first."""
-    ix = diagram.state_names.index("x")
-    speeds = tuple(float(v) for v in amplitude_speeds_kmh)
-    return Band(
-        hopf_kmh=tuple(h.speed_kmh for h in diagram.hopf_points),
-        hopf_criticality=tuple(h.criticality for h in diagram.hopf_points),
-        folds_kmh=tuple(f.speed_kmh for f in diagram.folds),
-        fold_amplitude_x_m=tuple(float(f.amplitude[ix]) for f in diagram.folds),
-        linear_band_kmh=tuple(tuple(b) for b in diagram.linear_band_kmh),
-        sev_band_kmh=tuple(tuple(b) for b in diagram.sev_band_kmh),
-        hard_regions_kmh=tuple(tuple(b) for b in diagram.hard_regions_kmh),
-        amplitude_speeds_kmh=speeds,
-        amplitude_x_m=tuple(_stable_amplitude(diagram.cycles_at(v), ix) for v in speeds),
-        path=BandPath.FULL,
-        reason=None if fallback is None else fallback.reason,
-        detail="" if fallback is None else fallback.detail,
-        gaps_after_pd_ns_kmh=tuple(tuple(g) for g in diagram.gaps_after_pd_ns_kmh),
-    )
 
 
 # -- the reference: a solved parameter set with its special points labelled -----------------------
@@ -378,57 +216,6 @@ def band_reference(diagram, amplitude_speeds_kmh=()) -> BandReference:
     )
 
 
-def _top_fold_index(diagram, band: Band) -> int | None:
-    """Index of the fold that ends ``band`` (of ``diagram``) above its last Hopf point, a hard
-    one, with the last hard region from that point to the fold; None if there is none, a
-    branch failed or a real eigenvalue crosses."""
-    if (not band.hopf_kmh or band.hopf_criticality[-1] != "hard" or not band.hard_regions_kmh
-            or diagram.stability.real_crossings_kmh or any(info["failed"] for info in diagram.branch_info)):
-        return None
-    top = band.sev_band_kmh[-1][1]
-    j = next((k for k, v in enumerate(band.folds_kmh) if abs(v - top) <= LABEL_TOL_KMH), None)
-    a, b = band.hard_regions_kmh[-1]
-    if j is None or abs(a - band.hopf_kmh[-1]) > LABEL_TOL_KMH or abs(b - top) > LABEL_TOL_KMH:
-        return None
-    return j
-
-
-GAP_FOLD_CRITICALITY = ("hard", "soft", "hard", "hard")
-"""Hopf criticalities of the cars whose gap between the two intervals of the linear band is
-taken from the first fold of the third Hopf point's branch (:meth:`FastBand.gap_fold`)."""
-
-
-def _gap_fold_index(diagram, band: Band, folds) -> int | None:
-    """Index into ``folds`` (the LP points of ``diagram``'s branches, in order) of the first fold
-    ``F`` of the branch from the third of four Hopf points (:data:`GAP_FOLD_CRITICALITY`) when
-    it decides the band in the gap: ``F`` between the first and that Hopf point, no PD or NS
-    point on the branch until it is back above that point's speed, and the SEV band's
-    interval through [max(F, second Hopf point), third Hopf point] starting there; None
-    otherwise, or where a branch failed or a real eigenvalue crosses."""
-    if (tuple(band.hopf_criticality) != GAP_FOLD_CRITICALITY or diagram.stability.real_crossings_kmh
-            or any(info["failed"] for info in diagram.branch_info)):
-        return None
-    second, third = band.hopf_kmh[1], band.hopf_kmh[2]
-    b = next((k for k, info in enumerate(diagram.branch_info)
-              if abs(info["from_hopf_kmh"] - third) <= LABEL_TOL_KMH), None)
-    if b is None:
-        return None
-    branch = diagram.branches[b]
-    lp = next(((point, k) for label, point, k in branch.special if label == "LP"), None)
-    if lp is None or not band.hopf_kmh[0] < ms_to_kmh(lp[0].orbit.speed) < third:
-        return None
-    fold, k_fold = lp[0], lp[1]
-    speeds = [ms_to_kmh(pt.orbit.speed) for pt in branch.points]
-    back = next((k for k in range(k_fold + 1, len(speeds)) if speeds[k] >= third), len(speeds))
-    if any(label in ("PD", "NS") and k <= back for label, _, k in branch.special):
-        return None
-    low = max(ms_to_kmh(fold.orbit.speed), second)
-    piece = next(((a, c) for a, c in band.sev_band_kmh if a - LABEL_TOL_KMH <= low and third <= c), None)
-    if piece is None or (low > second and abs(piece[0] - low) > LABEL_TOL_KMH):
-        return None
-    return next(j for j, f in enumerate(folds) if f is fold)
-
-
 # -- several references: a deterministic pilot stage -------------------------------------------------
 @dataclass(frozen=True)
 class _PilotReference:
@@ -535,56 +322,6 @@ def pilot_stage(base: Params, keys, X, nominal: Params | BandReference, speed_ra
 
 
 # -- the fast path ------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Fallback:
-    """Why the fast path does not apply to a sample: the typed reason and a message."""
-
-    reason: FallbackReason
-    detail: str = ""
-
-
-@dataclass(frozen=True)
-class TopFold:
-    """The top of a SEV band from :meth:`FastBand.top_fold`: the last Hopf point (hard) and
-    the fold above it where the stable cycles of the last hard region end [km/h], and the
-    fold's tread amplitude [m]."""
-
-    hopf_kmh: float
-    fold_kmh: float
-    amplitude_x_m: float
-
-
-@dataclass(frozen=True)
-class GapFold:
-    """The band in the gap between the two intervals of the linear band from
-    :meth:`FastBand.gap_fold`: the second and third Hopf points and the first fold of the
-    third's branch below it [km/h], and the fold's tread amplitude [m]."""
-
-    second_hopf_kmh: float
-    hopf_kmh: float
-    fold_kmh: float
-    amplitude_x_m: float
-
-
-class _Fallback(Exception):
-    """The fast path does not apply to this sample (``reason``; the message says more)."""
-
-    def __init__(self, reason: FallbackReason, detail: str):
-        super().__init__(detail)
-        self.fallback = Fallback(reason, detail)
-
-
-def _difference(p: np.ndarray, p_ref: np.ndarray) -> np.ndarray:
-    """``p - p_ref``, zero in slots that are not parameters (NaN: a model's per-speed cache)."""
-    both = np.isfinite(p) & np.isfinite(p_ref)
-    return np.where(both, p - np.where(both, p_ref, 0.0), 0.0)
-
-
-def _distance(p: np.ndarray, p_ref: np.ndarray) -> float:
-    """Squared relative distance [-] of two kernel parameter vectors (the nearest reference)."""
-    return float(np.sum((_difference(p, p_ref) / (np.abs(p_ref) + 1e-12)) ** 2))
-
-
 def _rescaled(model, p_ref, p, guess, V, labels, ref_interval, interval, v_kmh):
     """The reference's cycle at speed V [m/s] as a guess for ``p`` near a Hopf end of its
     stable interval: deviation from the steady state scaled by ``sqrt(|v - v_H| / |v - v_H,ref|)``
@@ -671,91 +408,12 @@ class FastBand:
             return exc.fallback
 
     def top_fold(self, params: Params) -> TopFold | Fallback:
-        """The fold that ends the SEV band of ``params`` above its last Hopf point, a hard one,
-        followed in the parameters from the nearest reference that has such a fold
-        (:attr:`BandReference.top_fold`, any Hopf signature, usable or not), as the fast
-        path follows folds; or why not (no such Hopf point or reference, the fold not
-        followed, its amplitude below ``min_fold_amplitude`` of the reference's, or not
-        between that Hopf point and the range's upper end)."""
-        linear = self._linear(params)
-        if isinstance(linear, Fallback):
-            return linear
-        model, p, stab = linear
-        if not stab.hopf_points or stab.hopf_points[-1].criticality != "hard":
-            return Fallback(FallbackReason.HOPF_SIGNATURE, "the last Hopf point is not a hard one")
-        refs = [r for r in self.references if r.p.shape == p.shape and r.top_fold is not None]
-        if not refs:
-            return Fallback(FallbackReason.NO_REFERENCE, "no reference with a fold above a hard last Hopf point")
-        ref = min(refs, key=lambda r: _distance(p, r.p))
-        j = ref.top_fold
-        try:
-            point = self._fold(model, p, ref, j)
-        except _Fallback as exc:
-            return exc.fallback
-        amplitude = float(point.orbit.amplitude()[model.index("x")])
-        if amplitude < self.min_fold_amplitude * ref.band.fold_amplitude_x_m[j]:
-            return Fallback(FallbackReason.FOLD_AMPLITUDE, f"top fold: amplitude {amplitude:.3g} m, below "
-                            f"{self.min_fold_amplitude} of the reference's")
-        hopf, fold = stab.hopf_points[-1].speed_kmh, ms_to_kmh(point.orbit.speed)
-        if not hopf < fold < self.speed_range_kmh[1]:
-            return Fallback(FallbackReason.ORDER_CHANGED if fold <= hopf else FallbackReason.FOLD_OUT_OF_RANGE,
-                            f"top fold at {fold:.2f} km/h, not between the last Hopf point ({hopf:.2f} km/h) "
-                            f"and {self.speed_range_kmh[1]:g} km/h")
-        return TopFold(hopf, fold, amplitude)
-
-    def _linear(self, params: Params):
-        """``(model, packed parameters, stability)`` of the car for :meth:`top_fold` and
-        :meth:`gap_fold`, or the :class:`Fallback` where stability fails or a real
-        eigenvalue crosses."""
-        from ..dynamics.stability import StabilitySettings, stability
-
-        model = model_for(params)
-        p = model.pack(params)
-        try:
-            stab = stability(params, self.speed_range_kmh, StabilitySettings(n_speeds=self.n_grid))
-        except RuntimeError as exc:
-            return Fallback(FallbackReason.STABILITY_FAILED, f"stability: {exc}")
-        if stab.real_crossings_kmh:
-            return Fallback(FallbackReason.REAL_CROSSING, "real eigenvalue crossing")
-        return model, p, stab
+        """:func:`.band_folds.top_fold` with this solver's references and settings."""
+        return band_folds.top_fold(self, params)
 
     def gap_fold(self, params: Params) -> GapFold | Fallback:
-        """The band in the gap between the two intervals of the linear band of a car with
-        four Hopf points of criticalities :data:`GAP_FOLD_CRITICALITY`: the first fold ``F``
-        of the third Hopf point's branch followed in the parameters from the nearest
-        reference of the same criticalities that has it (:attr:`BandReference.gap_fold`,
-        usable or not), as :meth:`top_fold` follows the top; the piece of the band is
-        [max(F, second Hopf point), third Hopf point]. Or why not (other criticalities, no
-        such reference, the fold not followed, its amplitude below ``min_fold_amplitude`` of
-        the reference's, or not between the first and the third Hopf point)."""
-        linear = self._linear(params)
-        if isinstance(linear, Fallback):
-            return linear
-        model, p, stab = linear
-        criticality = tuple(h.criticality for h in stab.hopf_points)
-        if criticality != GAP_FOLD_CRITICALITY:
-            return Fallback(FallbackReason.HOPF_SIGNATURE, f"Hopf points {tuple(str(c) for c in criticality)}, "
-                            f"not {GAP_FOLD_CRITICALITY}")
-        refs = [r for r in self.references if r.p.shape == p.shape and r.gap_fold is not None]
-        if not refs:
-            return Fallback(FallbackReason.NO_REFERENCE, "no reference with the third Hopf point's fold")
-        ref = min(refs, key=lambda r: _distance(p, r.p))
-        j = ref.gap_fold
-        try:
-            point = self._fold(model, p, ref, j)
-        except _Fallback as exc:
-            return exc.fallback
-        ix = model.index("x")
-        amplitude, ref_amplitude = float(point.orbit.amplitude()[ix]), float(ref.folds[j].orbit.amplitude()[ix])
-        if amplitude < self.min_fold_amplitude * ref_amplitude:
-            return Fallback(FallbackReason.FOLD_AMPLITUDE, f"gap fold: amplitude {amplitude:.3g} m, below "
-                            f"{self.min_fold_amplitude} of the reference's")
-        first, second, third = (h.speed_kmh for h in stab.hopf_points[:3])
-        fold = ms_to_kmh(point.orbit.speed)
-        if not first < fold < third:
-            return Fallback(FallbackReason.ORDER_CHANGED, f"gap fold at {fold:.2f} km/h, not between the first "
-                            f"({first:.2f} km/h) and the third Hopf point ({third:.2f} km/h)")
-        return GapFold(second, third, fold, amplitude)
+        """:func:`.band_folds.gap_fold` with this solver's references and settings."""
+        return band_folds.gap_fold(self, params)
 
     def usage_verdict(self, params: Params, speeds_kmh) -> tuple | None:
         """From the Hopf points alone: (SEV band holds a usage speed, a hard region holds one,
@@ -848,7 +506,7 @@ class FastBand:
                                 f"a narrow band near {stab.speeds_kmh[i]:.1f} km/h, between grid speeds")
         return stab, ref
 
-    def _fold(self, model, p, ref, j) -> BranchPoint:
+    def follow_fold(self, model, p, ref, j) -> BranchPoint:
         """Fold j of the reference followed from ``ref.p`` to ``p``.
 
         Each step (:func:`~polywear.solvers.continuation.fold_at`) solves the fold's defining
@@ -915,7 +573,7 @@ class FastBand:
         ix = model.index("x")
         folds, fold_amp, fold_points = [], [], []
         for j, ref_amp in enumerate(ref.band.fold_amplitude_x_m):
-            point = self._fold(model, p, ref, j)
+            point = self.follow_fold(model, p, ref, j)
             amplitude = float(point.orbit.amplitude()[ix])
             if amplitude < self.min_fold_amplitude * ref_amp:
                 raise _Fallback(FallbackReason.FOLD_AMPLITUDE, f"fold {j + 1}: amplitude {amplitude:.3g} m, below "
