@@ -345,7 +345,7 @@ def test_save_is_atomic_and_leaves_no_partial_file(results, tmp_path):
 
 def test_report_holds_its_results(tmp_path):
     """The main job returns the result objects it computed; summary.json is derived from them."""
-    from polywear.dynamics.bifurcation import BifurcationDiagram
+    from polywear.dynamics.diagram import BifurcationDiagram
     from polywear.dynamics.design import DesignResult
     from polywear.dynamics.sensitivity import SensitivityResult
     from polywear.dynamics.simulation import SimulationSet

@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from polywear.dynamics.attractor import Regime, reached_attractors
-from polywear.dynamics.bifurcation import SPEED_CEILING_KMH, bifurcation, statically_divergent
+from polywear.dynamics.bifurcation import SPEED_CEILING_KMH, bifurcation
+from polywear.dynamics.diagram import statically_divergent
 from polywear.dynamics.design import design
 from polywear.dynamics.sensitivity import sensitivity
 from polywear.dynamics.simulation import simulate

@@ -39,7 +39,8 @@ from ..params import Params
 from ..progress import Progress, StepCounter
 from ..settings import check_positive
 from ..units import DEFAULT_SPEED_RANGE_KMH, ms_to_kmh
-from .bifurcation import SPEED_CEILING_KMH, SPEED_FLOOR_KMH, BifurcationDiagram, bifurcation
+from .bifurcation import SPEED_CEILING_KMH, SPEED_FLOOR_KMH, bifurcation
+from .diagram import BifurcationDiagram
 from .stability import stability
 from .sensitivity import (
     PARAMETER_LABELS,

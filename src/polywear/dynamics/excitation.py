@@ -21,7 +21,7 @@ from ..units import kmh_to_ms
 from ..results import Result, with_deprecated_keys
 from ..progress import Progress, StepCounter
 from ..settings import check_order, check_positive
-from .bifurcation import BifurcationDiagram, CyclePoint
+from .diagram import BifurcationDiagram, CyclePoint
 from .simulation import SimulationResult, phase_labels, simulate
 
 __all__ = ["ExcitationPortrait", "ExcitationResult", "ExcitationSettings", "SelfExcitation", "excitation",

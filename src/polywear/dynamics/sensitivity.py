@@ -38,7 +38,8 @@ from ..params import Params
 from ..progress import Progress, StepCounter
 from ..settings import check_positive
 from ..units import DEFAULT_SPEED_RANGE_KMH, ms_to_kmh
-from .bifurcation import BifurcationDiagram, bifurcation
+from .bifurcation import bifurcation
+from .diagram import BifurcationDiagram
 from .derivatives import rhs_directional
 from .points import PointKind
 from .stability import critical_eigenvalue_derivative

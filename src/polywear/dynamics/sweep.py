@@ -36,7 +36,7 @@ from ..progress import Progress, StepCounter
 from ..settings import check_order, check_positive
 from ..solvers.integrate import integrate
 from ..units import plot_scale, kmh_to_ms
-from .bifurcation import _open_at, _open_warning
+from .diagram import _open_at, _open_warning
 from .intervals import runs_of
 from .simulation import SimulationSettings, SteadyOutcome, classify_window, initial_state
 

@@ -26,7 +26,7 @@ from ..results import Result, with_deprecated_keys
 from ..units import DEFAULT_SPEED_RANGE_KMH
 
 if TYPE_CHECKING:
-    from ..dynamics.bifurcation import BifurcationDiagram
+    from ..dynamics.diagram import BifurcationDiagram
     from ..dynamics.design import DesignResult
     from ..dynamics.excitation import ExcitationResult
     from ..dynamics.sensitivity import SensitivityResult
@@ -151,7 +151,7 @@ def operating_verdict(diagram, params: Params, speed_kmh: float) -> dict:
     import numpy as np
 
     from ..dynamics.attractor import Regime, reached_attractors
-    from ..dynamics.bifurcation import statically_divergent
+    from ..dynamics.diagram import statically_divergent
     from ..wear.indicators import wear_indicators
     from ..models import model_for
     from ..units import kmh_to_ms

@@ -2,7 +2,7 @@
 
 For the cars the fast band path (:mod:`.fast_band`) cannot label (four Hopf points with
 period-doubling cascades), a study needs the band's edges, not the cascades. The SEV
-band (:func:`~polywear.dynamics.bifurcation.sev_band`) is the union of the oscillatory
+band (:func:`~polywear.dynamics.diagram.sev_band`) is the union of the oscillatory
 linear band ``O`` (steady rolling unstable through a Hopf pair, known from the
 eigenvalues alone) and the speeds of stable cycles. Inside ``O`` nothing a branch does
 moves an edge: every edge is a Hopf point, or a fold or PD/NS point of a branch *outside*
@@ -45,7 +45,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..dynamics.bifurcation import BifurcationDiagram, bifurcation
+from ..dynamics.bifurcation import bifurcation
+from ..dynamics.diagram import BifurcationDiagram
 from ..dynamics.points import PointKind
 from ..params import Params
 from ..solvers.continuation import ContinuationSettings

@@ -287,9 +287,10 @@ def edges_band(params: Params, speed_range_kmh: tuple[float, float] = DEFAULT_SP
     linear band is [max(F, second Hopf point), third Hopf point] from the first fold F of
     the third Hopf point's branch followed in the parameters where that succeeds (then that
     branch is not continued). Those pieces join the diagram's stable-cycle intervals in
-    :func:`~polywear.dynamics.bifurcation.sev_band`. Where neither fold is used (both None):
+    :func:`~polywear.dynamics.diagram.sev_band`. Where neither fold is used (both None):
     :func:`~polywear.studies.edges.edges_diagram`'s band."""
-    from ..dynamics.bifurcation import bifurcation, sev_band
+    from ..dynamics.bifurcation import bifurcation
+    from ..dynamics.diagram import sev_band
     from .edges import BranchStop, edges_diagram
     from .fast_band import GapFold, TopFold
 

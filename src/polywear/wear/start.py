@@ -27,7 +27,7 @@ def cycle_start_states(params: Params, speeds_kmh, diagram=None) -> dict[float, 
     exists: a state of the base model on the largest stable cycle (its collocation orbit at
     phase 0). Speeds without one are left out.
 
-    ``diagram``: the :class:`~polywear.dynamics.bifurcation.BifurcationDiagram` to take the
+    ``diagram``: the :class:`~polywear.dynamics.diagram.BifurcationDiagram` to take the
     cycles from (default: computed over the default speed range widened to hold the speeds,
     about a second)."""
     if diagram is None:
