@@ -27,11 +27,11 @@ Entry points (each is the function or class named in brackets):
 - ``report`` [report.report]
 - ``wear_map`` [wear.map.wear_map]: linear wear stability over speed and order
 - ``calibrate``, ``read_observations`` [measured.calibration]: fit parameters to observations
-- ``read_tir``, ``load_with_tir`` [measured.tir]: tyre property files (.tir) and parameters from them
+- ``read_tir`` [measured.tir_file], ``load_with_tir`` [measured.tir]: tyre property files (.tir) and parameters from them
 - ``wear_evolution`` [wear.evolution.wear_evolution]: the worn profile over distance
 - ``wear_design`` [wear.design.wear_design]: least parameter changes that keep polygonal wear
   from growing (or invisible up to a distance)
-- ``fleet``, ``load_fleet_spec`` [studies.fleet]: SEV risk over a fleet of cars
+- ``fleet`` [studies.fleet], ``load_fleet_spec`` [studies.fleet_spec]: SEV risk over a fleet of cars
 - ``campbell``, ``read_run`` [measured.campbell]: Campbell maps of measured run-ups
 - ``read_profiles`` [measured.profile], ``calibrate_wear`` [measured.wear_calibration]:
   measured worn tires as polygon spectra, and the wear rate k_e they imply
@@ -73,12 +73,12 @@ _ENTRY_POINTS: dict[str, tuple[str, str | None]] = {
     "wear_map": ("polywear.wear.map", "wear_map"),
     "calibrate": ("polywear.measured.calibration", "calibrate"),
     "read_observations": ("polywear.measured.calibration", "read_observations"),
-    "read_tir": ("polywear.measured.tir", "read_tir"),
+    "read_tir": ("polywear.measured.tir_file", "read_tir"),
     "load_with_tir": ("polywear.measured.tir", "load_with_tir"),
     "wear_evolution": ("polywear.wear.evolution", "wear_evolution"),
     "wear_design": ("polywear.wear.design", "wear_design"),
     "fleet": ("polywear.studies.fleet", "fleet"),
-    "load_fleet_spec": ("polywear.studies.fleet", "load_fleet_spec"),
+    "load_fleet_spec": ("polywear.studies.fleet_spec", "load_fleet_spec"),
     "campbell": ("polywear.measured.campbell", "campbell"),
     "SpecialPoint": ("polywear.dynamics.points", "SpecialPoint"),
     "PointKind": ("polywear.dynamics.points", "PointKind"),
