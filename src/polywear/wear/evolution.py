@@ -93,7 +93,10 @@ At 2 the forced write of the locked response's second harmonic (order 22), reuse
 rate, left the depth there 3.7 % off the evolution that simulates every window (tolerance
 0.01); at sqrt(2), 1e-4."""
 MAX_EXPONENT = 3.0
-"""Largest exponent |N S_n / W_n| integrated exactly in one step; above, the write is added [-]."""
+"""Largest exponent |N S_n / W_n| integrated exactly in one step; above, the write is added [-],
+unless the harmonic decays (Re < -MAX_EXPONENT: exact at any exponent; added, a decay by
+x = -10 flipped the harmonic and grew it ninefold, and the change limit held the steps of
+fleet car 11, whose drifting vibration wears order 8 away, near 60 km; docs/wear.md)."""
 MAX_GROWTH = 2.0
 """Most a distance step grows from one step to the next [-]."""
 MAX_STEP_FACTOR = 8.0
@@ -138,7 +141,7 @@ def _update(W: np.ndarray, x: np.ndarray, forcing: np.ndarray,
     out = W + x * W + forcing + along
     added = out - W
     big = np.abs(W) > 1e-6 * rms
-    ok = big & (np.abs(x) <= MAX_EXPONENT)
+    ok = big & ((np.abs(x) <= MAX_EXPONENT) | (x.real < -MAX_EXPONENT))  # a decay is exact at any exponent
     growth = np.exp(x[ok])
     small = np.abs(x[ok]) < 1e-12
     phi = np.where(small, 1.0, (growth - 1.0) / np.where(small, 1.0, x[ok]))  # (e^x - 1)/x
@@ -355,7 +358,8 @@ class EvolutionSettings:
     revolutions: int = 16
     """Simulated revolutions per window where the tread vibrates [-] (integer >= 6; 3 where
     steady rolling is stable: nothing drifts there; lengthened up to ``MAX_WINDOW`` to
-    separate the vibration from its nearest integer order)."""
+    separate the vibration from its nearest integer order, up to ``LONG_WINDOW`` where it
+    drifts by less than a period over ``MAX_WINDOW``)."""
 
     tolerance: float = 0.01
     """Error allowed per distance step [-]: the largest difference between the first-order
@@ -492,8 +496,8 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
                 continue
             win = simulated[j]
             if math.isfinite(win.order):  # the next window at this speed starts long enough
-                drifting = 0 if win.locked else _separating_window(_detuning(win.order))
-                windows[j] = max(shortest[j], min(longest, drifting))
+                drifting = 0 if win.locked else _separating_window(_detuning(win.order), longest)
+                windows[j] = max(shortest[j], drifting)
             settles[j][0] = settles[j][1]
             states[j] = win.end_state
             last[j] = win

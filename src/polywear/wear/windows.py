@@ -31,7 +31,8 @@ from ..solvers.integrate import integrate
 from .law import energetic_rate, friction_power
 
 __all__ = ["WindowWear", "window_wear", "continued", "coherence", "table_points", "LOCK_TOLERANCE", "SETTLED_PHASE",
-           "SEPARATED_BEATS", "FITTED_LINES", "NEAR_SPAN", "MAX_WINDOW"]
+           "SEPARATED_BEATS", "FITTED_LINES", "NEAR_SPAN", "MAX_WINDOW",
+           "LONG_WINDOW"]
 
 LOCK_TOLERANCE = 1e-6
 """A vibration whose order is this close to an integer is locked [-]."""
@@ -65,7 +66,15 @@ nearest one m = round(j nu): a revolution's DFT puts a fraction of about eps_j /
 of its write on harmonic n (3 % on each neighbour at eps_j = 0.03) [-]."""
 MAX_WINDOW = 64
 """Most revolutions a window is lengthened to for SEPARATED_BEATS [-]; a vibration closer
-to an integer order (eps < SEPARATED_BEATS / MAX_WINDOW) is only partly separated."""
+to an integer order (eps < SEPARATED_BEATS / MAX_WINDOW) is only partly separated, unless
+it drifts by less than a period over MAX_WINDOW (``LONG_WINDOW``)."""
+LONG_WINDOW = 1024
+"""Most revolutions a window is lengthened to for SEPARATED_BEATS where the vibration drifts
+by less than one period over MAX_WINDOW (eps MAX_WINDOW < 1) [-]: such a line cannot be
+told from the profile's response at its integer order, and 64-revolution windows at the
+same profile scattered its coherent write S_m / W_m by more than its size, signs included
+(fleet car 11 at 110 km/h, order 8.0035: -7.7e-5 to +7.0e-5 per revolution), against
++-0.6 % over 800 revolutions (docs/wear.md). Lines with eps >= 3 / LONG_WINDOW are separated."""
 _RTOL = 1e-5
 """Relative tolerance of the window's integration [-] (the coherent writes move by at most
 2e-3 of the largest from 1e-8, near locking at 80 km/h; the evolution costs 0.7x that at
@@ -201,7 +210,9 @@ def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float,
 
     With ``max_revolutions``, a window too short to separate the vibration from its nearest
     integer order (``eps * revolutions < SEPARATED_BEATS``) is run again from the same state,
-    ``ceil(SEPARATED_BEATS / eps)`` revolutions long (at most ``max_revolutions``)."""
+    ``ceil(SEPARATED_BEATS / eps)`` revolutions long (at most ``max_revolutions``); where the
+    line turns by less than a period over ``max_revolutions`` it is run on from this window's
+    end, settled, for up to LONG_WINDOW revolutions (:func:`_separating_window`)."""
     base = base or model_for(params)
     coupled = coupled_model(base)
     R = params.operating.rolling_radius_m
@@ -225,14 +236,18 @@ def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float,
     vibrating = float(np.std(xdot)) > VIBRATION_RMS
     nu = _dominant_order(t, xdot, 1.0 / T) if vibrating else math.nan
     eps = _detuning(nu) if vibrating else []
-    # the phase per revolution is followed without aliasing while it turns by less than 1/4 cycle
-    locked = vibrating and (eps[0] < LOCK_TOLERANCE or (
-        eps[0] < 0.25 and _remaining_drift(_tire_phase(xdot, u[:, -1], round(nu), per_rev, revolutions))
-        < SETTLED_PHASE))
+    # the phase per revolution is followed without aliasing while it turns by less than 1/4 cycle;
+    # a window longer than MAX_WINDOW (LONG_WINDOW) over which the line turns by less than
+    # SETTLED_PHASE is as settled as a shorter window's phase is required to be
+    locked = vibrating and (eps[0] < LOCK_TOLERANCE or (revolutions > MAX_WINDOW and eps[0] * revolutions < SETTLED_PHASE)
+                            or (eps[0] < 0.25 and _remaining_drift(_tire_phase(xdot, u[:, -1], round(nu), per_rev,
+                                                                                revolutions)) < SETTLED_PHASE))
     if locked:  # everything the window writes is written in the same place every revolution
         eps = [0.0] * SIDEBANDS
-    if max_revolutions is not None and vibrating and not locked:
-        needed = min(max_revolutions, _separating_window(eps))
+    if max_revolutions is not None and vibrating and not locked and revolutions <= max_revolutions:
+        needed = _separating_window(eps, max_revolutions)
+        if needed > max_revolutions:  # LONG_WINDOW: run on from this window's end, settled
+            return window_wear(params, V, W, run.u_end, 0.0, needed, base)
         if needed > revolutions:
             return window_wear(params, V, W, state, settle_s, needed, base, max_revolutions)
     slow = _slow_orders(nu, eps, revolutions, K)
@@ -284,11 +299,16 @@ def _fitted_beyond(nu: float, eps, revolutions: int) -> list[float]:
     return [e if e * revolutions >= RESOLVABLE else 0.0 for e in far]
 
 
-def _separating_window(eps) -> int:
+def _separating_window(eps, longest: int = MAX_WINDOW) -> int:
     """Revolutions that separate every drifting line j nu from its nearest integer order
-    (``eps_j M >= SEPARATED_BEATS``; lines locked to within LOCK_TOLERANCE are not drifting)."""
+    (``eps_j M >= SEPARATED_BEATS``; lines locked to within LOCK_TOLERANCE are not drifting;
+    0 if none drifts), at most ``longest``, or at most LONG_WINDOW where the slowest line
+    turns by less than a period over ``longest`` revolutions."""
     drifting = [e for e in eps if e >= LOCK_TOLERANCE]
-    return math.ceil(SEPARATED_BEATS / min(drifting)) if drifting else 0
+    if not drifting:
+        return 0
+    cap = max(LONG_WINDOW, longest) if min(drifting) * longest < 1.0 else longest
+    return min(cap, math.ceil(SEPARATED_BEATS / min(drifting)))
 
 
 def _slow_orders(nu, eps, revolutions, K) -> list[int]:
