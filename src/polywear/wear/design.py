@@ -38,7 +38,16 @@ it (the other directions fail there, so their least change is larger), and keys 
 where no alignment, bushing or tread key meets it. A probe where rolling is stable at
 every cycle speed and the linear map alone makes the polygon :data:`CLEARLY_VISIBLE` times
 the visible depth fails without an evolution. Each option keeps the evolution at its
-least change.
+least change. A trisection stops where the other direction of its key already meets the
+criterion at a change no larger than the bracket's lower end (that direction's least
+change is the key's).
+
+Screened (``WearDesignSettings.screen``, e.g. :data:`SCREEN`): every probe is judged first
+by a cheaper evolution, and again with the full settings where the screened verdict is
+undecided or within :data:`SCREEN_MARGIN` of the criterion; the least change of every key
+and its bracket's other end are judged with the full settings after the walk, and where one
+of them changes its verdict the search walks again over the probes already made (so the
+options' evolutions are those of the full settings).
 
 Verification. Each option found by the map can be checked by the nonlinear evolution over
 the target distance (:func:`verify_option`): the depth it reaches and whether the polygon
@@ -93,6 +102,14 @@ CLEARLY_VISIBLE = 2.0
 """A probe with stable rolling at every cycle speed whose linear-map depth at the target
 exceeds this many visible depths fails without an evolution (the nonlinear evolution
 follows the linear one while the profile is small) [-]."""
+SCREEN = EvolutionSettings(tolerance=0.1, revolutions=6)
+"""Cheaper evolution settings that screen the probes where ``WearDesignSettings.screen`` asks
+for it (the report, axle4dof): a looser distance-step tolerance and the fewest revolutions
+per window (docs/wear.md, "Cars that vibrate")."""
+SCREEN_MARGIN = 0.25
+"""A screened probe is judged again with the full settings where its verdict is this close
+to the criterion: its polygon visible beyond ``1 - SCREEN_MARGIN`` of the target distance,
+or its depth at the target above ``1 - SCREEN_MARGIN`` of the visible depth [-]."""
 
 
 class Judge(StrEnum):
@@ -130,6 +147,12 @@ class WearDesignSettings:
     max_undecided: int = MAX_UNDECIDED
     """Where the evolution judges: a bracket is refined no further after this many of its
     probes were undecided [-] (integer >= 1; the report takes 1)."""
+    screen: EvolutionSettings | None = None
+    """Where the evolution judges: cheaper settings (e.g. :data:`SCREEN`) that judge every
+    probe first; a probe whose screened verdict is undecided or near the criterion
+    (:data:`SCREEN_MARGIN`) is judged again with ``evolution``, and so are the least change
+    of every key and its bracket's other end (the search walks again where one of them
+    changes its verdict). None: every probe with ``evolution``."""
 
     def __post_init__(self) -> None:
         check_positive(self, "max_factor")
@@ -145,8 +168,9 @@ class WearDesignSettings:
             raise ValueError(f"WearDesignSettings: judge = {self.judge!r}: must be one of "
                              f"{', '.join(j.value for j in Judge)}")
         object.__setattr__(self, "judge", Judge(self.judge))  # the member, where its text was given
-        if not isinstance(self.evolution, EvolutionSettings):
-            raise ValueError(f"WearDesignSettings: evolution = {self.evolution!r}: must be an EvolutionSettings")
+        for name in ("evolution", "screen"):
+            if not isinstance(getattr(self, name), EvolutionSettings) and (name, getattr(self, name)) != ("screen", None):
+                raise ValueError(f"WearDesignSettings: {name} = {getattr(self, name)!r}: must be an EvolutionSettings")
 
 
 def cycle_rates(params: Params, cycle=None) -> np.ndarray | None:
@@ -384,17 +408,43 @@ def _option(key: str, nominal: float, factor: float, growth: float, order: int, 
 @dataclass(frozen=True)
 class _Probe:
     """One probe of the evolution search (a picklable task): :func:`_meets` judged by the
-    evolution with ``(key, nominal value, factor)``, its evolution in one thread."""
+    evolution with ``(key, nominal value, factor, full)``, its evolution in one thread; with
+    ``screen`` and not ``full``, judged by the screen first and again with ``settings`` where
+    the screen is not clear (:func:`_screen_clear`). Returns (:func:`_meets`'s answer, evolutions
+    run, whether judged with ``settings``)."""
 
     params: Params
     cycle: tuple
     target_km: float
     settings: EvolutionSettings
+    screen: EvolutionSettings | None = None
 
-    def __call__(self, job: tuple[str, float, float]):
-        key, nominal, factor = job
-        return _meets(self.params, key, nominal, factor, self.cycle, self.target_km, Judge.EVOLUTION,
-                      self.settings, workers=1)
+    def __call__(self, job: tuple[str, float, float, bool]):
+        key, nominal, factor, full = job
+        runs = 0
+        if self.screen is not None and not full:
+            out = _meets(self.params, key, nominal, factor, self.cycle, self.target_km, Judge.EVOLUTION,
+                         self.screen, workers=1)
+            runs += out is not None and out[3] is not None
+            if _screen_clear(out, self.target_km, self.params.wear.visible_depth_mm):
+                return out, runs, out is None or out[3] is None  # no evolution: the same with any settings
+        out = _meets(self.params, key, nominal, factor, self.cycle, self.target_km, Judge.EVOLUTION,
+                     self.settings, workers=1)
+        return out, runs + (out is not None and out[3] is not None), True
+
+
+def _screen_clear(out, target_km: float, visible_mm: float) -> bool:
+    """Whether a screened probe's verdict stands (module notes): decided without an evolution,
+    or its polygon visible before ``(1 - SCREEN_MARGIN)`` of the target, or none visible and
+    the depth at the target below ``(1 - SCREEN_MARGIN)`` of the visible depth."""
+    if out is None or out[3] is None:
+        return True
+    evolved = out[3]
+    if evolved.get("undecided"):
+        return False
+    if evolved["visible_km"] is not None:
+        return evolved["visible_km"] < (1.0 - SCREEN_MARGIN) * target_km
+    return evolved["depth_mm"] < (1.0 - SCREEN_MARGIN) * visible_mm
 
 
 def _search_by_evolution(params: Params, keys: Sequence[str], cycle, target_km: float,
@@ -403,17 +453,22 @@ def _search_by_evolution(params: Params, keys: Sequence[str], cycle, target_km: 
     """The least change of ``keys`` judged by the evolution (module notes): ({key: its
     :class:`WearDesignOption` or the note why there is none}, the undecided probes, the
     evolutions run)."""
-    probe = _Probe(params, cycle, target_km,
-                   replace(settings.evolution, until_visible=True,
-                           max_steps=min(settings.evolution.max_steps, PROBE_MAX_STEPS)))
+    def budgeted(evolution: EvolutionSettings) -> EvolutionSettings:
+        return replace(evolution, until_visible=True, max_steps=min(evolution.max_steps, PROBE_MAX_STEPS))
+
+    probe = _Probe(params, cycle, target_km, budgeted(settings.evolution),
+                   None if settings.screen is None else budgeted(settings.screen))
     nominal = {key: nominal_value(params, key) for key in keys}
     cache: dict[tuple[str, float], tuple | None] = {}
+    full: set[tuple[str, float]] = set()  # the probes judged with settings.evolution
+    runs = [0]
     threads = settings.threads or os.cpu_count() or 1
 
-    def run(points: list[tuple[str, float]]) -> list:
-        """The probes at (key, |ln f| with its sign), side by side; cached."""
-        todo = list(dict.fromkeys(p for p in points if p not in cache))
-        jobs = [(key, nominal[key], math.exp(x)) for key, x in todo]
+    def run(points: list[tuple[str, float]], confirm: bool = False) -> list:
+        """The probes at (key, |ln f| with its sign), side by side; cached (``confirm``: judged
+        with the full settings where they were screened)."""
+        todo = list(dict.fromkeys(p for p in points if p not in cache or (confirm and p not in full)))
+        jobs = [(key, nominal[key], math.exp(x), confirm) for key, x in todo]
         if executor is not None:
             outs = executor.map(probe, jobs)
         elif threads > 1 and len(jobs) > 1:
@@ -421,10 +476,14 @@ def _search_by_evolution(params: Params, keys: Sequence[str], cycle, target_km: 
                 outs = list(pool.map(probe, jobs))
         else:
             outs = [probe(job) for job in jobs]
-        for (key, x), out in zip(todo, outs):
+        for (key, x), (out, ran, judged_full) in zip(todo, outs):
             cache[key, x] = out
+            runs[0] += ran
+            if judged_full:
+                full.add((key, x))
             if progress is not None and out is not None and out[3] is not None:
-                progress(len(cache), None, f"{key} = {nominal[key] * math.exp(x):.4g}: {_outcome(out[3])}")
+                progress(len(cache), None, f"{key} = {nominal[key] * math.exp(x):.4g}: {_outcome(out[3])}"
+                         + ("" if judged_full else " (screened)"))
         return [cache[p] for p in points]
 
     def ok(out) -> bool:
@@ -433,61 +492,80 @@ def _search_by_evolution(params: Params, keys: Sequence[str], cycle, target_km: 
     def failed(out) -> bool:  # decided: not met and not undecided
         return not ok(out) and not (out is not None and out[3] is not None and out[3].get("undecided"))
 
+    def least(found: dict, key: str):
+        """(|ln f| that meets, sign, |ln f| that fails) of the key's least change, or None."""
+        return min(((hi, s, lo) for (k, s), (lo, hi) in found.items() if k == key), default=None)
+
     top = math.log(settings.max_factor)
     levels = np.linspace(0.0, top, EVOLUTION_GRID + 1)[1:]
-    found: dict[tuple[str, int], tuple[float, float]] = {}  # direction -> (|ln f| that fails, that meets)
-    notes: dict[tuple[str, int], str] = {}
     engineering = [k for k in keys if parameter_category(k) in ENGINEERING]
     tiers = [engineering, [k for k in keys if k not in engineering]] if settings.least_only else [list(keys)]
-    for tier in tiers:
-        if settings.least_only and found:
-            notes.update({(key, s): "not searched (a change of a key an engineer sets meets the criterion)"
-                          for key in tier for s in (1, -1)})
-            continue
-        open_ = [(key, s) for key in tier for s in (1, -1)]
-        failed_at = dict.fromkeys(open_, 0.0)  # |ln f| of the largest change that failed
-        for i, level in enumerate(levels):
-            if not open_:
-                break
-            outs = run([(key, s * level) for key, s in open_])
-            met = [d for d, out in zip(open_, outs) if ok(out)]
-            for d, out in zip(open_, outs):
-                if failed(out):
-                    failed_at[d] = level
-            for d in met:
-                found[d] = (failed_at[d], level)
-            open_ = [d for d in open_ if d not in met]
-            if met and settings.least_only:
-                notes.update({d: f"{_signed(d[1] * level)} does not meet the criterion, a change of another key "
-                                 "no larger does (not searched further)" for d in open_})
-                break
-            if i == 0 and len(levels) > 1 and open_:  # the largest change closes a direction that fails there
-                outs = run([(key, s * top) for key, s in open_])
-                for d, out in zip(list(open_), outs):
-                    if not ok(out):
-                        open_.remove(d)
-                        notes[d] = (f"no change within x{settings.max_factor:g} meets the criterion" if failed(out)
-                                    else f"the largest change (x{settings.max_factor:g}) is undecided (not searched)")
-    # trisection of every bracket, side by side: two probes per bracket and round; an
-    # undecided probe is no end of a bracket, and a bracket is refined no further after
-    # settings.max_undecided of its probes were undecided
-    undecided_in = dict.fromkeys(found, 0)
-    while True:
-        rounds = {d: [lo + (hi - lo) * j / 3.0 for j in (1, 2)] for d, (lo, hi) in found.items()
-                  if hi - lo > EVOLUTION_REFINE and undecided_in[d] < settings.max_undecided}
-        if not rounds:
+
+    def walk() -> tuple[dict, dict]:
+        """The search over the cached probes (running those not yet cached): ({direction:
+        (|ln f| that fails, that meets)}, {direction: the note why it has no bracket})."""
+        found: dict[tuple[str, int], tuple[float, float]] = {}
+        notes: dict[tuple[str, int], str] = {}
+        for tier in tiers:
+            if settings.least_only and found:
+                notes.update({(key, s): "not searched (a change of a key an engineer sets meets the criterion)"
+                              for key in tier for s in (1, -1)})
+                continue
+            open_ = [(key, s) for key in tier for s in (1, -1)]
+            failed_at = dict.fromkeys(open_, 0.0)  # |ln f| of the largest change that failed
+            for i, level in enumerate(levels):
+                if not open_:
+                    break
+                outs = run([(key, s * level) for key, s in open_])
+                met = [d for d, out in zip(open_, outs) if ok(out)]
+                for d, out in zip(open_, outs):
+                    if failed(out):
+                        failed_at[d] = level
+                for d in met:
+                    found[d] = (failed_at[d], level)
+                open_ = [d for d in open_ if d not in met]
+                if met and settings.least_only:
+                    notes.update({d: f"{_signed(d[1] * level)} does not meet the criterion, a change of another "
+                                     "key no larger does (not searched further)" for d in open_})
+                    break
+                if i == 0 and len(levels) > 1 and open_:  # the largest change closes a direction that fails there
+                    outs = run([(key, s * top) for key, s in open_])
+                    for d, out in zip(list(open_), outs):
+                        if not ok(out):
+                            open_.remove(d)
+                            notes[d] = (f"no change within x{settings.max_factor:g} meets the criterion"
+                                        if failed(out) else
+                                        f"the largest change (x{settings.max_factor:g}) is undecided (not searched)")
+        # trisection of every bracket, side by side: two probes per bracket and round; an
+        # undecided probe is no end of a bracket, a bracket is refined no further after
+        # settings.max_undecided of its probes were undecided, nor where the other direction of
+        # its key already meets the criterion at a change no larger than the bracket's lower end
+        undecided_in = dict.fromkeys(found, 0)
+        while True:
+            rounds = {d: [lo + (hi - lo) * j / 3.0 for j in (1, 2)] for d, (lo, hi) in found.items()
+                      if hi - lo > EVOLUTION_REFINE and undecided_in[d] < settings.max_undecided
+                      and found.get((d[0], -d[1]), (0.0, math.inf))[1] > lo}
+            if not rounds:
+                return found, notes
+            outs = iter(run([(key, s * x) for (key, s), xs in rounds.items() for x in xs]))
+            for d, xs in rounds.items():
+                lo, hi = found[d]
+                got = [next(outs) for _ in xs]
+                undecided_in[d] += sum(not ok(out) and not failed(out) for out in got)
+                j = next((i for i, out in enumerate(got) if ok(out)), len(xs))
+                found[d] = (max([x for x, out in zip(xs[:j], got[:j]) if failed(out)], default=lo),
+                            xs[j] if j < len(xs) else hi)
+
+    while True:  # with a screen: the least change of every key and its other end judged with the full settings
+        found, notes = walk()
+        ends = [(key, s * x) for key in keys if (best := least(found, key)) is not None
+                for x, s in ((best[0], best[1]), (best[2], best[1])) if x > 0.0 and (key, s * x) not in full]
+        if not ends:
             break
-        outs = iter(run([(key, s * x) for (key, s), xs in rounds.items() for x in xs]))
-        for d, xs in rounds.items():
-            lo, hi = found[d]
-            got = [next(outs) for _ in xs]
-            undecided_in[d] += sum(not ok(out) and not failed(out) for out in got)
-            j = next((i for i, out in enumerate(got) if ok(out)), len(xs))
-            found[d] = (max([x for x, out in zip(xs[:j], got[:j]) if failed(out)], default=lo),
-                        xs[j] if j < len(xs) else hi)
+        run(ends, confirm=True)
     by_key: dict[str, WearDesignOption | str] = {}
     for key in keys:
-        best = min(((hi, s, lo) for (k, s), (lo, hi) in found.items() if k == key), default=None)
+        best = least(found, key)
         if best is None:
             up, down = notes[key, 1], notes[key, -1]
             by_key[key] = f"{key}: {up}" if up == down else f"{key}: more: {up}; less: {down}"
@@ -501,7 +579,7 @@ def _search_by_evolution(params: Params, keys: Sequence[str], cycle, target_km: 
     undecided = [{"key": key, "value": nominal[key] * math.exp(x), "relative_change": math.expm1(x),
                   "at_km": out[3]["distance_km"]}
                  for (key, x), out in cache.items() if out is not None and out[3] is not None and out[3].get("undecided")]
-    return by_key, undecided, sum(out is not None and out[3] is not None for out in cache.values())
+    return by_key, undecided, runs[0]
 
 
 def _signed(x: float) -> str:
