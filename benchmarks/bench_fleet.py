@@ -17,7 +17,6 @@ Sobol and fleet extrapolations, Dask 1 -> 2 workers, cost growth (nothing is ass
     .venv/bin/python benchmarks/bench_fleet.py windows --samples 10 [--seed 7] [--workers 2]
     .venv/bin/python benchmarks/bench_fleet.py top-fold --samples 50 [--seed 7] [--workers 2]
     .venv/bin/python benchmarks/bench_fleet.py gap-fold --samples 60 --seed 7 [--workers 1] [--no-full]
-    .venv/bin/python benchmarks/bench_fleet.py window-fold --samples 60 --seed 7 [--workers 1] [--no-full]
 
 ``agreement`` draws the paper's seven parameters uniformly within +-10 % of the model's
 defaults (the default study ranges), evaluates every sample by the fast path and by the
@@ -505,7 +504,7 @@ def _top_fold_car(item):
     t1 = time.process_time()
     edges = edges_diagram(params, (20.0, 300.0))
     t2 = time.process_time()
-    sev, gaps, diagram, top = edges_band(params, (20.0, 300.0), fast)[:4]
+    sev, gaps, diagram, top, _ = edges_band(params, (20.0, 300.0), fast)
     t3 = time.process_time()
     diffs = []
     for other in (full, edges):
@@ -644,81 +643,6 @@ def gap_fold(n: int, seed: int, workers: int = 1, n_pilot: int = 32, with_full: 
                   f"{pts[0] / m:.1f} / {pts[1] / m:.1f}")
 
 
-def _window_fold_car(item):
-    """One car of ``window-fold``: (index, values, Hopf criticalities, CPU of the full
-    continuation, of the edges path with the top and gap folds and of that with the window
-    fold too [s], cycle points of the two, what the latter differs in from the full
-    continuation and from the former, and the window fold or why not). The two edges paths
-    run in alternating order (``first``)."""
-    from polywear.studies.global_sensitivity import edges_band
-
-    i, values, params, fast, first, with_full = item
-    t0 = time.process_time()
-    full = bifurcation(params, (20.0, 300.0)) if with_full else None
-    dt = {"full": time.process_time() - t0}
-    out = {}
-    for window in ((False, True) if first else (True, False)):
-        t = time.process_time()
-        out[window] = edges_band(params, (20.0, 300.0), fast, gap_fold=True, window_fold=window)
-        dt[window] = time.process_time() - t
-    new, window = out[True][:3], out[True].window
-    diffs = [_band_differences((full.sev_band_kmh, full.gaps_after_pd_ns_kmh, full), new) if with_full
-             else ([], np.nan), _band_differences(out[False][:3], new)]
-    criticality = tuple(str(h.criticality) for h in out[True].diagram.hopf_points)
-    points = [sum(info["n_points"] for info in out[w].diagram.branch_info) for w in (False, True)]
-    points[1] += 0 if window is None else len(window.branch.points)
-    return i, values, criticality, (dt["full"], dt[False], dt[True]), tuple(points), diffs, \
-        window if window is not None else fast.window_fold(params)
-
-
-def window_fold(n: int, seed: int, workers: int = 1, n_pilot: int = 32, with_full: bool = True) -> None:
-    """The first ``n`` axle4dof cars with four Hopf points (as ``gap-fold`` draws them): the
-    SEV band of the studies' edges path with the top, gap and window folds
-    (:func:`polywear.studies.global_sensitivity.edges_band` with ``gap_fold=True,
-    window_fold=True``; the nominal and ``n_pilot`` pilot references of another seed) against
-    the full continuation and the edges path with the top and gap folds alone; CPU of the
-    three per car (the two edges paths alternately first), and the window fold's fallbacks by
-    reason."""
-    from concurrent.futures import ProcessPoolExecutor
-
-    refs = _references(with_updates(Params(), {"model": "axle4dof"}), n_pilot, seed)
-    print(f"  references with a window fold: {sum(r.window_fold is not None for r in refs)} of {len(refs)}",
-          flush=True)
-    fast = FastBand(refs, (20.0, 300.0))
-    times, bad, worst, reasons = np.zeros(3), [], np.zeros(2), Counter()
-    times_used, points, points_used, n_used = np.zeros(3), np.zeros(2), np.zeros(2), 0
-    with ProcessPoolExecutor(workers) as pool:
-        cars = [(*car, fast, k % 2 == 0, with_full) for k, car in enumerate(_four_hopf_cars(pool, n, seed))]
-        for i, values, criticality, dt, n_points, diffs, window in pool.map(_window_fold_car, cars):
-            times += dt
-            points += n_points
-            used = not isinstance(window, Fallback)
-            reasons["followed" if used else window.reason.value] += 1
-            if used:
-                n_used += 1
-                times_used += dt
-                points_used += n_points
-            worst = np.fmax(worst, [w for _, w in diffs])
-            shown = (f"fold {window.fold_kmh:.3f} km/h, stable {np.round(window.stable_kmh, 3).tolist()}, "
-                     f"PD/NS {np.round(window.pd_ns_kmh, 3).tolist()}" if used else str(window))
-            print(f"  car {i} {'/'.join(c[0] for c in criticality)}: full {dt[0]:.2f} s, edges + top/gap folds "
-                  f"{dt[1]:.2f} s, + window fold {dt[2]:.2f} s CPU, cycle points {n_points[0]} / {n_points[1]}; "
-                  f"{shown}; vs full: {'; '.join(diffs[0][0]) or 'same'}; vs edges + top/gap folds: "
-                  f"{'; '.join(diffs[1][0]) or 'same'}", flush=True)
-            if diffs[0][0] or diffs[1][0]:
-                bad.append(i)
-                print(f"    {dict(zip(DEFAULT_KEYS, values.tolist()))}", flush=True)
-    print(f"  window fold: {dict(reasons)}")
-    print(f"  cars with a difference: {len(bad)} {bad}; largest difference of the band's ends where the counts "
-          f"agree: {f'{worst[0]:.1e} km/h' if with_full else 'not run'} (full), {worst[1]:.1e} km/h "
-          f"(edges + top/gap folds)")
-    for name, t, pts, m in (("all cars", times, points, n), ("those followed", times_used, points_used, n_used)):
-        if m:
-            print(f"  CPU per car, {name} ({m}): full {t[0] / m:.3f} s, edges + top/gap folds {t[1] / m:.3f} s, "
-                  f"+ window fold {t[2] / m:.3f} s -> {t[1] / t[2]:.2f}x less; cycle points per car "
-                  f"{pts[0] / m:.1f} / {pts[1] / m:.1f}")
-
-
 def _window_car(item):
     """One car of ``windows``: (index, values, [(edge, speed simulated, SEV reached, regimes)])."""
     from polywear.dynamics.attractor import reached_attractors
@@ -769,7 +693,7 @@ def windows(n: int, seed: int, workers: int = 1) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("what", choices=("agreement", "sobol", "fleet", "pilot", "dask", "dask-sobol", "growth", "edges",
-                                         "windows", "top-fold", "gap-fold", "window-fold"))
+                                         "windows", "top-fold", "gap-fold"))
     parser.add_argument("--model", default="tread1dof")
     parser.add_argument("--samples", type=int, default=200)
     parser.add_argument("--seed", type=int, default=20261201)
@@ -788,7 +712,7 @@ def main() -> None:
     parser.add_argument("--band-every", type=int, default=1, help="pilot: whole bands for every k-th car")
     parser.add_argument("--spread", type=float, default=0.1, help="sobol: parameter ranges +-spread of the defaults")
     parser.add_argument("--workers", type=int, help="local processes (edges, windows, top-fold, gap-fold: 1; sobol: 2)")
-    parser.add_argument("--no-full", action="store_true", help="gap-fold, window-fold: without the full continuation")
+    parser.add_argument("--no-full", action="store_true", help="gap-fold: without the full continuation")
     args = parser.parse_args()
     if args.what == "agreement":
         agreement(args.model, args.samples, args.seed, args.pilot, tuple(args.amplitude_speeds))
@@ -813,8 +737,6 @@ def main() -> None:
         top_fold(args.samples, args.seed, args.workers or 1, args.pilot)
     elif args.what == "gap-fold":
         gap_fold(args.samples, args.seed, args.workers or 1, args.pilot, not args.no_full)
-    elif args.what == "window-fold":
-        window_fold(args.samples, args.seed, args.workers or 1, args.pilot, not args.no_full)
     else:
         growth()
 

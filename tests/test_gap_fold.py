@@ -50,7 +50,7 @@ def test_the_pilot_has_the_gap_fold_as_a_band_edge(pilot):
 def test_the_gap_of_a_four_hopf_car_is_the_full_continuations(pilot):
     params = _car(GAP_AXLE)
     fast = FastBand((pilot,), RANGE)
-    sev, gaps, diagram, top, gap = edges_band(params, RANGE, fast, gap_fold=True)[:5]
+    sev, gaps, diagram, top, gap = edges_band(params, RANGE, fast, gap_fold=True)
     assert isinstance(gap, GapFold) and top is not None
     full = bifurcation(params, RANGE)
     # the fold solved directly in the parameters is the one the continuation met on the branch
@@ -69,7 +69,7 @@ def test_the_gap_of_a_four_hopf_car_is_the_full_continuations(pilot):
 
 def test_the_piece_closes_a_gap_after_a_pd_that_the_skipped_branch_covered(pilot):
     params = _car(PD_GAP_AXLE)
-    sev, gaps, diagram, _, gap = edges_band(params, RANGE, FastBand((pilot,), RANGE), gap_fold=True)[:5]
+    sev, gaps, diagram, _, gap = edges_band(params, RANGE, FastBand((pilot,), RANGE), gap_fold=True)
     assert isinstance(gap, GapFold) and gap.fold_kmh < gap.second_hopf_kmh
     full = bifurcation(params, RANGE)
     assert len(diagram.gaps_after_pd_ns_kmh) == len(full.gaps_after_pd_ns_kmh) + 1  # the diagram's own: one more

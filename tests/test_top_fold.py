@@ -37,7 +37,7 @@ def test_the_nominal_reference_has_a_top_fold(nominal):
 
 def test_the_top_fold_of_a_four_hopf_car_is_the_full_continuations(nominal):
     params = with_updates(Params(), {"model": "axle4dof", **dict(zip(KEYS, GAP_AXLE))})
-    sev, gaps, diagram, top = edges_band(params, RANGE, FastBand((nominal,), RANGE))[:4]
+    sev, gaps, diagram, top, _ = edges_band(params, RANGE, FastBand((nominal,), RANGE))
     assert isinstance(top, TopFold)
     full = bifurcation(params, RANGE)
     # the fold the continuation located on the branch (secants in the arclength) is the one
@@ -60,7 +60,7 @@ def test_without_a_reference_with_a_top_fold_the_edges_path_is_kept(nominal):
     fast = FastBand((replace(nominal, top_fold=None),), RANGE)
     out = fast.top_fold(params)
     assert isinstance(out, Fallback) and out.reason is FallbackReason.NO_REFERENCE
-    sev, gaps, diagram, top = edges_band(params, RANGE, fast)[:4]
+    sev, gaps, diagram, top, _ = edges_band(params, RANGE, fast)
     assert top is None and sev == diagram.sev_band_kmh and gaps == diagram.gaps_after_pd_ns_kmh
 
 

@@ -5,10 +5,6 @@ piece of the SEV band a study needs (the edges path, :mod:`.edges`, then skips t
 - :func:`gap_fold`: the first fold of the third Hopf point's branch, which bounds the band
   in the gap between the two intervals of the linear band (Hopf criticalities
   :data:`GAP_FOLD_CRITICALITY`).
-- :func:`window_fold`: the first fold of the first Hopf point's branch (a hard one), below
-  it: the band's lower end; the branch is then continued from that fold on its stable
-  side (the window up to its period doubling, and on as the edges path continues it),
-  and the stretch from the Hopf point down to the fold is not computed.
 
 Each is the fast path's fold following (:meth:`~polywear.studies.fast_band.FastBand.follow_fold`)
 from the nearest reference that has that fold; ``solver`` is the
@@ -21,11 +17,10 @@ from dataclasses import dataclass
 
 from ..models import model_for
 from ..params import Params
-from ..solvers.continuation import BranchEnd, continue_from_point
-from ..units import kmh_to_ms, ms_to_kmh
+from ..units import ms_to_kmh
 from .band import LABEL_TOL_KMH, Band, Fallback, FallbackReason, _distance, _Fallback
 
-__all__ = ["GAP_FOLD_CRITICALITY", "GapFold", "TopFold", "WindowFold", "gap_fold", "top_fold", "window_fold"]
+__all__ = ["GAP_FOLD_CRITICALITY", "GapFold", "TopFold", "gap_fold", "top_fold"]
 
 
 @dataclass(frozen=True)
@@ -135,7 +130,6 @@ def top_fold(solver, params: Params) -> TopFold | Fallback:
                         f"and {solver.speed_range_kmh[1]:g} km/h")
     return TopFold(hopf, fold, amplitude)
 
-
 def _linear(solver, params: Params):
     """``(model, packed parameters, stability)`` of the car for :func:`top_fold` and
     :func:`gap_fold`, or the :class:`Fallback` where stability fails or a real
@@ -151,7 +145,6 @@ def _linear(solver, params: Params):
     if stab.real_crossings_kmh:
         return Fallback(FallbackReason.REAL_CROSSING, "real eigenvalue crossing")
     return model, p, stab
-
 
 def gap_fold(solver, params: Params) -> GapFold | Fallback:
     """The band in the gap between the two intervals of the linear band of a car with
@@ -190,129 +183,3 @@ def gap_fold(solver, params: Params) -> GapFold | Fallback:
         return Fallback(FallbackReason.ORDER_CHANGED, f"gap fold at {fold:.2f} km/h, not between the first "
                         f"({first:.2f} km/h) and the third Hopf point ({third:.2f} km/h)")
     return GapFold(second, third, fold, amplitude)
-
-
-@dataclass(frozen=True)
-class WindowFold:
-    """The lower end of a SEV band from :func:`window_fold`: the first Hopf point (hard) and the
-    first fold of its branch below it [km/h], the fold's tread amplitude [m], and that
-    branch continued from the fold on its stable side (``branch``, a
-    :class:`~polywear.solvers.continuation.Branch`, stopped as the edges path stops it)
-    with its stable runs [km/h] and its PD and NS points [km/h]."""
-
-    hopf_kmh: float
-    fold_kmh: float
-    amplitude_x_m: float
-    branch: object
-    stable_kmh: tuple[tuple[float, float], ...]
-    pd_ns_kmh: tuple[float, ...]
-
-
-def _window_fold_index(diagram, band: Band, folds) -> int | None:
-    """Index into ``folds`` (the LP points of ``diagram``'s branches, in order) of the first
-    special point of the branch from the first Hopf point when it is a fold below that
-    point (a hard one) at which the SEV band begins (no PD or NS point before it on the
-    branch); None otherwise, or where a branch failed or a real eigenvalue crosses."""
-    if (not band.hopf_kmh or band.hopf_criticality[0] != "hard" or not band.sev_band_kmh
-            or diagram.stability.real_crossings_kmh or any(info["failed"] for info in diagram.branch_info)):
-        return None
-    first = band.hopf_kmh[0]
-    b = next((k for k, info in enumerate(diagram.branch_info)
-              if abs(info["from_hopf_kmh"] - first) <= LABEL_TOL_KMH), None)
-    if b is None or not diagram.branches[b].special:
-        return None
-    label, fold, _ = diagram.branches[b].special[0]
-    speed = ms_to_kmh(fold.orbit.speed)
-    if label != "LP" or not speed < first or abs(band.sev_band_kmh[0][0] - speed) > LABEL_TOL_KMH:
-        return None
-    return next(j for j, f in enumerate(folds) if f is fold)
-
-
-def _stable_runs(fold_kmh: float, branch) -> tuple[tuple[float, float], ...] | None:
-    """Stable runs [km/h] of ``branch``, continued from a fold at ``fold_kmh`` on its stable
-    side: each ends at the special point located between its last stable point and the
-    next (a fold, PD or NS point), the last where the branch stops; None where stability
-    changes with no special point located there."""
-    at: dict[int, float] = {}
-    for label, pt, k in branch.special:  # a fold before a PD/NS point between the same two points
-        if label == "LP" or k not in at:
-            at[k] = ms_to_kmh(pt.orbit.speed)
-    runs, start, stable = [], fold_kmh, True
-    for k, pt in enumerate(branch.points):
-        if pt.stable == stable:
-            continue
-        if k not in at:
-            return None
-        if stable:
-            runs.append((min(start, at[k]), max(start, at[k])))
-        start, stable = at[k], pt.stable
-    if stable:
-        end = ms_to_kmh(branch.points[-1].orbit.speed)
-        runs.append((min(start, end), max(start, end)))
-    return tuple(runs)
-
-
-WINDOW_ENDS = (BranchEnd.STOPPED, BranchEnd.HOPF_REACHED)
-"""Ends of the branch from the window fold that :func:`window_fold` accepts (any other: the
-edges path continues the branch from the Hopf point instead)."""
-
-
-def window_fold(solver, params: Params) -> WindowFold | Fallback:
-    """The lower end of the SEV band of ``params`` whose first Hopf point is hard: the first
-    fold ``F`` of that point's branch, below it, followed in the parameters from the nearest
-    reference with as many Hopf points that has one (:attr:`BandReference.window_fold`,
-    usable or not; from a two-Hopf reference the fold followed to a four-Hopf car is another
-    one), as :func:`top_fold` follows the top; then that branch continued from ``F`` on
-    its stable side (the side whose first point is stable) as the edges path continues it
-    (:class:`~polywear.studies.edges.BranchStop`, the solver's settings and speed range).
-    Or why not: no such Hopf point or reference, the fold not followed, its amplitude below
-    ``min_fold_amplitude`` of the reference's, not between the range's lower end and the
-    Hopf point, no stable side, a change of stability without a located special point, or
-    the branch ending otherwise than stopped or at a Hopf point (:data:`WINDOW_ENDS`)."""
-    from ..dynamics.bifurcation import branch_start
-    from .edges import BranchStop
-
-    linear = _linear(solver, params)
-    if isinstance(linear, Fallback):
-        return linear
-    model, p, stab = linear
-    if not stab.hopf_points or stab.hopf_points[0].criticality != "hard":
-        return Fallback(FallbackReason.HOPF_SIGNATURE, "the first Hopf point is not a hard one")
-    refs = [r for r in solver.references if r.p.shape == p.shape and r.window_fold is not None
-            and len(r.band.hopf_kmh) == len(stab.hopf_points)]
-    if not refs:
-        return Fallback(FallbackReason.NO_REFERENCE, f"no reference with {len(stab.hopf_points)} Hopf points and "
-                        "a fold below a hard first one")
-    ref = min(refs, key=lambda r: _distance(p, r.p))
-    j = ref.window_fold
-    try:
-        point = solver.follow_fold(model, p, ref, j)
-    except _Fallback as exc:
-        return exc.fallback
-    amplitude = float(point.orbit.amplitude()[model.index("x")])
-    if amplitude < solver.min_fold_amplitude * ref.band.fold_amplitude_x_m[j]:
-        return Fallback(FallbackReason.FOLD_AMPLITUDE, f"window fold: amplitude {amplitude:.3g} m, below "
-                        f"{solver.min_fold_amplitude} of the reference's")
-    hopf, fold = stab.hopf_points[0].speed_kmh, ms_to_kmh(point.orbit.speed)
-    if not solver.speed_range_kmh[0] < fold < hopf:
-        return Fallback(FallbackReason.ORDER_CHANGED if fold >= hopf else FallbackReason.FOLD_OUT_OF_RANGE,
-                        f"window fold at {fold:.2f} km/h, not between {solver.speed_range_kmh[0]:g} km/h and the "
-                        f"first Hopf point ({hopf:.2f} km/h)")
-    stop = BranchStop()(stab)
-    wrong_side = lambda br: len(br.points) == 1 and not br.points[0].stable
-    bounds = tuple(kmh_to_ms(v) for v in solver.speed_range_kmh)
-    for reverse in (False, True):
-        branch = continue_from_point(model, p, point, ref.scales[j], branch_start(stab.hopf_points[0]), bounds,
-                                     solver.settings, reverse, stop=lambda br: wrong_side(br) or stop(br))
-        if branch.points and branch.points[0].stable:
-            break
-    else:
-        return Fallback(FallbackReason.FOLD_NOT_FOLLOWED, f"window fold at {fold:.2f} km/h: no stable side")
-    if branch.end not in WINDOW_ENDS:
-        return Fallback(FallbackReason.FOLD_NOT_FOLLOWED, f"branch from the window fold: {branch.end_reason}")
-    runs = _stable_runs(fold, branch)
-    if runs is None:
-        return Fallback(FallbackReason.FOLD_NOT_FOLLOWED, "branch from the window fold: stability changes "
-                        "where no special point was located")
-    pd_ns = tuple(ms_to_kmh(pt.orbit.speed) for label, pt, _ in branch.special if label in ("PD", "NS"))
-    return WindowFold(hopf, fold, amplitude, branch, runs, pd_ns)

@@ -139,14 +139,13 @@ def window_edges_kmh(diagram: BifurcationDiagram) -> list[float]:
     return out + ([d] if _near(d, folds) and _near(c, points) and d != a else [])
 
 
-def pd_ns_edges_kmh(diagram: BifurcationDiagram, more_kmh=()) -> list[float]:
+def pd_ns_edges_kmh(diagram: BifurcationDiagram) -> list[float]:
     """Ends [km/h] of the SEV band (its first and second bifurcation speeds) that are PD or NS
     points of a branch: there steady rolling is stable and the stable cycles end in a period
     doubling or torus bifurcation, so the doubled or quasi-periodic motion may reach beyond;
-    only the doubled branch or a simulation decides such an edge. ``more_kmh``: PD and NS
-    points [km/h] of branches continued outside ``diagram`` (a window fold's)."""
+    only the doubled branch or a simulation decides such an edge."""
     sev = diagram.sev_band_kmh
     if not sev:
         return []
-    points = _pd_ns_kmh(diagram) + list(more_kmh)
+    points = _pd_ns_kmh(diagram)
     return [e for e in (sev[0][0], sev[-1][1]) if _near(e, points)]

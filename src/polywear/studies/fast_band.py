@@ -74,10 +74,9 @@ from .sampling import SAMPLE_FAILURES, sample_params
 from . import band_folds
 from .band import (LABEL_TOL_KMH, Band, BandPath, Fallback, FallbackReason, _difference, _distance, _Fallback,
                    band_from_diagram)
-from .band_folds import (GAP_FOLD_CRITICALITY, GapFold, TopFold, WindowFold, _gap_fold_index, _top_fold_index,
-                         _window_fold_index)
+from .band_folds import GAP_FOLD_CRITICALITY, GapFold, TopFold, _gap_fold_index, _top_fold_index
 
-__all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "GAP_FOLD_CRITICALITY", "GapFold", "TopFold", "WindowFold",
+__all__ = ["Band", "BandPath", "BandReference", "FallbackReason", "FastBand", "GAP_FOLD_CRITICALITY", "GapFold", "TopFold",
            "band_from_diagram", "band_reference",
            "Pilot", "pilot_indices", "pilot_references", "pilot_size", "pilot_stage"]
 
@@ -129,10 +128,6 @@ class BandReference:
     Hopf points (criticalities :data:`GAP_FOLD_CRITICALITY`) where the band's piece in the
     gap between the two intervals of the linear band is [max(F, second Hopf point), third
     Hopf point], or None: what :meth:`FastBand.gap_fold` follows (usable or not)."""
-    window_fold: int | None = None
-    """Index into :attr:`folds` of the first fold of the branch from a hard first Hopf point,
-    below it, where the SEV band begins, or None: what :meth:`FastBand.window_fold` follows
-    (to cars with as many Hopf points; usable or not)."""
 
     def band_speed(self, label) -> float:
         """Speed [km/h] of a label: ("H", k) Hopf point, ("F", j) fold, ("lo"|"hi", 0) range end."""
@@ -218,7 +213,6 @@ def band_reference(diagram, amplitude_speeds_kmh=()) -> BandReference:
         speed_range_kmh=tuple(diagram.speed_range_kmh),
         top_fold=_top_fold_index(diagram, band),
         gap_fold=_gap_fold_index(diagram, band, folds),
-        window_fold=_window_fold_index(diagram, band, folds),
     )
 
 
@@ -420,10 +414,6 @@ class FastBand:
     def gap_fold(self, params: Params) -> GapFold | Fallback:
         """:func:`.band_folds.gap_fold` with this solver's references and settings."""
         return band_folds.gap_fold(self, params)
-
-    def window_fold(self, params: Params) -> WindowFold | Fallback:
-        """:func:`.band_folds.window_fold` with this solver's references and settings."""
-        return band_folds.window_fold(self, params)
 
     def usage_verdict(self, params: Params, speeds_kmh) -> tuple | None:
         """From the Hopf points alone: (SEV band holds a usage speed, a hard region holds one,

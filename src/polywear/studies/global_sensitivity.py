@@ -126,10 +126,6 @@ class SampleOutcome:
     """Edges only, with the band in the gap between the two intervals of the linear band from
     the third Hopf point's first fold followed in the parameters
     (:meth:`~polywear.studies.fast_band.FastBand.gap_fold`) instead of that point's branch."""
-    window_fold: bool = False
-    """Edges only, with the first Hopf point's branch continued from its first fold followed in
-    the parameters (:meth:`~polywear.studies.fast_band.FastBand.window_fold`) instead of from
-    that Hopf point."""
 
     def __str__(self) -> str:
         """``"status: detail"`` (the status alone without a detail), as recorded per sample."""
@@ -279,12 +275,10 @@ class EdgesBand(NamedTuple):
     """The :class:`~polywear.studies.fast_band.TopFold` used, or None."""
     gap: object
     """The :class:`~polywear.studies.fast_band.GapFold` used, or None."""
-    window: object = None
-    """The :class:`~polywear.studies.fast_band.WindowFold` used, or None."""
 
 
 def edges_band(params: Params, speed_range_kmh: tuple[float, float] = DEFAULT_SPEED_RANGE_KMH,
-               fast: object = None, gap_fold: bool = False, window_fold: bool = False) -> EdgesBand:
+               fast: object = None, gap_fold: bool = False) -> EdgesBand:
     """The SEV band [km/h] of ``params`` by the edges-only continuation (:class:`EdgesBand`):
     with ``fast`` (a :class:`~polywear.studies.fast_band.FastBand`) the band's top is the
     fold above a hard last Hopf point followed in the parameters where that succeeds (then
@@ -292,28 +286,23 @@ def edges_band(params: Params, speed_range_kmh: tuple[float, float] = DEFAULT_SP
     fold); with ``gap_fold`` too, the band in the gap between the two intervals of the
     linear band is [max(F, second Hopf point), third Hopf point] from the first fold F of
     the third Hopf point's branch followed in the parameters where that succeeds (then that
-    branch is not continued); with ``window_fold`` too, where the first Hopf point is hard, its
-    branch from the first fold below it on (:func:`~polywear.studies.band_folds.window_fold`;
-    the stretch from the Hopf point to the fold is not continued), its stable runs and PD/NS
-    points added. Those pieces join the diagram's stable-cycle intervals in
+    branch is not continued). Those pieces join the diagram's stable-cycle intervals in
     :func:`~polywear.dynamics.diagram.sev_band`. Where neither fold is used (both None):
     :func:`~polywear.studies.edges.edges_diagram`'s band."""
     from ..dynamics.bifurcation import bifurcation
     from ..dynamics.diagram import sev_band
     from .edges import BranchStop, edges_diagram
-    from .fast_band import GapFold, TopFold, WindowFold
+    from .fast_band import GapFold, TopFold
 
     top = None if fast is None else fast.top_fold(params)
     top = top if isinstance(top, TopFold) else None
     gap = fast.gap_fold(params) if fast is not None and gap_fold else None
     gap = gap if isinstance(gap, GapFold) else None
-    window = fast.window_fold(params) if fast is not None and window_fold else None
-    window = window if isinstance(window, WindowFold) else None
-    if top is None and gap is None and window is None:
+    if top is None and gap is None:
         diagram = edges_diagram(params, speed_range_kmh)
         return EdgesBand(diagram.sev_band_kmh, diagram.gaps_after_pd_ns_kmh, diagram, None, None)
     stop = BranchStop()
-    for known in (top, gap, window):
+    for known in (top, gap):
         if known is not None:
             stop = WithoutBranchFrom(known.hopf_kmh, stop)
     diagram = bifurcation(params, speed_range_kmh, stop=stop)
@@ -321,13 +310,9 @@ def edges_band(params: Params, speed_range_kmh: tuple[float, float] = DEFAULT_SP
     pieces = [] if top is None else [(hopf(top.hopf_kmh), top.fold_kmh)]
     if gap is not None:
         pieces.append((max(gap.fold_kmh, hopf(gap.second_hopf_kmh)), hopf(gap.hopf_kmh)))
-    pd_ns = list(diagram.pd_ns_speeds_kmh)
-    if window is not None:
-        pieces += window.stable_kmh
-        pd_ns = sorted(pd_ns + list(window.pd_ns_kmh))
     oscillatory = subtract(diagram.linear_band_kmh, diagram.divergence_kmh)
-    sev, gaps = sev_band(oscillatory, [*diagram.stable_cycle_intervals_kmh(), *pieces], pd_ns)
-    return EdgesBand(sev, gaps, diagram, top, gap, window)
+    sev, gaps = sev_band(oscillatory, [*diagram.stable_cycle_intervals_kmh(), *pieces], diagram.pd_ns_speeds_kmh)
+    return EdgesBand(sev, gaps, diagram, top, gap)
 
 
 @dataclass(frozen=True)
@@ -354,10 +339,6 @@ class StudyEvaluator:
     hard, hard, the band in the gap between the two intervals of the linear band from the
     first fold of the third Hopf point's branch followed in the parameters
     (:meth:`~polywear.studies.fast_band.FastBand.gap_fold`); that branch is not continued."""
-    window_fold: bool = False
-    """With ``edges_only`` and ``top_fold``: where the first Hopf point is hard, its branch
-    continued from its first fold below it, followed in the parameters
-    (:meth:`~polywear.studies.fast_band.FastBand.window_fold`), not from the Hopf point."""
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -388,21 +369,18 @@ class StudyEvaluator:
                 return _fast_outputs(band, self.speed_range_kmh, self.operating_range_kmh)
 
         if self.edges_only:
-            sev, gaps, diagram, top, gap, window = edges_band(params, self.speed_range_kmh,
-                                                              self.fast if self.top_fold else None, self.gap_fold,
-                                                              self.window_fold)
+            sev, gaps, diagram, top, gap = edges_band(params, self.speed_range_kmh,
+                                                      self.fast if self.top_fold else None, self.gap_fold)
         else:
-            diagram, top, gap, window = bifurcation(params, self.speed_range_kmh), None, None, None
+            diagram, top, gap = bifurcation(params, self.speed_range_kmh), None, None
             sev, gaps = diagram.sev_band_kmh, diagram.gaps_after_pd_ns_kmh
         for info in diagram.branch_info:
             if info["failed"]:
                 return (np.nan,) * 4, SampleOutcome(
                     SampleStatus.FAILED, f"continuation from {info['from_hopf_kmh']:.2f} km/h: {info['end_reason']}",
-                    edges_only=self.edges_only, top_fold=top is not None, gap_fold=gap is not None,
-                    window_fold=window is not None)
+                    edges_only=self.edges_only, top_fold=top is not None, gap_fold=gap is not None)
         band, outcome = _band_outputs(sev, diagram.speed_range_kmh)  # the range as widened
-        undecided = [v for v in pd_ns_edges_kmh(diagram, () if window is None else window.pd_ns_kmh)
-                     if sev and v in (sev[0][0], sev[-1][1])]
+        undecided = [v for v in pd_ns_edges_kmh(diagram) if sev and v in (sev[0][0], sev[-1][1])]
         if undecided:
             first, last, _ = band
             band = tuple(np.nan if v in undecided else v for v in (first, last)) + (np.nan,)
@@ -410,7 +388,7 @@ class StudyEvaluator:
                                     + " km/h")
         amplitude = np.nan if self.edges_only else max_stable_amplitude(diagram, self.operating_range_kmh) * 1e3
         return (*band, amplitude), replace(outcome, edges_only=self.edges_only, top_fold=top is not None,
-                                           gap_fold=gap is not None, window_fold=window is not None,
+                                           gap_fold=gap is not None,
                                            gap_after_pd_ns=bool(gaps))
 
 

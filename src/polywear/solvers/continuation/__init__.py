@@ -47,7 +47,7 @@ from .events import CROSSING_ITERATIONS
 from .folds import (FOLD_DIFFERENCE, MAX_FOLD_CORRECTION, MAX_MARCH, MAX_STEP, PARAMETER_DIFFERENCE,
                     SLOW_FOLD_CONTRACTION, SLOW_FOLD_SIZE, fold_at, fold_curvature, fold_parameter_tangent,
                     locate_fold, on_adapted_mesh, recentred, solve_fold)
-from .from_hopf import continue_from_hopf, continue_from_point
+from .from_hopf import continue_from_hopf
 from .kinks import KINK_SIGNALS, switching_times
 from .stepper import (MAX_STEPS_TO_SPEED, STALL_FACTOR, cycle_along_branch, newton_converged, orbit_between,
                       orbit_from_hopf, solve_at_speed, solve_at_speed_on_kinks)
@@ -59,7 +59,6 @@ __all__ = [
     "Branch",
     "HopfStart",
     "continue_from_hopf",
-    "continue_from_point",
     "solve_at_speed",
     "solve_at_speed_on_kinks",
     "orbit_from_hopf",

@@ -9,7 +9,6 @@ branch ends with a typed reason (:class:`~.branch.BranchEnd`).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -25,7 +24,7 @@ from .stepper import KINK_SAMPLES, _align_to_kinks, _hopf_start, _Out, _Step, _S
 if TYPE_CHECKING:
     from ...models.base import Model
 
-__all__ = ["continue_from_hopf", "continue_from_point"]
+__all__ = ["continue_from_hopf"]
 
 
 def _first_harmonic(orbit: PeriodicOrbit, scales: np.ndarray,
@@ -64,49 +63,12 @@ def continue_from_hopf(
     after the rescues (finer meshes) listed in ``recoveries``, or when ``stop(branch)``,
     asked after every step, is true (``BranchEnd.STOPPED``: the caller needs no more of it).
     """
-    return _continued(_hopf_start(model, p, hopf, settings, amplitude_ref), hopf, speed_bounds, settings, on_step,
-                      stop)
-
-
-def continue_from_point(
-    model: Model,
-    p: np.ndarray,
-    point: BranchPoint,
-    scales: np.ndarray,
-    hopf: HopfStart,
-    speed_bounds: tuple[float, float],
-    settings: ContinuationSettings = ContinuationSettings(),
-    reverse: bool = False,
-    on_step: Callable[[Branch], None] | None = None,
-    stop: Callable[[Branch], bool] | None = None,
-) -> Branch:
-    """The branch through ``point`` (a converged cycle with its unit tangent, e.g. a fold found
-    at these parameters without stepping along the branch) continued along its tangent
-    (``reverse``: along minus it), step for step as :func:`continue_from_hopf` continues the
-    branch born at ``hopf`` (the Hopf point of that branch: its norm's speed and period scales
-    and the steady state the state scales follow; ``scales``: the state scales at ``point``).
-    ``point`` itself is not stored; a PD or NS point between it and the first step is located
-    as between any two points (``point`` needs its multipliers), a fold too unless ``point``
-    is one (label ``"LP"``, as :func:`~.folds.solve_fold` gives it)."""
-    stepper = _Stepper(model, p, point.orbit.mesh, settings, np.asarray(scales, dtype=float), 0.1 * hopf.speed_ms,
-                       2.0 * np.pi / hopf.omega)
-    X0 = stepper.coll.pack(point.orbit)
-    t0 = (-1.0 if reverse else 1.0) * stepper.unit(point.tangent)
-    start = replace(point, tangent=t0)
-    return _continued((stepper, X0, t0, point.orbit), hopf, speed_bounds, settings, on_step, stop, start)
-
-
-def _continued(start: _Step, hopf: HopfStart, speed_bounds: tuple[float, float], settings: ContinuationSettings,
-               on_step: Callable[[Branch], None] | None, stop: Callable[[Branch], bool] | None,
-               prev: BranchPoint | None = None) -> Branch:
-    """The steps of :func:`continue_from_hopf` from ``start`` (stepper, point, tangent, phase
-    reference); ``prev``: the point ``start`` is at, when it is a cycle (not a Hopf point)."""
-    stepper, X0, t0, phase_ref = start
+    stepper, X0, t0, phase_ref = _hopf_start(model, p, hopf, settings, amplitude_ref)
     scales, period_scale = stepper.scales, stepper.period_scale
     branch = Branch(scales=scales)
     ds = settings.ds_initial
-    prev_harmonic = None if prev is None else _first_harmonic(prev.orbit, scales)
-    at_fold = prev is not None and prev.label == "LP"  # a fold itself: not sought again in the first step
+    prev: BranchPoint | None = None
+    prev_harmonic = None
     steps_since_adapt = 0
     curvature = None  # turn per unit step [rad] of the last accepted step that turned
 
@@ -166,7 +128,7 @@ def _continued(start: _Step, hopf: HopfStart, speed_bounds: tuple[float, float],
             finish(BranchEnd.HOPF_REACHED)
             break
         point = BranchPoint(orbit, multipliers, t, iterations, resolved=resolved)
-        if prev is not None and not at_fold and np.sign(point.tangent_speed) != np.sign(prev.tangent_speed):
+        if prev is not None and np.sign(point.tangent_speed) != np.sign(prev.tangent_speed):
             fold = _locate_fold((stepper, X0, t0, phase_ref), ds, prev, point)
             if fold is not None:
                 _add_special(branch, "LP", fold)
@@ -197,7 +159,7 @@ def _continued(start: _Step, hopf: HopfStart, speed_bounds: tuple[float, float],
         if orbit.period > settings.max_period_factor * period_scale:
             finish(BranchEnd.PERIOD_LIMIT, _period_detail(stepper, orbit))
             break
-        prev, prev_harmonic, at_fold = point, harmonic, False
+        prev, prev_harmonic = point, harmonic
         X0, t0, phase_ref = X, t, orbit
         ds_next = next_step(ds, iterations, settings.ds_max, grow=1.5, shrink_after=5)
         if settings.max_turn is not None and turn > 0.0:
