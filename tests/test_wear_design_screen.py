@@ -35,13 +35,14 @@ def test_screen_clear_judges_only_far_from_the_criterion():
     assert not _screen_clear((False, 1.0, 9, evolved | {"undecided": True, "depth_mm": None}), TARGET, visible)
 
 
+@pytest.mark.slow
 def test_screened_search_gives_the_full_search_answer_checked_by_evolution():
     params = _car()
     nominal = wear_evolution(params, TARGET, CYCLE)
     kw = dict(keys=(KEY,), target_km=TARGET, cycle=CYCLE, nominal=nominal)
-    full = wear_design(params, settings=WearDesignSettings(judge=Judge.EVOLUTION, max_factor=2.0), **kw)
+    full = wear_design(params, settings=WearDesignSettings(judge=Judge.EVOLUTION, max_factor=4.0), **kw)
     messages = []
-    screened = wear_design(params, settings=WearDesignSettings(judge=Judge.EVOLUTION, max_factor=2.0, screen=SCREEN),
+    screened = wear_design(params, settings=WearDesignSettings(judge=Judge.EVOLUTION, max_factor=4.0, screen=SCREEN),
                            progress=lambda done, total, message: messages.append(message), **kw)
     assert any(m.endswith("(screened)") for m in messages)  # the screen judged some probes alone
     (a,), (b,) = full.options, screened.options

@@ -40,8 +40,9 @@ __all__ = ["WEAR_DESIGN_BY_DEFAULT", "Report", "ReportSettings", "operating_verd
 WEAR_DESIGN_BY_DEFAULT = ("tread1dof",)
 """Models whose report searches, by default, the least change judged by the evolution for
 a car that vibrates on the drive cycle: those where it fits the main job's budget
-(tread1dof: about 20-30 s of CPU time on the default car, docs/wear.md; axle4dof: its 16
-directions of the first grid level alone about 160 s, over the 3 min of its whole report)."""
+(tread1dof: about 20-30 s of CPU time on the default car, docs/wear.md; axle4dof: the 16
+probes of its first grid level 267 s CPU with the full settings, 393 s screened after the
+long windows, load 9-12: several times the 3 min of its whole report)."""
 
 
 @dataclass(frozen=True)
