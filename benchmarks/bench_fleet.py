@@ -668,7 +668,7 @@ def windows(n: int, seed: int, workers: int = 1) -> None:
     base = with_updates(Params(), {"model": "axle4dof"})
     rng = np.random.default_rng(seed)
     nominal = np.array([get_value(base, k) for k in DEFAULT_KEYS])
-    cars, drawn, checked, sev_cars = [], 0, 0, 0
+    drawn, checked, sev_cars = 0, 0, 0
     with ProcessPoolExecutor(workers) as pool:
         while checked < n:
             batch = []

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -34,7 +34,7 @@ from polywear.solvers.integrate import integrate
 from polywear.wear.evolution import EvolutionResult, EvolutionSettings
 from polywear.wear.law import energetic_rate, friction_power
 
-__all__ = ["evolve", "window_wear"]
+__all__ = ["wear_evolution", "window_wear"]
 
 LOCK_TOLERANCE = 1e-6
 """A vibration whose order is this close to an integer is locked [-]."""

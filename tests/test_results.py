@@ -19,7 +19,7 @@ import xarray as xr  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from polywear import __version__  # noqa: E402
-from polywear.params import Params, load_params, with_updates  # noqa: E402
+from polywear.params import Params, load_params  # noqa: E402
 from polywear.results import Result  # noqa: E402
 
 RANGE = (20.0, 300.0)

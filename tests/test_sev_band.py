@@ -8,7 +8,6 @@ import pytest
 from polywear.dynamics.attractor import reached_attractors
 from polywear.dynamics.bifurcation import bifurcation
 from polywear.dynamics.diagram import sev_band
-from polywear.dynamics.points import PointKind
 from polywear.models import get_model
 from polywear.params import Params, with_updates
 

@@ -37,7 +37,6 @@ from enum import StrEnum
 
 import numpy as np
 
-from ..units import ms_to_kmh
 from ..results import Result, with_deprecated_keys
 from .simulation import SimulationResult, SteadyOutcome, _finite, simulate
 
