@@ -32,7 +32,7 @@ from .law import energetic_rate, friction_power
 
 __all__ = ["WindowWear", "window_wear", "continued", "coherence", "table_points", "LOCK_TOLERANCE", "SETTLED_PHASE",
            "SEPARATED_BEATS", "FITTED_LINES", "NEAR_SPAN", "MAX_WINDOW",
-           "LONG_WINDOW", "LONG_LOOK_DRIFT"]
+           "LONG_WINDOW"]
 
 LOCK_TOLERANCE = 1e-6
 """A vibration whose order is this close to an integer is locked [-]."""
@@ -75,12 +75,6 @@ told from the profile's response at its integer order, and 64-revolution windows
 same profile scattered its coherent write S_m / W_m by more than its size, signs included
 (fleet car 11 at 110 km/h, order 8.0035: -7.7e-5 to +7.0e-5 per revolution), against
 +-0.6 % over 800 revolutions (docs/wear.md). Lines with eps >= 3 / LONG_WINDOW are separated."""
-LONG_LOOK_DRIFT = 0.02
-"""A line is given a LONG_WINDOW look only where it turns by at least this much of a period
-over MAX_WINDOW (eps >= 3.1e-4) [-]: closer, it is a vibration being pulled into locking
-(3e-6 off order 8 at 120 km/h on the default cycle), which the 64-revolution window treats as
-before; looked at longer, axle4dof's default cycle cost 2.9 times its CPU time and its depth
-moved by 0.36 % (docs/wear.md, point 9)."""
 _RTOL = 1e-5
 """Relative tolerance of the window's integration [-] (the coherent writes move by at most
 2e-3 of the largest from 1e-8, near locking at 80 km/h; the evolution costs 0.7x that at
@@ -327,11 +321,11 @@ def _separating_window(eps, longest: int = MAX_WINDOW) -> int:
     """Revolutions that separate every drifting line j nu from its nearest integer order
     (``eps_j M >= SEPARATED_BEATS``; lines locked to within LOCK_TOLERANCE are not drifting;
     0 if none drifts), at most ``longest``, or at most LONG_WINDOW where the slowest line
-    turns by less than a period over ``longest`` revolutions, but by LONG_LOOK_DRIFT or more."""
+    turns by less than a period over ``longest`` revolutions."""
     drifting = [e for e in eps if e >= LOCK_TOLERANCE]
     if not drifting:
         return 0
-    cap = max(LONG_WINDOW, longest) if LONG_LOOK_DRIFT <= min(drifting) * longest < 1.0 else longest
+    cap = max(LONG_WINDOW, longest) if min(drifting) * longest < 1.0 else longest
     return min(cap, math.ceil(SEPARATED_BEATS / min(drifting)))
 
 
