@@ -42,6 +42,7 @@ def test_window_length_separates_a_line_that_drifts_less_than_a_period_over_the_
     assert _separating_window([1e-4, 2e-4]) == LONG_WINDOW  # closer: as long as allowed
     assert _separating_window([0.0035, 0.007], longest=2000) == 858
     assert _separating_window([1e-7, 2e-7]) == 0  # locked
+    assert _separating_window([0.4984, 0.0031]) == MAX_WINDOW  # only the second line near an integer: as before
 
 
 def test_a_decaying_harmonic_is_integrated_exactly_at_any_exponent():
