@@ -186,8 +186,8 @@ def sobol_split(n_base: int, spread: float = 0.1) -> None:
     from SALib.sample import sobol as sobol_sample
 
     from polywear.studies.fast_band import pilot_stage
-    from polywear.studies.global_sensitivity import (StudyEvaluator, _salib_problem, _seeds,
-                                                      study_parameters)
+    from polywear.studies.global_sensitivity import _salib_problem, _seeds, study_parameters
+    from polywear.studies.study_evaluator import StudyEvaluator
 
     params, spec = _sobol_spec(n_base, spread)
     problem = _salib_problem(study_parameters(params, spec))
@@ -496,7 +496,7 @@ def _top_fold_car(item):
     one and the edges-only one with the top fold followed [s], what differs from the full
     continuation and from the edges-only one (empty: none), the top fold or why not)."""
     from polywear.studies.edges import edges_diagram
-    from polywear.studies.global_sensitivity import edges_band
+    from polywear.studies.study_evaluator import edges_band
 
     i, values, params, fast = item
     t0 = time.process_time()
@@ -575,7 +575,7 @@ def _gap_fold_car(item):
     of the edges path with the top fold and of that with the gap fold too [s], what the latter
     differs in from the full continuation and from the edges path with the top fold, and the
     gap fold or why not). The two edges paths run in alternating order (``first``)."""
-    from polywear.studies.global_sensitivity import edges_band
+    from polywear.studies.study_evaluator import edges_band
 
     i, values, params, fast, first, with_full = item
     t0 = time.process_time()

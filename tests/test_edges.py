@@ -14,7 +14,7 @@ from polywear.models import model_for
 from polywear.params import Params, with_updates
 from polywear.solvers.continuation import BranchEnd, continue_from_hopf
 from polywear.studies.edges import edges_diagram, oscillatory_intervals, pd_ns_edges_kmh
-from polywear.studies.global_sensitivity import StudyEvaluator
+from polywear.studies.study_evaluator import StudyEvaluator
 from polywear.units import kmh_to_ms
 
 KEYS = ("tread.lateral_stiffness_n_per_m", "tread.lateral_damping_ns_per_m", "operating.toe_deg",

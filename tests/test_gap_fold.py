@@ -1,6 +1,6 @@
 """The band in the gap between the two intervals of the linear band of a four-Hopf car
 (hard, soft, hard, hard) from the first fold of the third Hopf point's branch followed in the
-parameters (FastBand.gap_fold, global_sensitivity.edges_band(gap_fold=True)) against the full
+parameters (FastBand.gap_fold, study_evaluator.edges_band(gap_fold=True)) against the full
 continuation (benchmarks/bench_fleet.py gap-fold runs it on many cars)."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from polywear.dynamics.bifurcation import bifurcation
 from polywear.params import Params, with_updates
 from polywear.studies.fast_band import (_FIXED_RANGE, GAP_FOLD_CRITICALITY, Fallback, FallbackReason, FastBand,
                                         GapFold, band_reference)
-from polywear.studies.global_sensitivity import StudyEvaluator, edges_band
+from polywear.studies.study_evaluator import StudyEvaluator, edges_band
 
 from .test_top_fold import GAP_AXLE, KEYS, RANGE
 

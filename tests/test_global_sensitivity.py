@@ -15,13 +15,8 @@ from hypothesis import strategies as st
 from scipy.optimize import brentq
 
 from polywear.dynamics.bifurcation import bifurcation
-from polywear.studies.global_sensitivity import (
-    SampleOutcome,
-    SampleStatus,
-    StudyEvaluator,
-    max_stable_amplitude,
-    study,
-)
+from polywear.studies.global_sensitivity import study
+from polywear.studies.study_evaluator import SampleOutcome, SampleStatus, StudyEvaluator, max_stable_amplitude
 from polywear.studies.sampling import sample_params
 from polywear.dynamics.sensitivity import sensitivity
 from polywear.dynamics.stability import fast_linear_band, stability

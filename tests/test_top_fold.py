@@ -1,5 +1,5 @@
 """The top of the SEV band of the studies' edges-only cars from the fold followed in the
-parameters (FastBand.top_fold, global_sensitivity.edges_band) against the full continuation
+parameters (FastBand.top_fold, study_evaluator.edges_band) against the full continuation
 (benchmarks/bench_fleet.py sobol-edges runs it on many four-Hopf cars)."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import pytest
 from polywear.dynamics.bifurcation import bifurcation
 from polywear.params import Params, with_updates
 from polywear.studies.fast_band import _FIXED_RANGE, Fallback, FallbackReason, FastBand, TopFold, band_reference
-from polywear.studies.global_sensitivity import edges_band
+from polywear.studies.study_evaluator import edges_band
 
 KEYS = ("tread.lateral_stiffness_n_per_m", "tread.lateral_damping_ns_per_m", "operating.toe_deg",
         "operating.camber_deg", "friction.mu_static", "tread.mass_kg", "operating.vertical_load_n")
@@ -74,7 +74,7 @@ def test_a_soft_last_hopf_point_has_no_top_fold(nominal):
 
 
 def test_the_study_evaluator_uses_the_top_fold_and_gives_the_edges_paths_outputs(nominal):
-    from polywear.studies.global_sensitivity import StudyEvaluator
+    from polywear.studies.study_evaluator import StudyEvaluator
 
     base, fast = with_updates(Params(), {"model": "axle4dof"}), FastBand((nominal,), RANGE)
     with_top = StudyEvaluator(base, KEYS, "bifurcation", RANGE, fast=fast, edges_only=True, top_fold=True)
