@@ -355,13 +355,16 @@ def test_visible_distance_scales_as_one_over_k_e_where_the_tread_vibrates():
     bounded: measured 1e-4 of the visible distance, 1e-3 of the largest harmonic).
 
     That holds while both take the same steps. The drifting writes move the error estimate
-    a little, so a step whose estimate lies that close to its threshold can be accepted in
-    one run and taken again in the other: at the default tolerance 0.01 one step of 21 is
-    (visible distances 1.8e-3 apart, the step error); at 0.005 none is. So the exact
-    invariance is checked at 0.005, and at the default the two agree to the step error."""
+    and the profile a little, so a step whose estimate lies that close to its threshold can
+    be accepted in one run and taken again in the other, and the window in which the
+    slipping vibration (docs/wear.md, point 10) is first found locked can fall in another
+    step: at 0.005 it did (visible distances 1.3e-3 apart, harmonics 2.3 % of the largest:
+    the lock some 8 km later in one run); at 0.0025 both take the same 39 steps (4.7e-4,
+    1.4e-3; at 0.00125 2.1e-4, 1.3e-3: what is left is the drifting writes). So the exact
+    invariance is checked at 0.0025, and at the default the two agree to the step error."""
     params = Params()
     doubled = with_updates(params, {"wear.energetic_rate_mm3_per_j": 2e-3})
-    for tolerance, bound in ((0.005, 1e-3), (EvolutionSettings().tolerance, 5e-3)):
+    for tolerance, bound in ((0.0025, 1e-3), (EvolutionSettings().tolerance, 5e-3)):
         one = wear_evolution(params, 6000.0, cycle=((120.0, 1.0),),
                              settings=EvolutionSettings(step_km=1000.0, tolerance=tolerance))
         two = wear_evolution(doubled, 3000.0, cycle=((120.0, 1.0),),
@@ -369,7 +372,7 @@ def test_visible_distance_scales_as_one_over_k_e_where_the_tread_vibrates():
         assert one.visible_km is not None and one.locked[-1, 0]
         assert two.visible_km == pytest.approx(0.5 * one.visible_km, rel=bound)
         np.testing.assert_allclose(two.harmonics[-1], one.harmonics[-1], rtol=0, atol=0.01 * np.abs(one.harmonics).max())
-        if tolerance == 0.005:
+        if tolerance == 0.0025:
             assert len(two.distance_km) == len(one.distance_km)
 
 

@@ -24,8 +24,11 @@ from polywear.wear.windows import (
     LONG_WINDOW,
     MAX_WINDOW,
     SEPARATED_BEATS,
+    _dominant_order,
     _separating_window,
     _settle_times,
+    _slipping_order,
+    _tire_phase,
     window_wear,
 )
 
@@ -118,3 +121,24 @@ def test_car_11_evolves_within_the_fleet_budget_and_as_with_windows_twice_as_lon
     np.testing.assert_allclose(fast.harmonics[-1, rest], reference.harmonics[-1, rest], rtol=0, atol=0.02 * top)
     for run in (fast, reference):  # order 8 worn away, to the windows' floor (a few nm)
         assert abs(run.harmonics[-1, 7]) < 0.1 * abs(run.harmonics[0, 7])
+
+
+@pytest.mark.parametrize("period", [-16.0, 12.5, 40.0])
+def test_a_slipping_vibration_is_split_at_its_mean_order(period):
+    """A vibration just outside its locking range dwells near one phase and slips by a
+    period every |T| revolutions (axle4dof at 120 km/h on the default cycle, T ~ -16): its
+    strongest spectral line is the dwell's, at the integer order m, so the spectrum alone
+    takes it for locked; its mean order is m + 1/T, which the phase's slope recovers."""
+    m, per_rev, M = 8, 256, 96
+    k = np.arange(M * per_rev + 1) / per_rev  # revolutions
+    angle = 0.7 + 2 * np.pi * k
+    x = k / abs(period)
+    slip = math.copysign(1.0, period) * (0.5 + np.arctan(np.tan(np.pi * (x - 0.5)) / 8.0) / np.pi + np.floor(x))
+    signal = 0.2 * np.cos(m * angle + 2 * np.pi * slip) + 1e-3 * np.cos(3 * angle)
+    t = k * 0.05  # [s], 0.05 s per revolution
+    nu = _dominant_order(t, signal, 1.0 / 0.05)
+    assert abs(nu - m) * M < 1.0  # the dwell's line, within a bin of m
+    mean = _slipping_order(_tire_phase(signal, angle, m, per_rev, M), m, nu)
+    assert mean - m == pytest.approx(1.0 / period, rel=0.03)
+    drift = 0.2 * np.cos(m * angle + 2 * np.pi * 0.005 * k)  # turns by half a period: not slipping
+    assert _slipping_order(_tire_phase(drift, angle, m, per_rev, M), m, 8.005) == 8.005

@@ -9,6 +9,8 @@ with the known ratios ``r_j = exp(+-2 pi i j nu)`` into ``D_k = S + sum_j C_j r_
 (:func:`_split`): S is written in the same place every revolution, the C_j drift
 (``docs/wear.md``). A vibration is locked when its order is an integer to within
 ``LOCK_TOLERANCE`` or when its phase relative to the tire settles (``SETTLED_PHASE``).
+Where the phase slips by whole periods while the strongest line sits at the integer
+order, the order is the mean one (:func:`_slipping_order`).
 
 The profile's load is tabulated over the contact angle (:func:`table_points` points,
 :func:`~polywear.models.profile.profile_vector`) instead of summed over all harmonics in
@@ -241,9 +243,12 @@ def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float,
     # the phase per revolution is followed without aliasing while it turns by less than 1/4 cycle;
     # a window longer than MAX_WINDOW (LONG_WINDOW) over which the line turns by less than
     # SETTLED_PHASE is as settled as a shorter window's phase is required to be
+    phase = _tire_phase(xdot, u[:, -1], round(nu), per_rev, revolutions) if vibrating and eps[0] < 0.25 else None
     locked = vibrating and (eps[0] < LOCK_TOLERANCE or (revolutions > MAX_WINDOW and eps[0] * revolutions < SETTLED_PHASE)
-                            or (eps[0] < 0.25 and _remaining_drift(_tire_phase(xdot, u[:, -1], round(nu), per_rev,
-                                                                                revolutions)) < SETTLED_PHASE))
+                            or (phase is not None and _remaining_drift(phase) < SETTLED_PHASE))
+    if phase is not None and not locked and eps[0] * revolutions < 1.0:
+        nu = _slipping_order(phase, round(nu), nu)
+        eps = _detuning(nu)
     if locked:  # everything the window writes is written in the same place every revolution
         eps = [0.0] * SIDEBANDS
     if max_revolutions is not None and vibrating and not locked and revolutions <= max_revolutions:
@@ -291,6 +296,22 @@ def _tire_phase(signal, angle, order: int, per_rev: int, revolutions: int) -> np
     eps per revolution where it drifts."""
     rot = signal[: revolutions * per_rev] * np.exp(-1j * order * angle[: revolutions * per_rev])
     return np.unwrap(np.angle(rot.reshape(revolutions, per_rev).sum(axis=1))) / (2.0 * math.pi)
+
+
+def _slipping_order(phase: np.ndarray, m: int, nu: float) -> float:
+    """The vibration's mean order where its phase relative to the tire turns by at least a
+    period against the integer order ``m`` over the window while its strongest line lies
+    within a bin of ``m`` (else ``nu``): ``m`` plus the least-squares slope of the phase
+    [cycles per revolution]. A vibration just outside its locking range dwells near one
+    phase and slips by a period now and then (axle4dof at 120 km/h on the default cycle:
+    about once every 16 revolutions); its spectrum is a comb at ``m + k/T`` whose strongest
+    line is the dwell's, at ``m``, and not the mean frequency ``m + 1/T``. Split with the
+    mean order, the dwell's write is the coherent one and the comb's lines k = +-1, +-2
+    the drifting ones. A slip faster than half a period per revolution is not followed
+    (the per-revolution phase aliases); such a window keeps ``nu``."""
+    k = np.arange(phase.size)
+    slope = float(np.polyfit(k, phase, 1)[0])
+    return m + slope if abs(slope) * phase.size >= 1.0 else nu
 
 
 def _remaining_drift(phase: np.ndarray) -> float:
