@@ -30,7 +30,7 @@ def test_pinned_step_against_an_ode_solver(W, x, c):
         return [d.real, d.imag]
 
     ref = solve_ivp(rhs, (0.0, 1.0), [W.real, W.imag], rtol=1e-12, atol=1e-14).y[:, -1]
-    assert _pinned(W, x, c) == pytest.approx(ref[0] + 1j * ref[1], abs=1e-10)
+    assert _pinned(W, x, c)[0] == pytest.approx(ref[0] + 1j * ref[1], abs=1e-10)
 
 
 def test_pinned_write_that_erases_the_harmonic_is_added_instead():
@@ -101,3 +101,26 @@ def test_continued_leaves_an_unlocked_window_alone(locked_at_120):
     steady = window_wear(params, float(kmh_to_ms(50.0)), W, win.end_state, nxt, 3)
     assert not math.isfinite(steady.order)
     assert np.array_equal(continued(win.end_state, steady, 2.0 * W), win.end_state)
+
+
+@pytest.mark.parametrize("x_n", [-0.2 + 0.5j, 0j, 1.5 - 0.3j])
+def test_write_at_a_multiple_of_the_locking_order_turns_with_the_locked_harmonic(x_n):
+    """A vibration locked at order m moves with the phase of W_m, so its write at order 2m
+    turns twice as fast as W_m: dW_2m/ds = x W_2m + t (W_m/|W_m|)^2. Where W_m turns
+    uniformly (its pinned write across it), the update is exact: against scipy's RK45."""
+    W = np.array([0.3 + 0.1j, 1.0 + 0.4j, 0.2 - 0.1j, 0.05 + 0.02j])  # orders 1..4, locked at 2
+    x = np.array([0.1j, 0j, -0.1 + 0j, x_n])
+    pinned = np.array([0j, 0.8j, 0j, 0j])  # across W_2: W_2 turns by 0.8/|W_2| rad, its size kept
+    turning = np.array([0j, 0j, 0j, 0.03 - 0.02j])
+    forcing = np.array([0.01 + 0j, 0j, 0j, 0.004j])
+
+    def rhs(_, y):
+        w = y[:4] + 1j * y[4:]
+        d = x * w + forcing
+        d[1] += pinned[1] * w[1] / abs(w[1])
+        d[3] += turning[3] * (w[1] / abs(w[1])) ** 2
+        return np.concatenate([d.real, d.imag])
+
+    ref = solve_ivp(rhs, (0.0, 1.0), np.concatenate([W.real, W.imag]), rtol=1e-12, atol=1e-14).y[:, -1]
+    out, _ = _update(W, x, forcing, pinned, turning)
+    np.testing.assert_allclose(out, ref[:4] + 1j * ref[4:], rtol=0, atol=1e-10)

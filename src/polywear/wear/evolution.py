@@ -28,7 +28,8 @@ Fast dynamics and slow wear alternate (``docs/wear.md``). For a distance step ``
    ``W`` to first order, except at its locking order m, where it keeps its phase to W_m and
    its write ``c W_m/|W_m|`` turns with W_m (a pattern worn across W_m travels around the
    tire; the next window starts the vibration at its phase to the turned W_m,
-   :func:`~.windows.continued`). ``dW/dN = a W + b (+ c W/|W|)`` is integrated exactly over the step
+   :func:`~.windows.continued`), and at its multiples j m, where its write turns j times as
+   fast (:func:`_turning_orders`). ``dW/dN = a W + b (+ c W/|W|)`` is integrated exactly over the step
    (:func:`_update`; harmonics below ``1e-6`` of the profile's RMS, or an exponent above
    ``MAX_EXPONENT`` in a step, take the additive form). A step is a predictor-corrector
    pair (:func:`_predict`, :func:`_step`): the writes at its start give the predicted
@@ -127,17 +128,25 @@ _NODES, _WEIGHTS = 0.5 * (_GAUSS[0] + 1.0), 0.5 * _GAUSS[1]
 """16-point Gauss-Legendre nodes and weights on [0, 1] for the turn of a pinned harmonic (:func:`_pinned`)."""
 
 
-def _update(W: np.ndarray, x: np.ndarray, forcing: np.ndarray,
-            pinned: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def _update(W: np.ndarray, x: np.ndarray, forcing: np.ndarray, pinned: np.ndarray | None = None,
+            turning: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """W after a step (see module notes) and the part of the change that was added rather
     than integrated exactly. ``x``: exponents ``a N`` of the writes proportional to W (the
     speeds not locked); ``forcing``: writes ``b N`` [m] that do not depend on W (the locked
     speeds'); ``pinned``: writes ``c N`` [m] of locked vibrations at their locking order,
-    whose direction keeps to that of W there (``dW/dN = c W/|W|``, :func:`_pinned`).
+    whose direction keeps to that of W there (``dW/dN = c W/|W|``, :func:`_pinned`);
+    ``turning``: their writes ``t N`` [m] at the multiples j m of that order, relative to
+    the direction of W_m to the power j (:func:`_turning_orders`): they turn j times as fast
+    as W_m, whose turn over the step is taken as uniform.
     dW/dN = a W + b is integrated exactly, ``W e^x + forcing (e^x - 1)/x``."""
     rms = math.sqrt(0.5 * float(np.sum(np.abs(W) ** 2)))
     pinned = np.zeros_like(W) if pinned is None else pinned
+    turning = np.zeros_like(W) if turning is None else turning
     along = pinned * np.exp(1j * np.angle(W))  # the pinned writes in the direction of W
+    multiples = _turning_orders(pinned)
+    forcing = forcing.copy()
+    for n, (m, j) in multiples.items():  # at the start of the step, in the direction of W_m^j
+        forcing[n] += turning[n] * np.exp(1j * j * np.angle(W[m]))
     out = W + x * W + forcing + along
     added = out - W
     big = np.abs(W) > 1e-6 * rms
@@ -147,19 +156,52 @@ def _update(W: np.ndarray, x: np.ndarray, forcing: np.ndarray,
     phi = np.where(small, 1.0, (growth - 1.0) / np.where(small, 1.0, x[ok]))  # (e^x - 1)/x
     out[ok] = W[ok] * growth + forcing[ok] * phi + along[ok]
     added[ok] = forcing[ok] * phi + along[ok]
+    turns = {}
     for n in np.flatnonzero(ok & (pinned != 0)):
-        turned = _pinned(W[n], x[n], pinned[n])
-        if turned is not None:  # else the pinned write all but erases W_n: added
+        pinned_end = _pinned(W[n], x[n], pinned[n])
+        if pinned_end is not None:  # else the pinned write all but erases W_n: added
+            turned, turns[n] = pinned_end
             out[n] += turned - W[n] * np.exp(x[n]) - along[n]
             added[n] -= along[n]
+    for n, (m, j) in multiples.items():
+        if not ok[n] or m not in turns or turning[n] == 0:
+            continue
+        # dW_n/ds = x_n W_n + f e^(i j turn s): W_n e^x + f e^x phi(i j turn - x), phi(z) = (e^z - 1)/z
+        start = turning[n] * np.exp(1j * j * np.angle(W[m]))
+        fixed = start * _phi(x[n])
+        out[n] += start * np.exp(x[n]) * _phi(1j * j * turns[m] - x[n]) - fixed
+        added[n] -= fixed
     return out, added
 
 
-def _pinned(W: complex, x: complex, c: complex) -> complex | None:
-    """``W`` after a step of ``dW/ds = x W + c W/|W|``, s in [0, 1]: in polar form
-    ``rho' = Re(x) rho + Re(c)`` (exact: ``rho0 e^(ks) + Re(c) (e^(ks) - 1)/k``, k = Re x) and
-    ``alpha' = Im(x) + Im(c)/rho`` (16-point Gauss-Legendre over the step, rho smooth and
-    monotone). None where rho falls below a tenth of its start (the write erases W)."""
+def _phi(z: complex) -> complex:
+    """``(e^z - 1)/z`` (1 at z = 0)."""
+    return 1.0 if abs(z) < 1e-12 else complex(np.expm1(z) / z)
+
+
+def _turning_orders(pinned: np.ndarray) -> dict[int, tuple[int, int]]:
+    """Harmonic index n -> (m, j) for the multiples n + 1 = j (m + 1), j >= 2, of the locking
+    orders (indices m where ``pinned`` is not zero), the smallest locking order first; a
+    multiple that is itself a locking order, or already taken, is left out. A vibration
+    locked at order m is periodic in 1/m of a revolution, so what it writes by itself lies
+    on these harmonics, and it moves with its phase, which keeps to W_m: its write at
+    j m turns j times as fast as W_m (docs/wear.md, point 11)."""
+    K = pinned.size
+    locking = [int(m) for m in np.flatnonzero(pinned)]
+    out: dict[int, tuple[int, int]] = {}
+    for m in locking:
+        for j in range(2, K // (m + 1) + 1):
+            n = j * (m + 1) - 1
+            if n not in out and n not in locking:
+                out[n] = (m, j)
+    return out
+
+
+def _pinned(W: complex, x: complex, c: complex) -> tuple[complex, float] | None:
+    """``W`` after a step of ``dW/ds = x W + c W/|W|``, s in [0, 1], and its turn [rad]: in
+    polar form ``rho' = Re(x) rho + Re(c)`` (exact: ``rho0 e^(ks) + Re(c) (e^(ks) - 1)/k``,
+    k = Re x) and ``alpha' = Im(x) + Im(c)/rho`` (16-point Gauss-Legendre over the step, rho
+    smooth and monotone). None where rho falls below a tenth of its start (the write erases W)."""
     rho0, k = abs(W), x.real
     grow = np.exp(k * _NODES)
     rho = rho0 * grow + c.real * (_NODES if abs(k) < 1e-12 else (grow - 1.0) / k)
@@ -167,7 +209,7 @@ def _pinned(W: complex, x: complex, c: complex) -> complex | None:
     if end <= 0.1 * rho0 or float(np.min(rho)) <= 0.1 * rho0:
         return None
     turn = x.imag + c.imag * float(np.sum(_WEIGHTS / rho))
-    return end * np.exp(1j * (np.angle(W) + turn))
+    return end * np.exp(1j * (np.angle(W) + turn)), turn
 
 
 def peak_to_valley(W: np.ndarray, points: int) -> float:
@@ -591,15 +633,19 @@ def _exponents(win: WindowWear) -> np.ndarray:
     return np.where(win.profile != 0, win.coherent / np.where(win.profile != 0, win.profile, 1), 0)
 
 
-def _rates(wins, n_revs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Coherent writes of a step's windows as ``dW/dstep = x W + b + c W/|W|``: ``x`` (K,) the
-    summed exponents ``N S_n / W_n`` of the speeds not locked (their write is proportional to
-    the profile they ran with); ``c`` (K,) [m] at the locking order m = round(nu) of a locked
-    speed its write ``N S_m`` turned into the direction of W_m (the locked vibration keeps its
-    phase to W_m, so its write there turns with W_m: a pattern worn across W_m travels around
-    the tire, :func:`_locking_index`); ``b`` (K,) [m] the other writes ``N S`` of the locked ones."""
+def _rates(wins, n_revs, turning: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Coherent writes of a step's windows as ``dW/dstep = x W + b + c W/|W| + t (W_m/|W_m|)^j``:
+    ``x`` (K,) the summed exponents ``N S_n / W_n`` of the speeds not locked (their write is
+    proportional to the profile they ran with); ``c`` (K,) [m] at the locking order m =
+    round(nu) of a locked speed its write ``N S_m`` turned into the direction of W_m (the
+    locked vibration keeps its phase to W_m, so its write there turns with W_m: a pattern
+    worn across W_m travels around the tire, :func:`_locking_index`); ``t`` (K,) [m] its
+    writes at the multiples j m, relative to the direction of W_m to the power j
+    (:func:`_turning_orders`; with ``turning`` False they stay in ``b``); ``b`` (K,) [m]
+    the other writes ``N S`` of the locked ones."""
     K = wins[0].coherent.size
-    x, b, c = np.zeros(K, dtype=complex), np.zeros(K, dtype=complex), np.zeros(K, dtype=complex)
+    x, b, c, t = (np.zeros(K, dtype=complex) for _ in range(4))
+    locked = []
     for n, w in zip(n_revs, wins):
         if _unlocked(w):
             x = x + n * _exponents(w)
@@ -609,7 +655,14 @@ def _rates(wins, n_revs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if m is not None:
             c[m] += n * w.coherent[m] * np.exp(-1j * np.angle(w.profile[m]))
             b[m] -= n * w.coherent[m]
-    return x, b, c
+            locked.append((n, w, m))
+    if turning:
+        for k, (m, j) in _turning_orders(c).items():
+            for n, w, m_w in locked:
+                if m_w == m:
+                    t[k] += n * w.coherent[k] * np.exp(-1j * j * np.angle(w.profile[m]))
+                    b[k] -= n * w.coherent[k]
+    return x, b, c, t
 
 
 def _locking_index(win: WindowWear) -> int | None:
@@ -644,5 +697,7 @@ def _step(W, wins, n_revs, ends, W_pred):
     """Profile after the step with the mean of the writes at its start (``wins``, at W) and at
     its end (``ends``, run at the predicted ``W_pred``): the trapezoid rule, second order."""
     start, end = _rates(wins, n_revs), _rates(ends, n_revs)
+    if not np.array_equal(start[2] != 0, end[2] != 0):  # locked at other orders at its two ends
+        start, end = _rates(wins, n_revs, turning=False), _rates(ends, n_revs, turning=False)
     drifting_total = sum(w.written(n) - n * w.coherent for n, w in zip(n_revs, wins))
     return _update(W, *(0.5 * (a + z) for a, z in zip(start, end)))[0] + drifting_total
