@@ -13,13 +13,8 @@ from polywear.models import get_model
 from polywear.models.profile import coupled_model, profile_vector
 from polywear.params import Params, with_updates
 from polywear.units import kmh_to_ms
-from polywear.wear.evolution import (
-    MAX_EXPONENT,
-    EvolutionSettings,
-    _update,
-    initial_roughness,
-    wear_evolution,
-)
+from polywear.wear.evolution import EvolutionSettings, initial_roughness, wear_evolution
+from polywear.wear.step import MAX_EXPONENT, update_profile
 from polywear.wear.windows import (
     LONG_WINDOW,
     MAX_WINDOW,
@@ -55,7 +50,7 @@ def test_a_decaying_harmonic_is_integrated_exactly_at_any_exponent():
     W = np.array([1.0 + 0.5j, 2.0 + 0j, 0.3 - 0.1j])
     x = np.array([-10.0 + 4.0j, 0.1j, 10.0 + 0j])
     b = np.array([0.2 - 0.1j, 0j, 0j])
-    out, added = _update(W, x, b)
+    out, added = update_profile(W, x, b)
     assert -x[0].real > MAX_EXPONENT
     exact = W[0] * np.exp(x[0]) + b[0] * np.expm1(x[0]) / x[0]
     assert out[0] == pytest.approx(exact, abs=1e-15) and added[0] == pytest.approx(b[0] * np.expm1(x[0]) / x[0])

@@ -1,5 +1,5 @@
-"""A locked vibration keeps its phase to the profile's harmonic at its order (wear/evolution.py
-``_rates``/``_pinned``, wear/windows.py ``continued``): its write there turns with that
+"""A locked vibration keeps its phase to the profile's harmonic at its order (wear/step.py
+``step_rates``/``pinned_step``, wear/windows.py ``continued``): its write there turns with that
 harmonic, so a pattern worn across it travels around the tire; the update integrates that
 exactly, and the next window starts at the vibration's phase to the turned harmonic."""
 
@@ -15,7 +15,8 @@ from polywear.models import model_for
 from polywear.models.profile import coupled_model, profile_vector
 from polywear.params import Params
 from polywear.units import kmh_to_ms
-from polywear.wear.evolution import _pinned, _update, initial_roughness
+from polywear.wear.evolution import initial_roughness
+from polywear.wear.step import pinned_step, update_profile
 from polywear.wear.windows import _settle_times, continued, window_wear
 
 
@@ -30,14 +31,14 @@ def test_pinned_step_against_an_ode_solver(W, x, c):
         return [d.real, d.imag]
 
     ref = solve_ivp(rhs, (0.0, 1.0), [W.real, W.imag], rtol=1e-12, atol=1e-14).y[:, -1]
-    assert _pinned(W, x, c)[0] == pytest.approx(ref[0] + 1j * ref[1], abs=1e-10)
+    assert pinned_step(W, x, c)[0] == pytest.approx(ref[0] + 1j * ref[1], abs=1e-10)
 
 
 def test_pinned_write_that_erases_the_harmonic_is_added_instead():
     """A write against W larger than W itself has no polar solution over the step: added."""
-    assert _pinned(1.0 + 0j, 0j, -2.0 + 0j) is None
+    assert pinned_step(1.0 + 0j, 0j, -2.0 + 0j) is None
     W = np.array([1.0 + 0j, 0.5 + 0j])
-    out, added = _update(W, np.zeros(2, dtype=complex), np.zeros(2, dtype=complex), np.array([-2.0, 0.0j]))
+    out, added = update_profile(W, np.zeros(2, dtype=complex), np.zeros(2, dtype=complex), np.array([-2.0, 0.0j]))
     assert out[0] == pytest.approx(-1.0) and added[0] == pytest.approx(-2.0) and out[1] == W[1]
 
 
@@ -122,5 +123,5 @@ def test_write_at_a_multiple_of_the_locking_order_turns_with_the_locked_harmonic
         return np.concatenate([d.real, d.imag])
 
     ref = solve_ivp(rhs, (0.0, 1.0), np.concatenate([W.real, W.imag]), rtol=1e-12, atol=1e-14).y[:, -1]
-    out, _ = _update(W, x, forcing, pinned, turning)
+    out, _ = update_profile(W, x, forcing, pinned, turning)
     np.testing.assert_allclose(out, ref[:4] + 1j * ref[4:], rtol=0, atol=1e-10)
