@@ -300,9 +300,9 @@ def _tire_phase(signal, angle, order: int, per_rev: int, revolutions: int) -> np
 
 def _slipping_order(phase: np.ndarray, m: int, nu: float) -> float:
     """The vibration's mean order where its phase relative to the tire turns by at least a
-    period against the integer order ``m`` over the window while its strongest line lies
-    within a bin of ``m`` (else ``nu``): ``m`` plus the least-squares slope of the phase
-    [cycles per revolution]. A vibration just outside its locking range dwells near one
+    period against the integer order ``m`` over the window (else ``nu``): ``m`` plus the
+    least-squares slope of the phase [cycles per revolution]; asked where the strongest
+    line lies within a bin of ``m`` (``eps M < 1``). A vibration just outside its locking range dwells near one
     phase and slips by a period now and then (axle4dof at 120 km/h on the default cycle:
     about once every 16 revolutions); its spectrum is a comb at ``m + k/T`` whose strongest
     line is the dwell's, at ``m``, and not the mean frequency ``m + 1/T``. Split with the
