@@ -137,3 +137,39 @@ def test_a_slipping_vibration_is_split_at_its_mean_order(period):
     assert mean - m == pytest.approx(1.0 / period, rel=0.03)
     drift = 0.2 * np.cos(m * angle + 2 * np.pi * 0.005 * k)  # turns by half a period: not slipping
     assert _slipping_order(_tire_phase(drift, angle, m, per_rev, M), m, 8.005) == 8.005
+
+
+CAR_23 = {"operating.toe_deg": 0.488167, "operating.vertical_load_n": 4000.0,
+          "tread.lateral_damping_ns_per_m": 80.9143, "friction.mu_static": 0.914003, "tread.mass_kg": 1.01965,
+          "tread.lateral_stiffness_n_per_m": 1059174.0, "operating.camber_deg": -0.958167}
+"""Car 23 of ``benchmarks/bench_fleet_wear.py sample --samples 40``: at 110 km/h it vibrates at
+order 8.670, whose third line lies 0.010 off order 26."""
+
+
+def test_a_third_line_near_an_integer_order_is_resolved_by_a_longer_window():
+    """A line j = 3 that turns by less than RESOLVABLE of a period over the window cannot be
+    fitted and scatters the coherent write at its order from window to window; the window
+    is lengthened until it turns that far (up to MAX_WINDOW); slower or locked lines are
+    left as they were."""
+    from polywear.wear.windows import RESOLVABLE, _resolving_window
+
+    assert _resolving_window(8.670052) == math.ceil(RESOLVABLE / abs(3 * 8.670052 - 26))  # 25 revolutions
+    assert _resolving_window(8.6) == math.ceil(RESOLVABLE / 0.2)  # resolved within the 16-revolution window anyway
+    assert _resolving_window(26.001 / 3) == 0  # 0.001 off: too slow for 64 revolutions, left coherent
+    assert _resolving_window(9.0) == 0  # locked
+
+
+@pytest.mark.slow
+def test_fleet_car_23_evolves_to_the_end_and_agrees_with_tighter_steps():
+    """Fleet car 23 stopped at the fleet's step budget (208 steps) at 31 202 km, the steps held
+    at ~150 km by the third line's scatter at order 26. With its windows long enough to fit
+    that line it evolves 60 000 km in a few dozen steps, and its visible distance and depth
+    agree with a run at a quarter of the step tolerance within 1 %."""
+    params = with_updates(Params(), CAR_23)
+    cycle = ((110.0, 0.6), (130.0, 0.4))
+    default = wear_evolution(params, 60000.0, cycle=cycle, settings=EvolutionSettings(max_steps=200))
+    tight = wear_evolution(params, 60000.0, cycle=cycle, settings=EvolutionSettings(tolerance=0.0025, step_km=500.0))
+    assert default.visible_km is not None and len(default.distance_km) < 80
+    assert default.visible_km == pytest.approx(tight.visible_km, rel=0.01)
+    assert default.depth_mm[-1] == pytest.approx(tight.depth_mm[-1], rel=0.01)
+    assert default.dominant_order[-1] == tight.dominant_order[-1]

@@ -70,8 +70,8 @@ from ..units import kmh_to_ms
 from .law import energetic_rate, profile_samples
 from .start import start_states
 from .step import corrected, predict, step_error
-from .windows import (LOCK_TOLERANCE, MAX_WINDOW, SETTLED_PHASE, WindowWear, _detuning, _separating_window,
-                      _settle_times, coherence, continued, window_wear)
+from .windows import (LOCK_TOLERANCE, MAX_WINDOW, SETTLED_PHASE, WindowWear, _detuning, _resolving_window,
+                      _separating_window, _settle_times, coherence, continued, window_wear)
 
 __all__ = ["WindowWear", "window_wear", "EvolutionResult", "EvolutionSettings", "wear_evolution", "initial_roughness",
            "coherence", "StepBudgetError", "step_budget",
@@ -440,7 +440,8 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
                 continue
             win = simulated[j]
             if math.isfinite(win.order):  # the next window at this speed starts long enough
-                drifting = 0 if win.locked else _separating_window(_detuning(win.order), longest)
+                drifting = 0 if win.locked else max(_separating_window(_detuning(win.order), longest),
+                                                     _resolving_window(win.order, longest))
                 windows[j] = max(shortest[j], drifting)
             settles[j][0] = settles[j][1]
             states[j] = win.end_state
