@@ -95,6 +95,8 @@ def main() -> None:
             W = initial_roughness(p_k)
             u0 = coupled.equilibrium(V, profile_vector(base, p_k, V))
             revs = 16 if v_kmh == 120.0 else 3
+            window_wear(p_k, V, W, u0, 0.2, revs, base)  # warm: numba compiles a kernel on its first call
+            baseline.window_wear(p_k, V, W, u0, 0.2, revs, base)
             t_win, _ = best_of(args.repeat, lambda: window_wear(p_k, V, W, u0, 0.2, revs, base))
             t_old, _ = best_of(args.repeat, lambda: baseline.window_wear(p_k, V, W, u0, 0.2, revs, base))
             T = 2 * math.pi * params.operating.rolling_radius_m / V
