@@ -18,7 +18,7 @@ caches); wall times do, so the load average is printed.
 
 ``full``: the whole fleet on ``--workers`` local processes (batches of 4 cars, so a slow
 car does not hold back a long batch): wall time and CPU (this process and the pool's
-workers).
+workers), and the cars over the step budget with their parameters.
 """
 
 from __future__ import annotations
@@ -93,6 +93,10 @@ def full(n: int, wear_km: float, workers: int) -> None:
           f"wear risk {s['wear_risk_probability']:.3f} {s['wear_risk_ci']} over {s['wear_n_evaluated']} cars, "
           f"over the step budget {s['wear_over_budget']}, failed {s['failed_samples']}; most dangerous order "
           f"{s['wear_most_dangerous_order']}, band risk {s['risk_probability']:.3f}")
+    for i, outcome in enumerate(result.outcomes):
+        if outcome.wear:
+            print(f"  car {i} over the budget: {outcome.wear}; "
+                  + ", ".join(f"{k} = {v:.6g}" for k, v in zip(result.keys, result.samples[i])))
 
 
 def main() -> None:
