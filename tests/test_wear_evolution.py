@@ -198,17 +198,17 @@ def halved_vibrating_runs():
     before 5500 km) over 6000 km, when the polygon has grown twentyfold: the default settings,
     then every step halved (the first step, the limit MAX_CHANGE on the change per step, and
     the tolerance of the error estimate over four: the estimate goes as the step squared)."""
-    import polywear.wear.evolution as we
+    import polywear.wear.step as step
 
     params = Params()
     coarse = wear_evolution(params, 6000.0, cycle=((120.0, 1.0),), settings=EvolutionSettings(step_km=1000.0))
-    default = we.MAX_CHANGE
+    default = step.MAX_CHANGE
     try:
-        we.MAX_CHANGE = 0.5 * default
+        step.MAX_CHANGE = 0.5 * default
         fine = wear_evolution(params, 6000.0, cycle=((120.0, 1.0),),
                       settings=EvolutionSettings(step_km=500.0, tolerance=0.25 * EvolutionSettings().tolerance))
     finally:
-        we.MAX_CHANGE = default
+        step.MAX_CHANGE = default
     return coarse, fine
 
 

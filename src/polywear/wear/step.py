@@ -37,7 +37,7 @@ _NODES, _WEIGHTS = 0.5 * (_GAUSS[0] + 1.0), 0.5 * _GAUSS[1]
 
 
 def update_profile(W: np.ndarray, x: np.ndarray, forcing: np.ndarray, pinned: np.ndarray | None = None,
-            turning: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                   turning: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """W after a step (see module notes) and the part of the change that was added rather
     than integrated exactly. ``x``: exponents ``a N`` of the writes proportional to W (the
     speeds not locked); ``forcing``: writes ``b N`` [m] that do not depend on W (the locked
