@@ -60,13 +60,17 @@ def _run(args: list[str], note: str = "") -> tuple[int, str, str]:
     import signal
     import time
 
+    message = (f"over {CALL_CPU_S:g} s CPU or {WALL_PER_CPU * CALL_CPU_S:g} s wall: "
+               f"polywear {' '.join(args)} {note}")
+    fired = []
+
     def stop(signum, frame):
         # armed again: a raise that lands where Python only prints it (a garbage-collection
         # callback, a __del__) is swallowed there; the next one lands in the call
+        fired.append(signum)
         signal.setitimer(signal.ITIMER_PROF, 0.05)
         signal.setitimer(signal.ITIMER_REAL, 0.5)
-        raise CallTooSlow(f"over {CALL_CPU_S:g} s CPU or {WALL_PER_CPU * CALL_CPU_S:g} s wall: "
-                          f"polywear {' '.join(args)} {note}")
+        raise CallTooSlow(message)
 
     previous = {s: signal.signal(s, stop) for s in (signal.SIGPROF, signal.SIGALRM)}
     start = time.process_time()
@@ -74,6 +78,14 @@ def _run(args: list[str], note: str = "") -> tuple[int, str, str]:
     signal.setitimer(signal.ITIMER_REAL, WALL_PER_CPU * CALL_CPU_S)
     try:
         return run_main(args)
+    except Exception as error:
+        if fired:
+            # the stop landed in compiled code that turned it into another error (seen once in
+            # CI: numba's unboxing of a first-class function builds `sig` by unpickling and calls
+            # _get_wrapper_address(func, sig) without checking it; a pending stop leaves it NULL,
+            # which Python reads as a missing argument: "TypeError: ... missing ... 'sig'")
+            raise CallTooSlow(message) from error
+        raise
     finally:
         signal.setitimer(signal.ITIMER_PROF, 0.0)
         signal.setitimer(signal.ITIMER_REAL, 0.0)
