@@ -357,7 +357,7 @@ def test_impossible_numbers_are_one_line_exit_2(args, fragment):
 
 def test_same_speed_limit_from_an_option_and_from_the_config(tmp_path):
     from polywear.cli.common import MAX_SPEED_KMH
-    from polywear.params import MAX_SPEED_KMH as PARAMS_MAX_SPEED_KMH
+    from polywear.params.tables import MAX_SPEED_KMH as PARAMS_MAX_SPEED_KMH
 
     assert MAX_SPEED_KMH == PARAMS_MAX_SPEED_KMH
     over = f"{MAX_SPEED_KMH * 1.001:g}"

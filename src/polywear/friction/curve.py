@@ -12,7 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from ..params import Friction, _toml_value
+from ..params import Friction
+from ..params.files import _toml_value
 from ..physics.lugre import steady_friction, steady_friction_slope
 from ..results import Result
 
