@@ -236,19 +236,30 @@ def evolve_(
             raise UserError(f"--polar-km {polar_km!r}: distances must lie in [0, --distance-km]")
     params = inputs.load()
     pairs = ((float(speed), 1.0),) if speed is not None else (parse_cycle(cycle) if cycle else None)
-    from ..wear.evolution import EvolutionSettings, wear_evolution
+    from ..wear.evolution import EvolutionSettings, StepBudgetError, wear_evolution
 
+    stopped = None
     with (
         outputs.progress("wear evolve [km]") as update,
         user_errors(ValueError, RuntimeError, ArithmeticError, prefix="wear evolve: "),
     ):
-        result = wear_evolution(params, distance_km, pairs, EvolutionSettings(step_km=step_km, revolutions=revolutions),
-                        progress=update, workers=workers, start=start)
+        try:
+            result = wear_evolution(params, distance_km, pairs,
+                                    EvolutionSettings(step_km=step_km, revolutions=revolutions),
+                                    progress=update, workers=workers, start=start)
+        except StepBudgetError as exc:  # what was evolved is kept: written, then the error
+            if exc.partial is None:
+                raise
+            result, stopped = exc.partial, exc
+    if chosen is not None and stopped is not None:
+        chosen = [v for v in chosen if v <= stopped.done_km] or None
     outputs.write(result.save, lambda: one_axes(result.plot, (8, 4.5)))
     if polar:
         write_figure(polar, lambda: _polar_figure(result, chosen), quiet)
     if waterfall:
         write_figure(waterfall, lambda: one_axes(result.plot_waterfall, (8, 4.5)), quiet)
+    if stopped is not None:
+        raise UserError(f"wear evolve: {stopped} (the evolution up to {stopped.done_km:,.0f} km is written)")
     outputs.show(result.summary(), _print_evolution)
 
 

@@ -417,7 +417,7 @@ def report(
     if wear_design_by_evolution is None:
         wear_design_by_evolution = params.model in WEAR_DESIGN_BY_DEFAULT
     worn = dict(wear.evolutions).get("drive cycle")
-    if (wear_design_by_evolution and worn is not None and worn.visible_km is not None
+    if (wear_design_by_evolution and worn is not None and worn.complete and worn.visible_km is not None
             and not cycle_growth(params)[2]):  # vibrates on the cycle and wears a visible polygon
         say("what stops the polygon: the least change judged by the evolution")
         search = WearDesignSettings(judge=Judge.EVOLUTION, least_only=True, max_undecided=1)  # the least, in budget

@@ -199,9 +199,11 @@ def verdict(summary: dict, params: Params, vibration: str, cornering: tuple[floa
     visible = [ev for ev in evs.values() if ev["visible_km"] is not None]
     first = min(visible, key=lambda ev: ev["visible_km"]) if visible else None
     pc = _check(params, cornering)
+    stopped = [ev["distance_km"] for ev in evs.values() if not ev.get("complete", True)]
     out = {"contact": params.friction.contact, "vibrates": vibrates, "polygon_visible": bool(visible) if evs else None,
            "dominant_order": first["dominant_order"] if first else None,
            "visible_km": {label: ev["visible_km"] for label, ev in evs.items()},
+           "wear_stopped_km": min(stopped) if stopped else None,
            "source": None, "point_contact": pc}
     lines = [vibration]
     if first is not None:
@@ -223,7 +225,9 @@ def verdict(summary: dict, params: Params, vibration: str, cornering: tuple[floa
             cause = f"from a forced resonance of the tread at order {n}{where}, while steady rolling is stable"
         lines.append(f"The tire wears into a polygon, {cause}. " + " ".join(wear["headline"]))
     elif evs:
-        lines.append("The tire does not wear into a visible polygon. " + " ".join(wear["headline"]))
+        lines.append(("The tire does not wear into a visible polygon. " if not stopped else
+                      f"The tire does not wear into a visible polygon within {min(stopped):,.0f} km; beyond, the wear "
+                      "is not judged (an evolution stopped at its step budget). ") + " ".join(wear["headline"]))
     else:
         lines.append("Wear evolution not run (--wear-km 0 or wear.report_km = 0): the wear map alone, "
                      + " ".join(wear["sentences"]))
@@ -380,6 +384,9 @@ def glance(summary: dict, judged: dict, params: Params) -> list[str]:
     elif unjudged:
         lines = [f"At risk: not from vibration (none at {v['speed_kmh']:g} km/h); the polygon is not judged (the wear "
                  "evolution was not run)"]
+    elif judged.get("wear_stopped_km") is not None:
+        lines = [f"At risk: not from vibration (none at {v['speed_kmh']:g} km/h); no visible polygon within "
+                 f"{judged['wear_stopped_km']:,.0f} km, beyond not judged (the wear evolution stopped at its step budget)"]
     else:
         lines = [f"At risk: no (no self-excited vibration at {v['speed_kmh']:g} km/h, no visible polygon within the "
                  "distance evolved)"]
@@ -396,6 +403,10 @@ def glance(summary: dict, judged: dict, params: Params) -> list[str]:
         n = judged["dominant_order"]
         bad.append(f"{'an' if str(n)[0] == '8' or n in (11, 18) else 'a'} {n}-sided polygon becomes visible after about {_km(km)} km "
                    f"({'on the drive cycle' if label == 'drive cycle' else 'at ' + format(v['speed_kmh'], 'g') + ' km/h alone'})")
+    stopped = judged.get("wear_stopped_km")
+    if stopped is not None and not visible:
+        bad.append(f"no visible polygon within {stopped:,.0f} km, beyond not judged (the wear evolution stopped at its "
+                   "step budget)")
     lines.append("How bad: " + ("; ".join(bad) if bad else "nothing vibrates" if unjudged
                                 else "nothing vibrates and nothing wears into a polygon") + ".")
     best = _best_option(design, judged.get("design_options") or [])

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..params import Params
-from ..wear.evolution import EvolutionResult, EvolutionSettings, wear_evolution
+from ..wear.evolution import EvolutionResult, EvolutionSettings, StepBudgetError, wear_evolution
 from ..wear.start import cycle_start_states
 
 if TYPE_CHECKING:
@@ -133,8 +133,15 @@ def wear_section(params: Params, speed_range_kmh, save, out_dir, evolution_km: f
                 result = into[0][1]
             else:
                 say(f"polygonal wear: evolution over {evolution_km:,.0f} km, {name}")
-                result = wear_evolution(params, evolution_km, cycle, evolution,
-                                progress=_tenths(stage.detail(f"evolution, {name}: ")), start=start)
+                try:
+                    result = wear_evolution(params, evolution_km, cycle, evolution,
+                                            progress=_tenths(stage.detail(f"evolution, {name}: ")), start=start)
+                except StepBudgetError as stopped:
+                    if stopped.partial is None:
+                        raise
+                    say(f"polygonal wear: the evolution {name} stopped at its step budget after "
+                        f"{stopped.done_km:,.0f} km; the report keeps it up to there ({stopped})")
+                    result = stopped.partial
             stem = evolution_stem(label, start)
             save_result(result, f"{stem}.nc")
             fig, ax = plt.subplots(figsize=(8, 4.5))
@@ -187,8 +194,12 @@ def _outcome(ev: dict) -> str:
         article = "an" if str(sides).startswith("8") or sides in (11, 18) else "a"  # an eight, an eleven
         return (f"{article} {sides}-sided polygon becomes visible ({ev['visible_depth_mm']:g} mm) "
                 f"after about {_round_km(ev['visible_km'])} km")
-    return (f"no visible polygon within {ev['distance_km']:,.0f} km ({ev['final_depth_mm']:.3f} mm peak to valley "
+    text = (f"no visible polygon within {ev['distance_km']:,.0f} km ({ev['final_depth_mm']:.3f} mm peak to valley "
             f"at the end, largest order {ev['dominant_order']})")
+    if not ev.get("complete", True):
+        text += (f"; the evolution stopped there, at its step budget, short of the {ev['requested_km']:,.0f} km asked "
+                 "(its writes changed from window to window faster than its tolerance): beyond, not judged")
+    return text
 
 
 def wear_headline(section: dict) -> list[str]:
@@ -313,7 +324,9 @@ def wear_html(section: dict | None) -> str:
             f"<td>{r['drift_deg_per_rev']:.2e}</td>") + "</tr>"
         for r in section["map_rows"])
     evolutions = "".join(
-        f"<tr><td>{e(ev['label'])}</td><td>{ev['distance_km']:,.0f}</td><td>{ev['final_depth_mm']:.4f}</td>"
+        f"<tr><td>{e(ev['label'])}</td><td>{ev['distance_km']:,.0f}"
+        + ("" if ev.get("complete", True) else f" of {ev['requested_km']:,.0f} (stopped at its step budget)")
+        + f"</td><td>{ev['final_depth_mm']:.4f}</td>"
         f"<td>{ev['dominant_order']}</td><td>{'-' if ev['visible_km'] is None else format(ev['visible_km'], ',.0f')}</td></tr>"
         for ev in section["evolutions"])
     table = ("<table><tr><th>evolution</th><th>distance [km]</th><th>depth [mm]</th><th>dominant order</th>"

@@ -157,6 +157,12 @@ class EvolutionResult(Result):
         return self.orders[np.argmax(np.abs(self.harmonics), axis=1)]
 
     @property
+    def complete(self) -> bool:
+        """False where the evolution stopped at its step budget short of the distance asked
+        (:class:`StepBudgetError`'s ``partial``): nothing is known beyond ``distance_km[-1]``."""
+        return bool(self.settings.get("complete", True))
+
+    @property
     def visible_km(self) -> float | None:
         """Distance at which the depth first reaches ``wear.visible_depth_mm`` [km]
         (log-linear interpolation between steps); None if it does not."""
@@ -193,6 +199,8 @@ class EvolutionResult(Result):
         return {
             "model": self.params.model,
             "distance_km": float(self.distance_km[-1]),
+            "complete": self.complete,
+            "requested_km": float(self.settings.get("requested_km", self.distance_km[-1])),
             "cycle": per_speed,
             "initial_depth_mm": float(depth[0]),
             "final_depth_mm": float(depth[-1]),
@@ -244,8 +252,9 @@ class EvolutionResult(Result):
                              label="dominant order")
         twin.set_ylabel("dominant order")
         visible = self.visible_km
-        title = f"{self.params.model}: polygon " + (f"visible after {visible:,.0f} km" if visible is not None
-                                                    else "not visible")
+        title = f"{self.params.model}: polygon " + (
+            f"visible after {visible:,.0f} km" if visible is not None else "not visible" if self.complete
+            else f"not visible within {self.distance_km[-1]:,.0f} km (the evolution stopped there at its step budget)")
         ax.set_title(title)
         ax.legend(loc="upper left", fontsize=7)
         return artists
@@ -337,13 +346,15 @@ class EvolutionSettings:
 
 
 class StepBudgetError(NumericalError):
-    """An evolution stopped at its step budget (:func:`step_budget`): ``budget`` [steps] and
-    ``done_km``, the distance it had reached [km]."""
+    """An evolution stopped at its step budget (:func:`step_budget`): ``budget`` [steps],
+    ``done_km``, the distance it had reached [km], and ``partial``, the evolution up to there
+    (an :class:`EvolutionResult` whose ``complete`` is False; None before the first step)."""
 
-    def __init__(self, message: str, budget: int, done_km: float) -> None:
+    def __init__(self, message: str, budget: int, done_km: float, partial: EvolutionResult | None = None) -> None:
         super().__init__(message)
         self.budget = budget
         self.done_km = done_km
+        self.partial = partial
 
 
 def step_budget(distance_km: float, settings: EvolutionSettings) -> int:
@@ -459,12 +470,27 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
     wins = window_set(W)
     budget = step_budget(distance_km, settings)
     visible_m = params.wear.visible_depth_mm * 1e-3
+    def result(complete: bool) -> EvolutionResult:
+        steps = np.diff(distance)
+        return EvolutionResult(params=params, distance_km=np.array(distance), harmonics=np.array(history),
+                               mean_depth_m=np.array(means), cycle=cycle,
+                               vibration_order=np.array(orders_hist).reshape(len(orders_hist), len(cycle)),
+                               locked=np.array(locked_hist, dtype=bool).reshape(len(locked_hist), len(cycle)),
+                               friction_energy_j=np.array(energies),
+                               settings={"step_km": settings.step_km,
+                                         "smallest_step_km": float(steps.min()) if steps.size else None,
+                                         "largest_step_km": float(steps.max()) if steps.size else None,
+                                         "tolerance": tolerance, "rejected_steps": rejected,
+                                         "windows": simulated_windows[0], "revolutions": revolutions,
+                                         "k_e_m3_per_j": k_e, "until_visible": settings.until_visible,
+                                         "requested_km": distance_km, "complete": complete})
+
     while done < distance_km * (1.0 - 1e-12):
         if len(distance) - 1 + rejected >= budget:
             raise StepBudgetError(
                 f"wear evolution: over its budget of {budget} distance steps at {done:,.0f} of {distance_km:,.0f} km "
                 f"(EvolutionSettings.max_steps = {settings.max_steps}): the profile changes too fast for the steps; "
-                + _budget_hint(params), budget, done)
+                + _budget_hint(params), budget, done, result(False) if len(distance) > 1 else None)
         h = min(h, distance_km - done)
         saved = ([s.copy() for s in states], [list(s) for s in settles], list(windows), list(linear),
                  list(last))
@@ -493,16 +519,7 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
             progress(done, distance_km, "")
         if settings.until_visible and peak_to_valley(W, params.wear.profile_points) >= visible_m:
             break
-    distance = np.array(distance)
-    steps = np.diff(distance)
-    return EvolutionResult(params=params, distance_km=distance, harmonics=np.array(history),
-                           mean_depth_m=np.array(means), cycle=cycle, vibration_order=np.array(orders_hist),
-                           locked=np.array(locked_hist), friction_energy_j=np.array(energies),
-                           settings={"step_km": settings.step_km, "smallest_step_km": float(steps.min()),
-                                     "largest_step_km": float(steps.max()), "tolerance": tolerance,
-                                     "rejected_steps": rejected, "windows": simulated_windows[0],
-                                     "revolutions": revolutions, "k_e_m3_per_j": k_e,
-                                     "until_visible": settings.until_visible})
+    return result(True)
 
 
 def _budget_hint(params: Params) -> str:
