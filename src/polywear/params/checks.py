@@ -36,6 +36,11 @@ def _number(value: Any) -> Any:
     return value
 
 
+def _tuple(value: Any) -> Any:
+    """A TOML array of tables (a list) as the tuple a frozen table holds."""
+    return tuple(value) if isinstance(value, list) else value
+
+
 def _integral(value: Any) -> Any:
     """Integer fields pass through :func:`_coerce_numbers`, which makes 1024 -> 1024.0."""
     if isinstance(value, float) and value.is_integer():

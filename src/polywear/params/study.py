@@ -10,7 +10,7 @@ from typing import Annotated, Any, Literal
 from pydantic import Field, TypeAdapter, ValidationError, field_validator, model_validator
 
 from ..units import DEFAULT_OPERATING_RANGE_KMH, DEFAULT_SPEED_RANGE_KMH, MAX_SPEED_KMH
-from .checks import ParameterError, _coerce_numbers, _integral, _number, _Table, _validate
+from .checks import ParameterError, _coerce_numbers, _integral, _number, _Table, _tuple, _validate
 from .tables import _TABLES, ADHESION_SCALE, DERIVED_FIELDS
 
 MAX_STUDY_BASE = 65536
@@ -121,10 +121,7 @@ class StudySpec(_Table):
     def _pair(cls, value: Any) -> Any:
         return tuple(_number(v) for v in value) if isinstance(value, list) else value
 
-    @field_validator("parameters", mode="before")
-    @classmethod
-    def _array_of_tables(cls, value: Any) -> Any:
-        return tuple(value) if isinstance(value, list) else value
+    _to_tuple = field_validator("parameters", mode="before")(_tuple)
 
     @model_validator(mode="after")
     def _consistent(self) -> StudySpec:

@@ -15,7 +15,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, Field, field_validator, model_validator
 
 from ..units import MAX_SPEED_KMH
-from .checks import ParameterError, _coerce_numbers, _f, _integral, _merge, _nested, _number, _Table, _validate
+from .checks import ParameterError, _coerce_numbers, _f, _integral, _merge, _nested, _number, _Table, _tuple, _validate
 
 
 class Operating(_Table):
@@ -209,10 +209,7 @@ class Wear(_Table):
 
     _to_int = field_validator("max_order", "profile_points", "seed", mode="before")(_integral)
 
-    @field_validator("cycle", mode="before")
-    @classmethod
-    def _array_of_tables(cls, value: Any) -> Any:
-        return tuple(value) if isinstance(value, list) else value
+    _to_tuple = field_validator("cycle", mode="before")(_tuple)
 
     @model_validator(mode="after")
     def _consistent(self) -> Wear:
