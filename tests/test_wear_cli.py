@@ -70,6 +70,24 @@ def test_wear_evolve_json_and_files(tmp_path):
     assert png.stat().st_size > 0
 
 
+def test_wear_evolve_tolerance_reaches_the_steps(tmp_path):
+    """--tolerance is the evolution's step tolerance (written with the result); a tighter one
+    takes more distance steps (tread damping 60 N·s/m on the default cycle, docs/wear.md: 11
+    steps at the default 0.01, 21 at 0.0025)."""
+    import xarray as xr
+
+    steps = []
+    for tolerance in ("0.01", "0.0025"):
+        nc = tmp_path / f"e{tolerance}.nc"
+        code, out, err = run_main(["wear", "evolve", "-s", "tread.lateral_damping_ns_per_m=60", "--tolerance", tolerance,
+                                   "-q", "-o", str(nc)])
+        assert code == 0, err
+        with xr.open_dataset(nc, engine="h5netcdf") as ds:
+            assert float(ds.attrs["tolerance"]) == float(tolerance)
+            steps.append(ds.sizes["distance_km"] - 1)
+    assert steps[1] > steps[0]
+
+
 def test_wear_evolve_workers_give_the_same_result():
     """--workers 2 simulates the cycle's two speeds in two threads: the same JSON as one."""
     args = ["wear", "evolve", "--cycle", "40:0.5,50:0.5", "--distance-km", "2000", "--step-km", "1000", "--json", "-q"]
@@ -93,6 +111,9 @@ def test_wear_evolve_workers_give_the_same_result():
     (["--distance-km", "1000", "--polar-km", "500,2000"], "--polar-km"),
     (["--workers", "0"], "--workers"),
     (["--start", "pothole"], "--start"),
+    (["--tolerance", "0"], "--tolerance"),
+    (["--tolerance", "nan"], "--tolerance"),
+    (["--tolerance", "0.6"], "--tolerance"),
     (["--speed", "110", "--start", "cycle"], "no hard self-excitation there"),  # the default car vibrates (soft)
 ])
 def test_wear_evolve_bad_input(args, fragment):

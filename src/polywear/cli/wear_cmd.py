@@ -37,6 +37,9 @@ MAX_ORDER_LIMIT = MAX_WEAR_ORDER
 """Highest polygon order a command accepts (the bound of wear.max_order)."""
 DEFAULT_STEP_KM = 1000.0
 """First distance step of ``wear evolve`` when --step-km is not given (clipped to the distance) [km]."""
+MIN_TOLERANCE, MAX_TOLERANCE = 1e-4, 0.5
+"""Range of ``wear evolve --tolerance`` [-]: below it the steps of a vibrating car outgrow any
+budget; above it a step may change the profile by half its largest harmonic unseen."""
 
 
 def parse_speeds(text: str, option: str = "--speeds") -> list[float]:
@@ -185,6 +188,12 @@ def evolve_(
                                       "(default: 1000, or the distance if shorter).")
     ] = None,
     revolutions: Annotated[int, typer.Option("--revolutions", help="Simulated revolutions per window where the tread vibrates (at least; lengthened up to 64 to separate the vibration from its nearest integer order).")] = 16,
+    tolerance: Annotated[
+        Optional[float], typer.Option("--tolerance", help="Error allowed per distance step, relative to the largest "
+                                      f"harmonic [-] ({MIN_TOLERANCE:g} to {MAX_TOLERANCE:g}; default: the evolution's, "
+                                      "0.01; 0.0025: depths to about 1 % where several orders add up, at about twice "
+                                      "the steps).")
+    ] = None,
     json_: JsonOpt = False,
     plot: PlotOpt = None,
     polar: Annotated[Optional[Path], typer.Option("--polar", help="Polar figure of the worn tire (png, pdf, svg).")] = None,
@@ -218,6 +227,8 @@ def evolve_(
     if distance_km / step_km > 10_000:
         raise UserError(f"--step-km {step_km:g}: more than 10000 steps; use a longer step")
     check_count(revolutions, "--revolutions", 6, 1000)
+    if tolerance is not None and not (math.isfinite(tolerance) and MIN_TOLERANCE <= tolerance <= MAX_TOLERANCE):
+        raise UserError(f"--tolerance {tolerance:g}: must be in [{MIN_TOLERANCE:g}, {MAX_TOLERANCE:g}]")
     from ..wear.start import STARTS
 
     if start not in STARTS:
@@ -245,7 +256,8 @@ def evolve_(
     ):
         try:
             result = wear_evolution(params, distance_km, pairs,
-                                    EvolutionSettings(step_km=step_km, revolutions=revolutions),
+                                    EvolutionSettings(step_km=step_km, revolutions=revolutions,
+                                                      **({} if tolerance is None else {"tolerance": tolerance})),
                                     progress=update, workers=workers, start=start)
         except StepBudgetError as exc:  # what was evolved is kept: written, then the error
             if exc.partial is None:
