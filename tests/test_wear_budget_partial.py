@@ -83,3 +83,24 @@ def test_wear_evolve_writes_the_stopped_evolution_then_says_why(tmp_path, budget
 
     with xr.open_dataset(out) as ds:
         assert ds.attrs["complete"] == "False" and 0.0 < float(ds.distance_km[-1]) < 20000.0
+
+
+@pytest.mark.slow
+def test_a_whole_report_with_a_stopped_evolution_says_so_at_the_top(tmp_path, budget_of_three):
+    """Toe 0.05 deg (no SEV band in 20-300 km/h): its evolutions stop at a budget of 3 steps;
+    the report is written whole, its summary says how far, and its verdict does not say "no"."""
+    import json
+
+    from polywear.report.main import report
+
+    report(with_updates(Params(), {"operating.toe_deg": 0.05}), tmp_path, wear_evolution_km=60000.0)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    evolutions = summary["wear"]["evolutions"]
+    assert evolutions and all(ev["complete"] is False and ev["distance_km"] < 60000.0 for ev in evolutions)
+    reached = min(ev["distance_km"] for ev in evolutions if ev.get("start", "rest") == "rest")
+    glance, lines = summary["verdict"]["glance"], summary["verdict"]["lines"]
+    assert all(ev["visible_km"] is None for ev in evolutions)  # three steps are far short of ~26 000 km
+    assert glance[0].startswith("At risk: not from vibration") and "beyond not judged" in glance[0]
+    assert any(f"does not wear into a visible polygon within {reached:,.0f} km" in line for line in lines)
+    assert summary["verdict"]["wear_stopped_km"] == reached
+    assert (tmp_path / "report.html").exists()
