@@ -470,7 +470,10 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
     wins = window_set(W)
     budget = step_budget(distance_km, settings)
     visible_m = params.wear.visible_depth_mm * 1e-3
+
     def result(complete: bool) -> EvolutionResult:
+        """The evolution so far (``complete``: it reached the distance asked, or the visible
+        depth with ``until_visible``)."""
         steps = np.diff(distance)
         return EvolutionResult(params=params, distance_km=np.array(distance), harmonics=np.array(history),
                                mean_depth_m=np.array(means), cycle=cycle,
