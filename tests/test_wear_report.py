@@ -184,3 +184,21 @@ def test_section_of_a_hard_car_evolves_from_rest_and_from_the_cycle(tmp_path):
     assert section["headline"][1].startswith("After a pothole starts the large vibration at 110 km/h")
     without = wear_section(params, (20.0, 300.0), lambda fig, name, caption: None, tmp_path, 5000.0)
     assert without.from_cycle == [] and without.summary()["evolutions"][0] == rest
+
+
+def test_an_evolution_that_creeps_still_says_where_it_is():
+    """Progress at every tenth of the distance, and every STEPS_BETWEEN_NOTES steps where the
+    distance creeps (a car near locking: fleet car 187 took 208 steps for 28 km)."""
+    from polywear.report.wear import STEPS_BETWEEN_NOTES, _tenths
+
+    said = []
+    forward = _tenths(lambda done, total, message: said.append(message))
+    for step in range(1, 2 * STEPS_BETWEEN_NOTES + 11):
+        forward(0.01 * step, 1000.0)  # creeping: 10 m per step
+    assert said == [f"{0.01 * k:,.0f} of 1,000 km, {k} distance steps" for k in (STEPS_BETWEEN_NOTES, 2 * STEPS_BETWEEN_NOTES)]
+    said.clear()
+    forward = _tenths(lambda done, total, message: said.append(message))
+    for km in (50.0, 100.0, 250.0, 1000.0):
+        forward(km, 1000.0)
+    assert said == ["100 of 1,000 km, 2 distance steps", "250 of 1,000 km, 3 distance steps",
+                    "1,000 of 1,000 km, 4 distance steps"]

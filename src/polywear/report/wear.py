@@ -165,15 +165,22 @@ def evolution_stem(label: str, start: str = "rest") -> str:
     return stem if start == "rest" else f"{stem}_from_cycle"
 
 
+STEPS_BETWEEN_NOTES = 50
+"""An evolution whose distance creeps (short steps near locking) still says where it is after
+this many distance steps without a new tenth of its distance [-]."""
+
+
 def _tenths(progress: Progress) -> Progress:
-    """Forward an evolution's progress (km done, km in all) as a message at every tenth."""
-    reached = [0]
+    """Forward an evolution's progress (km done, km in all) as a message at every tenth of the
+    distance, and every STEPS_BETWEEN_NOTES steps in between, with the steps taken."""
+    reached, steps, noted = [0], [0], [0]
 
     def forward(done: float, total: float | None, message: str = "") -> None:
+        steps[0] += 1
         tenth = int(10.0 * done / total) if total else 0
-        if tenth > reached[0]:
-            reached[0] = tenth
-            progress(done, total, f"{done:,.0f} of {total:,.0f} km")
+        if tenth > reached[0] or steps[0] - noted[0] >= STEPS_BETWEEN_NOTES:
+            reached[0], noted[0] = max(tenth, reached[0]), steps[0]
+            progress(done, total, f"{done:,.0f} of {total:,.0f} km, {steps[0]} distance steps")
 
     return forward
 
