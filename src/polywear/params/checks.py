@@ -21,6 +21,8 @@ class ParameterError(PolywearError, ValueError):
 
 
 class _Table(BaseModel):
+    """The base of every table: unknown keys refused, frozen, strict types, no inf or NaN."""
+
     model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
 
 
