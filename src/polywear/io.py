@@ -83,7 +83,7 @@ def write_text(path: str | Path, text: str) -> None:
 MANIFEST = ".polywear-files"
 """The file in a results folder that lists what polywear wrote there (one name a line)."""
 _NEW_INFIX = ".new-"
-"""A run's partial folder is ``.NAME.new-PID-XXXX`` next to the folder NAME."""
+"""A run's partial folder is ``.NAME.new-PID-<random suffix>`` next to the folder NAME."""
 STALE_UNKNOWN_OWNER_S = 3600.0
 """A partial folder without a recorded process id (written by an older polywear) is
 cleared when nothing in it changed for this long [s]."""
