@@ -369,6 +369,11 @@ def _best_option(design: dict, judged: list):
     return o, j, bool(good)
 
 
+def _not_judged_beyond(km: float) -> str:
+    """The wear where an evolution stopped at its step budget after ``km`` [km], in words."""
+    return f"no visible polygon within {km:,.0f} km, beyond not judged (the wear evolution stopped at its step budget)"
+
+
 def glance(summary: dict, judged: dict, params: Params) -> list[str]:
     """The report at a glance, before any table: at risk or not, how bad, what to change
     (the best design option), which two parameters move the SEV band most (from the
@@ -379,14 +384,14 @@ def glance(summary: dict, judged: dict, params: Params) -> list[str]:
     visible = {label: km for label, km in judged["visible_km"].items() if km is not None}
     risk = judged["vibrates"] or bool(visible)
     unjudged = not risk and judged["polygon_visible"] is None  # the wear evolution was not run
+    stopped = judged.get("wear_stopped_km")  # an evolution stopped at its step budget there [km]
     if risk:
         lines = ["At risk: yes"]
     elif unjudged:
         lines = [f"At risk: not from vibration (none at {v['speed_kmh']:g} km/h); the polygon is not judged (the wear "
                  "evolution was not run)"]
-    elif judged.get("wear_stopped_km") is not None:
-        lines = [f"At risk: not from vibration (none at {v['speed_kmh']:g} km/h); no visible polygon within "
-                 f"{judged['wear_stopped_km']:,.0f} km, beyond not judged (the wear evolution stopped at its step budget)"]
+    elif stopped is not None:
+        lines = [f"At risk: not from vibration (none at {v['speed_kmh']:g} km/h); {_not_judged_beyond(stopped)}"]
     else:
         lines = [f"At risk: no (no self-excited vibration at {v['speed_kmh']:g} km/h, no visible polygon within the "
                  "distance evolved)"]
@@ -403,10 +408,8 @@ def glance(summary: dict, judged: dict, params: Params) -> list[str]:
         n = judged["dominant_order"]
         bad.append(f"{'an' if str(n)[0] == '8' or n in (11, 18) else 'a'} {n}-sided polygon becomes visible after about {_km(km)} km "
                    f"({'on the drive cycle' if label == 'drive cycle' else 'at ' + format(v['speed_kmh'], 'g') + ' km/h alone'})")
-    stopped = judged.get("wear_stopped_km")
     if stopped is not None and not visible:
-        bad.append(f"no visible polygon within {stopped:,.0f} km, beyond not judged (the wear evolution stopped at its "
-                   "step budget)")
+        bad.append(_not_judged_beyond(stopped))
     lines.append("How bad: " + ("; ".join(bad) if bad else "nothing vibrates" if unjudged
                                 else "nothing vibrates and nothing wears into a polygon") + ".")
     best = _best_option(design, judged.get("design_options") or [])
