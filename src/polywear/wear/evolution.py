@@ -311,8 +311,8 @@ class EvolutionSettings:
     revolutions: int = 16
     """Simulated revolutions per window where the tread vibrates [-] (integer >= 6; 3 where
     steady rolling is stable: nothing drifts there; lengthened up to ``MAX_WINDOW`` to
-    separate the vibration from its nearest integer order, up to ``LONG_WINDOW`` where it
-    drifts by less than a period over ``MAX_WINDOW``)."""
+    separate the vibration from its nearest integer order, beyond where it drifts by less
+    than ``SEPARATED_BEATS`` periods over ``MAX_WINDOW``, up to ``LONG_WINDOW``)."""
 
     tolerance: float = 0.01
     """Error allowed per distance step [-]: the largest difference between the first-order

@@ -3,7 +3,8 @@ the step's windows as rates, the profile's update over the step, and the predict
 corrector and error estimate of the error control.
 
 The coherent writes are ``dW/dN = a W + b + c W_m/|W_m| + t (W_m/|W_m|)^j`` (:func:`step_rates`):
-``a`` the growth of the speeds that are not locked, ``b`` the fixed writes of the locked ones,
+``a`` the growth of the speeds that are not locked, ``b`` the fixed writes of the locked ones
+(and the unlocked ones' writes on harmonics too small to give a rate),
 ``c`` a locked vibration's write at its locking order m, which keeps its direction to W_m,
 and ``t`` its writes at the multiples j m, which turn j times as fast. :func:`update_profile`
 integrates that over the step, exactly where it can (``docs/wear.md``, "How the fast
@@ -19,13 +20,19 @@ import numpy as np
 from .windows import WindowWear
 
 __all__ = ["update_profile", "turning_orders", "pinned_step", "step_rates", "predict", "corrected", "step_error",
-           "MAX_CHANGE", "MAX_EXPONENT"]
+           "MAX_CHANGE", "MAX_EXPONENT", "PROPORTIONAL_FLOOR"]
 
 MAX_CHANGE = 0.3
 """A distance step is shortened so that the change of the profile stays below this
 fraction of its largest harmonic (fast growth after locking is resolved, not jumped
 over) [-]: the whole change where the tread vibrates, only the part added rather than
 integrated exactly where rolling is steady (there the exponential update is exact)."""
+PROPORTIONAL_FLOOR = 1e-6
+"""An unlocked window's write at a harmonic below this fraction of the profile's largest is
+a forcing, not a rate ``S_n / W_n`` [-]: axle4dof at 110 km/h (vibrating at order 8.500,
+order 1 passing through zero at 7e-13 m, 6e-9 of the largest) wrote 1.2e-13 m per
+revolution there, a "growth" of 0.16 per revolution that, applied to the step's own
+W_1 of 1.7e-6 m, wrote 0.015 mm on order 1 in a step of 0.2 km (docs/wear.md, point 13)."""
 MAX_EXPONENT = 3.0
 """Largest exponent |N S_n / W_n| integrated exactly in one step; above, the write is added [-],
 unless the harmonic decays (Re < -MAX_EXPONENT: exact at any exponent; added, a decay by
@@ -133,9 +140,19 @@ def _unlocked(win: WindowWear) -> bool:
     return not (win.locked and math.isfinite(win.order))
 
 
+def _proportional(win: WindowWear) -> np.ndarray:
+    """Harmonics (K,) bool whose write an unlocked window gives as proportional to the profile
+    there: where W_n is at least PROPORTIONAL_FLOOR of the largest harmonic. Below it the
+    write is what the other harmonics force there (a vibration at order 8.5 mixing W_9 and
+    W_8 writes on order 1), and its ratio to a W_n near zero is no growth rate."""
+    return np.abs(win.profile) >= PROPORTIONAL_FLOOR * float(np.max(np.abs(win.profile)))
+
+
 def _exponents(win: WindowWear) -> np.ndarray:
-    """Coherent growth per revolution ``S_n / W_n`` (K,) of an unlocked window (0 where W_n = 0)."""
-    return np.where(win.profile != 0, win.coherent / np.where(win.profile != 0, win.profile, 1), 0)
+    """Coherent growth per revolution ``S_n / W_n`` (K,) of an unlocked window (0 where W_n is
+    not proportional, :func:`_proportional`)."""
+    ok = _proportional(win) & (win.profile != 0)
+    return np.where(ok, win.coherent / np.where(ok, win.profile, 1), 0)
 
 
 def step_rates(wins, n_revs, turning: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -147,13 +164,15 @@ def step_rates(wins, n_revs, turning: bool = True) -> tuple[np.ndarray, np.ndarr
     worn across W_m travels around the tire, :func:`_locking_index`); ``t`` (K,) [m] its
     writes at the multiples j m, relative to the direction of W_m to the power j
     (:func:`turning_orders`; with ``turning`` False they stay in ``b``); ``b`` (K,) [m]
-    the other writes ``N S`` of the locked ones."""
+    the other writes ``N S`` of the locked ones, and those of the unlocked ones on harmonics
+    too small to give a rate (:func:`_proportional`)."""
     K = wins[0].coherent.size
     x, b, c, t = (np.zeros(K, dtype=complex) for _ in range(4))
     locked = []
     for n, w in zip(n_revs, wins):
         if _unlocked(w):
             x = x + n * _exponents(w)
+            b = b + n * np.where(_proportional(w), 0, w.coherent)
             continue
         b = b + n * w.coherent
         m = _locking_index(w)

@@ -67,9 +67,10 @@ NEAR_SPAN = 2
 nearest one m = round(j nu): a revolution's DFT puts a fraction of about eps_j / |n - j nu|
 of its write on harmonic n (3 % on each neighbour at eps_j = 0.03) [-]."""
 MAX_WINDOW = 64
-"""Most revolutions a window is lengthened to for SEPARATED_BEATS [-]; a vibration closer
-to an integer order (eps < SEPARATED_BEATS / MAX_WINDOW) is only partly separated, unless
-it drifts by less than a period over MAX_WINDOW (``LONG_WINDOW``)."""
+"""Most revolutions a window is lengthened to for SEPARATED_BEATS [-], the look after which a
+vibration closer to an integer order (eps < SEPARATED_BEATS / MAX_WINDOW) gets a longer
+window: ``SEPARATED_BEATS / eps`` where its line turns by one to SEPARATED_BEATS periods
+over MAX_WINDOW, ``LONG_WINDOW`` where it turns by less than a period."""
 LONG_WINDOW = 1024
 """Most revolutions a window is lengthened to for SEPARATED_BEATS where the vibration drifts
 by less than one period over MAX_WINDOW (eps MAX_WINDOW < 1) [-]: such a line cannot be
@@ -212,11 +213,12 @@ def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float,
 
     With ``max_revolutions``, a window too short to separate the vibration from its nearest
     integer order (``eps * revolutions < SEPARATED_BEATS``) is run again from the same state,
-    ``ceil(SEPARATED_BEATS / eps)`` revolutions long (at most ``max_revolutions``); where the
-    line turns by less than a period over a window of ``max_revolutions``, that window is run
-    on from its end, settled, for up to LONG_WINDOW revolutions (:func:`_separating_window`;
-    a shorter window's order is too coarse to ask for it: during a pull into locking 16
-    revolutions put the line within 1/64 of order 9 where 1 024 found it at 8.76)."""
+    ``ceil(SEPARATED_BEATS / eps)`` revolutions long: first at most ``max_revolutions``, then,
+    after a look that long, as long as the vibration's own line needs where it turns by at
+    least a period over it; where it turns by less, that window is run on from its end,
+    settled, for up to LONG_WINDOW revolutions (:func:`_separating_window`; a shorter
+    window's order is too coarse to ask for it: during a pull into locking 16 revolutions
+    put the line within 1/64 of order 9 where 1 024 found it at 8.76)."""
     base = base or model_for(params)
     coupled = coupled_model(base)
     R = params.operating.rolling_radius_m
@@ -253,9 +255,10 @@ def window_wear(params: Params, V: float, W: np.ndarray, state, settle_s: float,
         eps = [0.0] * SIDEBANDS
     if max_revolutions is not None and vibrating and not locked and revolutions <= max_revolutions:
         needed = max(_separating_window(eps, max_revolutions), _resolving_window(nu, max_revolutions))
-        if needed > max_revolutions and revolutions == max_revolutions:  # LONG_WINDOW, after a look that long
+        if needed > max_revolutions and revolutions < max_revolutions:
+            needed = max_revolutions  # a shorter look first: its order is only known to 1/revolutions
+        elif needed > max_revolutions and eps[0] * revolutions < 1.0:  # LONG_WINDOW, after a look that long
             return _long_window(params, V, W, run.u_end, base, max_revolutions)
-        needed = min(needed, max_revolutions)  # a shorter look first: its order is only known to 1/revolutions
         if needed > revolutions:
             return window_wear(params, V, W, state, settle_s, needed, base, max_revolutions)
     slow = _slow_orders(nu, eps, revolutions, K)
@@ -342,14 +345,21 @@ def _separating_window(eps, longest: int = MAX_WINDOW) -> int:
     """Revolutions that separate every drifting line j nu from its nearest integer order
     (``eps_j M >= SEPARATED_BEATS``; lines locked to within LOCK_TOLERANCE are not drifting;
     0 if none drifts), at most ``longest``, or at most LONG_WINDOW where the vibration's own
-    line (j = 1) turns by less than a period over ``longest`` revolutions (its second line
-    near an integer order, axle4dof at 80 km/h at order 9.5016, asked for 962 revolutions
-    and cost that cycle 2.9 times its CPU time)."""
+    line (j = 1) turns by less than a period over ``longest`` revolutions. Where it turns by
+    one to SEPARATED_BEATS periods, the window is as long as that line needs (at most
+    ``SEPARATED_BEATS / eps_1 < 3 longest``): 64-revolution windows at order 7.98 (tread1dof,
+    toe 0.53 deg, 120 km/h) scattered S_8 / W_8 by 40 % from window to window, 150 revolutions
+    by 1.5 % (docs/wear.md). The other lines keep ``longest`` (the second line near an integer
+    order, axle4dof at 80 km/h at order 9.5016, asked for 962 revolutions and cost that cycle
+    2.9 times its CPU time)."""
     drifting = [e for e in eps if e >= LOCK_TOLERANCE]
     if not drifting:
         return 0
-    cap = max(LONG_WINDOW, longest) if LOCK_TOLERANCE <= eps[0] and eps[0] * longest < 1.0 else longest
-    return min(cap, math.ceil(SEPARATED_BEATS / min(drifting)))
+    every = math.ceil(SEPARATED_BEATS / min(drifting))
+    if LOCK_TOLERANCE <= eps[0] and eps[0] * longest < 1.0:
+        return min(max(LONG_WINDOW, longest), every)
+    own = math.ceil(SEPARATED_BEATS / eps[0]) if eps[0] >= LOCK_TOLERANCE else 0
+    return max(min(longest, every), own)
 
 
 def _resolving_window(nu: float, longest: int = MAX_WINDOW) -> int:
