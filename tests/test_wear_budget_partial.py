@@ -38,6 +38,23 @@ def test_a_budget_stop_keeps_the_evolution_up_to_there():
     assert whole.summary()["complete"] is True
 
 
+def test_a_work_budget_stops_the_evolution_where_its_windows_add_up_past_it():
+    """The same car with a budget of simulated revolutions: it stops at the first step after
+    its windows passed the budget, keeps the same prefix, and says which budget it was."""
+    whole = wear_evolution(Params(), 8000.0, cycle=((120.0, 1.0),), workers=1)
+    budget = whole.settings["simulated_revolutions"] // 2
+    with pytest.raises(StepBudgetError, match="simulated revolutions") as stop:
+        wear_evolution(Params(), 8000.0, cycle=((120.0, 1.0),), settings=EvolutionSettings(max_revolutions=budget),
+                       workers=1)
+    part = stop.value.partial
+    n = part.distance_km.size
+    assert not part.complete and 1 < n < whole.distance_km.size
+    np.testing.assert_array_equal(part.harmonics, whole.harmonics[:n])
+    assert part.settings["simulated_revolutions"] > budget
+    with pytest.raises(ValueError, match="max_revolutions"):
+        EvolutionSettings(max_revolutions=0)
+
+
 @pytest.fixture
 def budget_of_three(monkeypatch):
     monkeypatch.setattr(evolution, "step_budget", lambda distance_km, settings: 3)

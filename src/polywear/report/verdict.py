@@ -469,14 +469,14 @@ def _stops(found: dict | None) -> str:
 
     text = (f" What stops the polygon (the nonlinear evolution over {found['target_km']:,.0f} km on the drive "
             f"cycle): {o['label']} {value(o['nominal'])} → {value(o['value'])} ({o['relative_change'] * 100:+.1f} %)")
-    creeps = [u for u in found["undecided"] if u["key"] == o["key"]]
+    undecided = [u for u in found["undecided"] if u["key"] == o["key"]]
     below = o["below"]
     if below is not None and below["visible_km"] is not None:
         text += (f"; at {below['relative_change'] * 100:+.1f} % the polygon is visible after about "
                  f"{_km(below['visible_km'])} km")
-    if creeps:
-        text += ("; " + ", ".join(f"{u['relative_change'] * 100:+.1f} %" for u in creeps)
-                 + " undecided (the evolution creeps there)")
+    if undecided:
+        text += ("; " + ", ".join(f"{u['relative_change'] * 100:+.1f} %" for u in undecided)
+                 + " undecided (the evolution ran out of its budget there, at the edge of locking)")
     return text + "."
 
 

@@ -22,8 +22,9 @@ search runs the nonlinear evolution (:func:`~polywear.wear.evolution.wear_evolut
 target distance on the cycle; it meets the criterion when no polygon becomes visible
 within it, vibrating or not. A probe's evolution stops as soon as its polygon is visible
 (``until_visible``: a failing probe costs only the distance to it) and at a step budget
-of :data:`PROBE_MAX_STEPS` (a probe that creeps in short steps, e.g. at the edge of
-locking, is *undecided*: not an option, listed in ``undecided``). The search
+of :data:`PROBE_MAX_STEPS` and a work budget of :data:`PROBE_MAX_REVOLUTIONS` (a probe that
+creeps in short steps, e.g. at the edge of locking, or needs the longest windows in every
+step is *undecided*: not an option, listed in ``undecided``). The search
 (:func:`_search_by_evolution`) goes by distance from the nominal car, level by level of a
 geometric grid of :data:`EVOLUTION_GRID` steps to ``max_factor``: at each level every open
 direction (more and less of each key) is probed, side by side (threads, or the
@@ -94,6 +95,13 @@ takes (:func:`~polywear.wear.evolution.step_budget`): the default car takes 17-3
 over 100 000 km; a probe that needs more is undecided [-]. Toe 0.53-0.547 deg on the
 default cycle creeps in steps of about 10 km (toe 0.545 deg: 4 300 km in 500 steps, 66 s
 CPU); a car just past its Hopf point (small vibration) can take about 90 steps and decide."""
+PROBE_MAX_REVOLUTIONS = 10_000
+"""Work budget of one probe's evolution [simulated revolutions, summed over its windows]
+(``EvolutionSettings.max_revolutions``): decided probes of the default cars take 900-4 500
+(tread1dof and axle4dof, 100 000 km on the default cycle); tread1dof at toe 0.54 deg,
+vibrating at order 7.9993 at 120 km/h, needs windows of 1 024 revolutions in every step and
+reached 98 km in 56 000 revolutions (73 s CPU) before its step budget stopped it: an
+undecided probe now costs at most about a fifth of that [-]."""
 MAX_UNDECIDED = 2
 """A bracket of the evolution search is refined no further after this many of its probes
 were undecided, by default [-] (inside a creeping stretch most probes creep, each to the
@@ -249,7 +257,7 @@ class WearDesignResult(Result):
     nominal_evolution: dict | None = None
     """where the evolution judged: the nominal car's (as :attr:`WearDesignOption.evolution`)"""
     undecided: list[dict] = field(default_factory=list)
-    """where the evolution judged: the probes whose evolution stopped at its step budget
+    """where the evolution judged: the probes whose evolution stopped at its step or work budget
     (:data:`PROBE_MAX_STEPS`), counted as not meeting the criterion: ``{"key", "value",
     "relative_change", "at_km"}``"""
     evolutions: int = 0
@@ -314,7 +322,7 @@ def _finite(x: float):
 def _outcome(evolved: dict) -> str:
     """An evolution of :func:`_evolved` in words."""
     if evolved.get("undecided"):
-        return f"undecided (over the step budget at {evolved['distance_km']:,.0f} km)"
+        return f"undecided (over its budget at {evolved['distance_km']:,.0f} km)"
     return ("no visible polygon" if evolved["visible_km"] is None
             else f"visible after {evolved['visible_km']:,.0f} km")
 
@@ -324,7 +332,7 @@ def _evolved(params: Params, target_km: float, cycle, settings: EvolutionSetting
     :func:`~polywear.wear.evolution.wear_evolution`): the distance it reached [km] (less
     than ``target_km`` only with ``until_visible``), its depth there [mm], the visible
     distance [km] (None: not within it) and the dominant order there; or, where it stopped
-    at its step budget, ``undecided`` True with the distance it had reached."""
+    at its step or work budget, ``undecided`` True with the distance it had reached."""
     try:
         worn = wear_evolution(params, target_km, cycle, settings, workers=workers)
     except StepBudgetError as exc:
@@ -348,7 +356,7 @@ def _meets(params: Params, key: str, nominal: float, factor: float, cycle, targe
            judge: Judge = Judge.MAP, settings: EvolutionSettings = EvolutionSettings(), workers: int | None = None):
     """(criterion met, growth [e-folds per 1000 km], order, the evolution or None) with
     ``key`` at ``nominal * factor``; None where it cannot be evaluated. An evolution stopped
-    at its step budget does not meet it (``undecided`` in the evolution)."""
+    at its budget does not meet it (``undecided`` in the evolution)."""
     try:
         changed = perturbed(params, key, nominal * factor)
     except ValueError:
@@ -454,7 +462,8 @@ def _search_by_evolution(params: Params, keys: Sequence[str], cycle, target_km: 
     :class:`WearDesignOption` or the note why there is none}, the undecided probes, the
     evolutions run)."""
     def budgeted(evolution: EvolutionSettings) -> EvolutionSettings:
-        return replace(evolution, until_visible=True, max_steps=min(evolution.max_steps, PROBE_MAX_STEPS))
+        return replace(evolution, until_visible=True, max_steps=min(evolution.max_steps, PROBE_MAX_STEPS),
+                       max_revolutions=min(evolution.max_revolutions or PROBE_MAX_REVOLUTIONS, PROBE_MAX_REVOLUTIONS))
 
     probe = _Probe(params, cycle, target_km, budgeted(settings.evolution),
                    None if settings.screen is None else budgeted(settings.screen))

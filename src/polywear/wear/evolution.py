@@ -331,6 +331,12 @@ class EvolutionSettings:
     deeper within the distance; at the default k_e, writes that change faster than the
     tolerance from window to window). The default settings take 15-40 steps over
     60 000 km on the cars of docs/wear.md."""
+    max_revolutions: int | None = None
+    """Work budget [simulated revolutions, summed over the windows]: an evolution whose
+    windows need more stops like one over its step budget (None: no such budget). A
+    vibration within a thousandth of an integer order needs windows of up to LONG_WINDOW
+    revolutions in every step (tread1dof at toe 0.54 deg, 120 km/h, order 7.9993: 98 km
+    in 39 steps and 73 s CPU); the wear design's probes set it (``PROBE_MAX_REVOLUTIONS``)."""
     until_visible: bool = False
     """Stop at the first step whose depth reaches ``wear.visible_depth_mm`` (the visible
     distance and the order there are then known; what a fleet's wear risk needs). The
@@ -341,12 +347,15 @@ class EvolutionSettings:
         check_count(self, "revolutions", minimum=6)
         check_positive(self, "tolerance")
         check_count(self, "max_steps", minimum=1)
+        if self.max_revolutions is not None:
+            check_count(self, "max_revolutions", minimum=1)
         if not isinstance(self.until_visible, bool):
             raise ValueError(f"until_visible = {self.until_visible!r}: must be True or False")
 
 
 class StepBudgetError(NumericalError):
-    """An evolution stopped at its step budget (:func:`step_budget`): ``budget`` [steps],
+    """An evolution stopped at its step budget (:func:`step_budget`), or at its work budget
+    (``EvolutionSettings.max_revolutions``): ``budget`` [steps],
     ``done_km``, the distance it had reached [km], and ``partial``, the evolution up to there
     (an :class:`EvolutionResult` whose ``complete`` is False; None before the first step)."""
 
@@ -429,7 +438,7 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
     sinc = patch_sinc(np.arange(1, W.size + 1), params.tire.contact_length_m, R)
     load_scale = LINEAR_LOAD * params.operating.vertical_load_n / params.tire.vertical_stiffness_n_per_m \
         if params.tire.vertical_stiffness_n_per_m > 0 else math.inf
-    simulated_windows = [0]
+    simulated_windows, simulated_revolutions = [0], [0]
 
     last = [None] * len(cycle)  # per speed: the last simulated window, whose vibration the next continues
 
@@ -444,6 +453,7 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
                 for j in run]
         simulated = dict(zip(run, _windows(pool, jobs, base, longest)))
         simulated_windows[0] += len(run)
+        simulated_revolutions[0] += sum(win.revolutions for win in simulated.values())
         out = []
         for j in range(len(cycle)):
             if j not in simulated:
@@ -485,6 +495,7 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
                                          "largest_step_km": float(steps.max()) if steps.size else None,
                                          "tolerance": tolerance, "rejected_steps": rejected,
                                          "windows": simulated_windows[0], "revolutions": revolutions,
+                                         "simulated_revolutions": simulated_revolutions[0],
                                          "k_e_m3_per_j": k_e, "until_visible": settings.until_visible,
                                          "requested_km": distance_km, "complete": complete})
 
@@ -494,6 +505,11 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
                 f"wear evolution: over its budget of {budget} distance steps at {done:,.0f} of {distance_km:,.0f} km "
                 f"(EvolutionSettings.max_steps = {settings.max_steps}): the profile changes too fast for the steps; "
                 + _budget_hint(params), budget, done, result(False) if len(distance) > 1 else None)
+        if settings.max_revolutions is not None and simulated_revolutions[0] > settings.max_revolutions:
+            raise StepBudgetError(
+                f"wear evolution: over its budget of {settings.max_revolutions:,} simulated revolutions at {done:,.0f} "
+                f"of {distance_km:,.0f} km (EvolutionSettings.max_revolutions): its windows are long (a vibration "
+                f"very close to an integer order)", budget, done, result(False) if len(distance) > 1 else None)
         h = min(h, distance_km - done)
         saved = ([s.copy() for s in states], [list(s) for s in settles], list(windows), list(linear),
                  list(last))
