@@ -134,6 +134,27 @@ def test_a_car_over_the_step_budget_stops_there():
     assert ended[0] == full.visible_km and ended[1] == full.dominant_order[seen[0]] and ended[2] == ""
 
 
+def test_a_car_over_the_work_budget_stops_there_and_says_which_budget():
+    """The same car with a work budget of half the simulated revolutions its evolution takes:
+    stopped at the same distance as the evolution with that budget, said in revolutions."""
+    from polywear.studies.fleet import FleetEvaluator, FleetSpec
+
+    params = with_updates(Params(), {"wear.energetic_rate_mm3_per_j": K_NOM})
+    cycle = ((110.0, 1.0),)
+    full = wear_evolution(params, D_KM, cycle, EvolutionSettings(until_visible=True))
+    half = full.settings["simulated_revolutions"] // 2
+    with pytest.raises(StepBudgetError) as stop:
+        wear_evolution(params, D_KM, cycle, EvolutionSettings(until_visible=True, max_revolutions=half))
+    assert stop.value.unit == "simulated revolutions" and stop.value.budget == half
+    stopped = FleetEvaluator(params, (), None, (110.0,), wear_km=D_KM, wear_max_revolutions=half,
+                             usage_cycle=cycle)._wear(params)
+    assert np.isnan(stopped[0]) and np.isnan(stopped[1])
+    assert stopped[2] == f"over the budget of {half:,} simulated revolutions at {stop.value.done_km:,.0f} of {D_KM:,.0f} km"
+    with pytest.raises(ValueError, match="wear_max_revolutions"):
+        FleetSpec(samples=10, wear_km=D_KM, wear_max_revolutions=0,
+                  parameter=[{"key": "operating.toe_deg", "distribution": "uniform", "low": 0.4, "high": 0.6}])
+
+
 def test_cars_over_the_budget_are_listed_and_kept_out_of_the_wear_risk():
     """Summary of 10 cars (values set by hand): 2 over the wear budget, 1 failed. The wear
     risk counts the 7 others (3 visible within D: 3/7, its exact interval from scipy), the

@@ -122,7 +122,8 @@ def fleet(
             _print_wear_risk(s)
         if s.get("wear_over_budget"):
             typer.echo(f"wear: {s['wear_over_budget']} car(s) over the budget of {s['wear_max_steps']} distance steps "
-                       "per evolution, not counted in the wear risk (fleet.wear_max_steps):")
+                       f"or {s['wear_max_revolutions']:,} simulated revolutions per evolution, not counted in the wear "
+                       "risk (fleet.wear_max_steps, fleet.wear_max_revolutions):")
             for car in s["wear_over_budget_cars"]:
                 typer.echo(f"  car {car['car']}: {car['reason']}; " + ", ".join(
                     f"{k} = {v:.6g}" for k, v in car["parameters"].items()))

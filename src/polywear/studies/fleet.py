@@ -25,9 +25,10 @@ vibrating or not): the wear risk is the share of cars whose polygon becomes visi
 (``wear.visible_depth_mm``) within D, with the same exact interval; the most dangerous
 order is the order most of the visible polygons have; its drivers are computed as the
 band risk's. Every car's evolution has a budget of distance steps (``wear_max_steps``
-beyond the fewest that D takes at the longest step): a car that would need more (a
-vibration within a few thousandths of an integer order that does not lock: its windows
-cannot separate the line and the steps stay near 10 km) is stopped there, counted and
+beyond the fewest that D takes at the longest step) and of simulated revolutions
+(``wear_max_revolutions``): a car that would need more (a vibration within a few
+thousandths of an integer order that does not lock: its windows are long and the steps
+stay near 10 km) is stopped there, counted and
 listed with its parameters (``wear_over_budget``), and kept out of the wear risk; its band
 counts in the band risk as any other car's.
 
@@ -59,7 +60,7 @@ from ..params import ParameterError, Params, to_toml
 from ..parallel import Executor
 from ..progress import Progress, report, shifted
 from ..results import Result, with_deprecated_keys
-from .fleet_spec import WEAR_MAX_STEPS, FleetParameter, FleetSpec, FleetUsage, load_fleet_spec, sample_fleet
+from .fleet_spec import WEAR_MAX_REVOLUTIONS, WEAR_MAX_STEPS, FleetParameter, FleetSpec, FleetUsage, load_fleet_spec, sample_fleet
 from .sampling import SAMPLE_FAILURES, sample_params
 
 if TYPE_CHECKING:
@@ -132,6 +133,8 @@ class FleetEvaluator:
     """Evolve the wear over this distance [km] on ``usage_cycle`` (None: no wear)."""
     wear_max_steps: int = WEAR_MAX_STEPS
     """Step budget of the evolution beyond ``ceil(wear_km / longest step)`` (:attr:`FleetSpec.wear_max_steps`)."""
+    wear_max_revolutions: int = WEAR_MAX_REVOLUTIONS
+    """Work budget of the evolution [simulated revolutions] (:attr:`FleetSpec.wear_max_revolutions`)."""
     usage_cycle: tuple[tuple[float, float], ...] = ()
     """(speed [km/h], share) of the usage, shares summing to 1."""
     band_every: int = 1
@@ -204,11 +207,13 @@ class FleetEvaluator:
         why) where it stopped at the step budget (:func:`wear_step_budget`); or the failure."""
         from ..wear.evolution import EvolutionSettings, StepBudgetError, wear_evolution
 
-        settings = EvolutionSettings(max_steps=self.wear_max_steps, until_visible=True)
+        settings = EvolutionSettings(max_steps=self.wear_max_steps, max_revolutions=self.wear_max_revolutions,
+                                     until_visible=True)
         try:
             worn = wear_evolution(params, self.wear_km, self.usage_cycle, settings=settings, workers=1)  # cars in parallel
         except StepBudgetError as exc:
-            return np.nan, np.nan, f"over the budget of {exc.budget} distance steps at {exc.done_km:,.0f} of {self.wear_km:,.0f} km"
+            return (np.nan, np.nan,
+                    f"over the budget of {exc.budget:,} {exc.unit} at {exc.done_km:,.0f} of {self.wear_km:,.0f} km")
         except SAMPLE_FAILURES as exc:
             return CarOutcome(failure="wear evolution", detail=f"{type(exc).__name__}: {exc}")
         visible = worn.visible_km
@@ -431,7 +436,8 @@ class FleetResult(Result):
         evaluated = self.ok
         over = [i for i, c in enumerate(self.outcomes) if c.ok and c.wear]
         evaluated[over] = False
-        budget = {"wear_max_steps": wear_step_budget(D, self.spec.wear_max_steps), "wear_over_budget": len(over),
+        budget = {"wear_max_steps": wear_step_budget(D, self.spec.wear_max_steps),
+                  "wear_max_revolutions": self.spec.wear_max_revolutions, "wear_over_budget": len(over),
                   "wear_over_budget_cars": [
                       {"car": i, "reason": self.outcomes[i].wear,
                        "parameters": {key: float(x) for key, x in zip(self.keys, self.samples[i])}}
@@ -624,6 +630,7 @@ def fleet(params: Params, spec: FleetSpec, *, backend: str | None = None, worker
     solver = FastBand(stage.references, speed_range_kmh=tuple(spec.speed_range_kmh))
     usage = tuple(u.speed_kmh for u in spec.usage if u.share > 0)
     evaluator = FleetEvaluator(params, keys, solver, usage, wear_km=spec.wear_km, wear_max_steps=spec.wear_max_steps,
+                               wear_max_revolutions=spec.wear_max_revolutions,
                                usage_cycle=spec.usage_cycle(),
                                band_every=spec.band_every, simulate_gaps=spec.simulate_gaps,
                                pilot={i: r.band for i, r in stage.samples.items()})

@@ -355,13 +355,16 @@ class EvolutionSettings:
 
 class StepBudgetError(NumericalError):
     """An evolution stopped at its step budget (:func:`step_budget`), or at its work budget
-    (``EvolutionSettings.max_revolutions``): ``budget`` [steps],
+    (``EvolutionSettings.max_revolutions``): ``budget`` in ``unit`` ("distance steps" or
+    "simulated revolutions"),
     ``done_km``, the distance it had reached [km], and ``partial``, the evolution up to there
     (an :class:`EvolutionResult` whose ``complete`` is False; None before the first step)."""
 
-    def __init__(self, message: str, budget: int, done_km: float, partial: EvolutionResult | None = None) -> None:
+    def __init__(self, message: str, budget: int, done_km: float, partial: EvolutionResult | None = None,
+                 unit: str = "distance steps") -> None:
         super().__init__(message)
         self.budget = budget
+        self.unit = unit
         self.done_km = done_km
         self.partial = partial
 
@@ -509,7 +512,8 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
             raise StepBudgetError(
                 f"wear evolution: over its budget of {settings.max_revolutions:,} simulated revolutions at {done:,.0f} "
                 f"of {distance_km:,.0f} km (EvolutionSettings.max_revolutions): its windows are long (a vibration "
-                f"very close to an integer order)", budget, done, result(False) if len(distance) > 1 else None)
+                f"very close to an integer order)", settings.max_revolutions, done,
+                result(False) if len(distance) > 1 else None, unit="simulated revolutions")
         h = min(h, distance_km - done)
         saved = ([s.copy() for s in states], [list(s) for s in settles], list(windows), list(linear),
                  list(last))
