@@ -24,12 +24,13 @@ __all__ = ["FleetParameter", "FleetUsage", "FleetCorrelation", "FleetSpec", "loa
            "WEAR_MAX_STEPS", "WEAR_MAX_REVOLUTIONS"]
 
 WEAR_MAX_STEPS = 200
-WEAR_MAX_REVOLUTIONS = 50_000
-"""Work budget of one car's wear evolution [simulated revolutions, summed over its windows]:
-fleet car 11 of the 40-car sample (a vibration 0.0035 off order 8, windows of ~860
-revolutions) takes 16 000 over 60 000 km; a vibration within a thousandth of an integer
-order takes windows of 1 024 revolutions in every short step (car 187 of the 1 000-car
-benchmark reached 28 km in 310 s CPU) [-]."""
+WEAR_MAX_REVOLUTIONS = 100_000
+"""Work budget of one car's wear evolution [simulated revolutions, summed over its windows],
+about 2 min of CPU for tread1dof: fleet car 11 of the 40-car sample (a vibration 0.0035 off
+order 8, windows of ~860 revolutions) takes 16 000 over 60 000 km; car 187 of the 1 000-car
+benchmark (within a thousandth of order 7 at 130 km/h, windows of up to 1 024 revolutions)
+decides after about 53 000 (visible at 30 718 km, 74 s CPU; before docs/wear.md point 13 it
+reached 28 km in 310 s) [-]."""
 """Default budget of one car's wear evolution [distance steps], beyond the fewest steps the
 distance takes at the longest step (``ceil(D / 8 000 km)``). On the 110/130 km/h cycle
 over 60 000 km most cars take 19-67 steps (0.1-0.2 s CPU each), a car locked at order 9
