@@ -6,8 +6,8 @@ and the projection to 1 000 cars on 2 cores (nothing is asserted).
 
 The fleet is the seven-parameter tread1dof fleet of ``bench_fleet.py fleet`` (toe, load,
 damping, adhesion, mass, stiffness, camber; usage 110/130 km/h at 60/40 %), every car's
-wear evolved over ``--wear-km`` on that cycle with the default step budget
-(``fleet.wear_max_steps``); the nominal car's band reference is made outside the timings.
+wear evolved over ``--wear-km`` on that cycle with the default step and work budgets
+(``fleet.wear_max_steps``, ``fleet.wear_max_revolutions``); the nominal car's band reference is made outside the timings.
 
 ``sample``: the cars run serially in this process, one per batch, so the CPU time of every
 car (band and evolution) is read from the progress after it; prints the per-car CPU
