@@ -60,7 +60,8 @@ from ..params import ParameterError, Params, to_toml
 from ..parallel import Executor
 from ..progress import Progress, report, shifted
 from ..results import Result, with_deprecated_keys
-from .fleet_spec import WEAR_MAX_REVOLUTIONS, WEAR_MAX_STEPS, FleetParameter, FleetSpec, FleetUsage, load_fleet_spec, sample_fleet
+from .fleet_spec import (WEAR_MAX_REVOLUTIONS, WEAR_MAX_STEPS, FleetParameter, FleetSpec, FleetUsage, load_fleet_spec,
+                         sample_fleet)
 from .sampling import SAMPLE_FAILURES, sample_params
 
 if TYPE_CHECKING:

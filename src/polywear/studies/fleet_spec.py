@@ -24,6 +24,12 @@ __all__ = ["FleetParameter", "FleetUsage", "FleetCorrelation", "FleetSpec", "loa
            "WEAR_MAX_STEPS", "WEAR_MAX_REVOLUTIONS"]
 
 WEAR_MAX_STEPS = 200
+"""Default budget of one car's wear evolution [distance steps], beyond the fewest steps the
+distance takes at the longest step (``ceil(D / 8 000 km)``). On the 110/130 km/h cycle
+over 60 000 km most cars take 19-67 steps (0.1-0.2 s CPU each), a car locked at order 9
+whose growth holds the steps at 35-760 km 132; a car whose vibration stays a few
+thousandths off an integer order without locking takes steps of ~10 km (thousands of
+steps, about an hour of CPU; stopped at the budget after ~1.5 min)."""
 WEAR_MAX_REVOLUTIONS = 100_000
 """Work budget of one car's wear evolution [simulated revolutions, summed over its windows],
 about 2 min of CPU for tread1dof: fleet car 11 of the 40-car sample (a vibration 0.0035 off
@@ -31,12 +37,6 @@ order 8, windows of ~860 revolutions) takes 16 000 over 60 000 km; car 187 of th
 benchmark (within a thousandth of order 7 at 130 km/h, windows of up to 1 024 revolutions)
 decides after about 53 000 (visible at 30 718 km, 74 s CPU; before docs/wear.md point 13 it
 reached 28 km in 310 s) [-]."""
-"""Default budget of one car's wear evolution [distance steps], beyond the fewest steps the
-distance takes at the longest step (``ceil(D / 8 000 km)``). On the 110/130 km/h cycle
-over 60 000 km most cars take 19-67 steps (0.1-0.2 s CPU each), a car locked at order 9
-whose growth holds the steps at 35-760 km 132; a car whose vibration stays a few
-thousandths off an integer order without locking takes steps of ~10 km (thousands of
-steps, about an hour of CPU; stopped at the budget after ~1.5 min)."""
 
 
 class _Spec(BaseModel):
@@ -197,8 +197,8 @@ class FleetSpec(_Spec):
         return R
 
 
-SPEC_SETTINGS = ("samples", "seed", "checkpoint_every", "band_every", "wear_km", "wear_max_steps", "wear_max_revolutions", "simulate_gaps",
-                 "speed_range_kmh")
+SPEC_SETTINGS = ("samples", "seed", "checkpoint_every", "band_every", "wear_km", "wear_max_steps", "wear_max_revolutions",
+                 "simulate_gaps", "speed_range_kmh")
 """Keys of the ``[fleet]`` table that ``--set fleet.KEY=VALUE`` may change."""
 
 
