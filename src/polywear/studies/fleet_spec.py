@@ -35,7 +35,7 @@ WEAR_MAX_REVOLUTIONS = 100_000
 about 2 min of CPU for tread1dof: fleet car 11 of the 40-car sample (a vibration 0.0035 off
 order 8, windows of ~860 revolutions) takes 16 000 over 60 000 km; car 187 of the 1 000-car
 benchmark (within a thousandth of order 7 at 130 km/h, windows of up to 1 024 revolutions)
-decides after about 53 000 (visible at 30 718 km, 74 s CPU; before docs/wear.md point 13 it
+decides after 52 174 (visible at 30 718 km, 74 s CPU; before docs/wear.md point 13 it
 reached 28 km in 310 s) [-]."""
 
 
