@@ -85,16 +85,12 @@ def test_an_unlocked_write_on_a_harmonic_near_zero_is_a_forcing_not_a_growth_rat
     assert out[2] == pytest.approx(W[2] * np.exp(N * coherent[2] / profile[2]), rel=1e-12)
 
 
-@pytest.mark.slow
-def test_a_line_near_an_integer_order_is_written_the_same_by_successive_long_windows():
-    """Car 11 at 110 km/h vibrates at order 8.0035: over 64 revolutions its line turns by a
-    quarter period against order 8, and successive windows at the same profile wrote
-    S_8 / W_8 scattered by more than its size. Lengthened to 3 periods of the drift
-    (~860 revolutions, LONG_WINDOW), two successive windows agree to 2 %, and with a window
-    2.5 times longer (the independent reference) to 2 %."""
-    params = with_updates(Params(), CAR_11)
+def _short_windows(params, v_kmh: float):
+    """Three successive windows of MAX_WINDOW revolutions at ``v_kmh`` on the initial
+    roughness, after the vibration has grown from steady rolling (16 revolutions): the model,
+    V [m/s], W, the settling time [s], the state after them, their S_8 / W_8 and the last."""
     base = get_model(params.model)
-    V = float(kmh_to_ms(110.0))
+    V = float(kmh_to_ms(v_kmh))
     W = initial_roughness(params)
     first, settle, unstable = _settle_times(base, params, V)
     assert unstable
@@ -106,6 +102,18 @@ def test_a_line_near_an_integer_order_is_written_the_same_by_successive_long_win
         win = window_wear(params, V, W, state, settle, MAX_WINDOW, base)
         state = win.end_state
         short.append(win.coherent[7] / W[7])
+    return base, V, W, settle, state, short, win
+
+
+@pytest.mark.slow
+def test_a_line_near_an_integer_order_is_written_the_same_by_successive_long_windows():
+    """Car 11 at 110 km/h vibrates at order 8.0035: over 64 revolutions its line turns by a
+    quarter period against order 8, and successive windows at the same profile wrote
+    S_8 / W_8 scattered by more than its size. Lengthened to 3 periods of the drift
+    (~860 revolutions, LONG_WINDOW), two successive windows agree to 2 %, and with a window
+    2.5 times longer (the independent reference) to 2 %."""
+    params = with_updates(Params(), CAR_11)
+    base, V, W, settle, state, short, win = _short_windows(params, 110.0)
     assert abs(win.order - 8.0) * MAX_WINDOW < 1.0
     assert np.ptp(np.real(short)) > abs(np.mean(short))  # the failure: a short window cannot tell
     long = []
@@ -129,19 +137,7 @@ def test_a_line_that_turns_one_to_three_periods_over_64_revolutions_gets_the_win
     lengthened to three periods (150 revolutions): successive windows agree to 3 %, and
     with a window four times longer (the independent reference) to 3 %."""
     params = with_updates(Params(), {"operating.toe_deg": 0.5297})
-    base = get_model(params.model)
-    V = float(kmh_to_ms(120.0))
-    W = initial_roughness(params)
-    first, settle, unstable = _settle_times(base, params, V)
-    assert unstable
-    state = coupled_model(base).equilibrium(V, profile_vector(base, params, V))
-    state[base.index("x")] += 1e-5
-    state = window_wear(params, V, W, state, first, 16, base).end_state
-    short = []
-    for _ in range(3):
-        win = window_wear(params, V, W, state, settle, MAX_WINDOW, base)
-        state = win.end_state
-        short.append(win.coherent[7] / W[7])
+    base, V, W, settle, state, short, win = _short_windows(params, 120.0)
     assert 1.0 <= abs(win.order - 8.0) * MAX_WINDOW < SEPARATED_BEATS
     assert np.ptp(np.real(short)) > 0.1 * abs(np.mean(short))  # the failure: 64 revolutions scatter
     chosen = []
