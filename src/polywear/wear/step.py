@@ -148,10 +148,10 @@ def _proportional(win: WindowWear) -> np.ndarray:
     return np.abs(win.profile) >= PROPORTIONAL_FLOOR * float(np.max(np.abs(win.profile)))
 
 
-def _exponents(win: WindowWear) -> np.ndarray:
+def _exponents(win: WindowWear, proportional: np.ndarray) -> np.ndarray:
     """Coherent growth per revolution ``S_n / W_n`` (K,) of an unlocked window (0 where W_n is
-    not proportional, :func:`_proportional`)."""
-    ok = _proportional(win) & (win.profile != 0)
+    not ``proportional``, :func:`_proportional`)."""
+    ok = proportional & (win.profile != 0)
     return np.where(ok, win.coherent / np.where(ok, win.profile, 1), 0)
 
 
@@ -171,8 +171,9 @@ def step_rates(wins, n_revs, turning: bool = True) -> tuple[np.ndarray, np.ndarr
     locked = []
     for n, w in zip(n_revs, wins):
         if _unlocked(w):
-            x = x + n * _exponents(w)
-            b = b + n * np.where(_proportional(w), 0, w.coherent)
+            proportional = _proportional(w)
+            x = x + n * _exponents(w, proportional)
+            b = b + n * np.where(proportional, 0, w.coherent)
             continue
         b = b + n * w.coherent
         m = _locking_index(w)
