@@ -285,11 +285,31 @@ def test_a_worker_process_with_another_blas_thread_count_gives_the_same_evolutio
     params = Params()
     cycle = ((50.0, 0.5), (120.0, 0.5))
     settings = EvolutionSettings(step_km=1000.0)
-    serial = wear_evolution(params, 1000.0, cycle=cycle, settings=settings, workers=1)
+    # the undecorated function: BLAS on this process's own thread count, not limited to one
+    serial = wear_evolution.__wrapped__(params, 1000.0, cycle=cycle, settings=settings, workers=1)
     with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
         worker = pool.submit(wear_evolution, params, 1000.0, cycle, settings, workers=1).result()
     np.testing.assert_array_equal(worker.harmonics, serial.harmonics)
     assert np.isfinite(serial.vibration_order[:, 1]).all()  # the 120 km/h window vibrates
+
+
+def test_an_evolution_called_from_python_runs_blas_on_one_thread_as_the_command_line_does():
+    """The command line, the report and worker processes run on one BLAS thread; a direct
+    call limits itself the same way (and restores the caller's limits), so that a car
+    near its budget stops at the same distance whichever way it was asked for."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    seen = []
+
+    def blas_threads():
+        return {pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"}
+
+    with threadpool_limits(2, user_api="blas"):
+        before = blas_threads()
+        wear_evolution(Params(), 500.0, cycle=SLOW, settings=EvolutionSettings(step_km=250.0),
+                       progress=lambda *_: seen.append(blas_threads()))
+        assert blas_threads() == before
+    assert seen and all(threads == {1} for threads in seen)
 
 
 def test_initial_roughness_has_the_requested_rms():

@@ -62,6 +62,7 @@ import numpy as np
 from ..errors import NumericalError
 from ..models import model_for
 from ..models.profile import coupled_model, patch_sinc, profile_vector
+from ..parallel import on_one_blas_thread
 from ..params import Params, Wear, to_toml
 from ..progress import Progress
 from ..results import Result
@@ -375,10 +376,15 @@ def step_budget(distance_km: float, settings: EvolutionSettings) -> int:
     return settings.max_steps + math.ceil(distance_km / (MAX_STEP_FACTOR * settings.step_km))
 
 
+@on_one_blas_thread
 def wear_evolution(params: Params, distance_km: float, cycle: Iterable[tuple[float, float]] | None = None,
-           settings: EvolutionSettings = EvolutionSettings(),
-           progress: Progress | None = None, workers: int | None = None, start: str = "rest") -> EvolutionResult:
-    """Worn profile from seeded roughness over ``distance_km`` [km] on a drive cycle.
+                  settings: EvolutionSettings = EvolutionSettings(),
+                  progress: Progress | None = None, workers: int | None = None,
+                  start: str = "rest") -> EvolutionResult:
+    """Worn profile from seeded roughness over ``distance_km`` [km] on a drive cycle, with
+    BLAS on one thread (as from the command line and in worker processes, so that a Python
+    call takes the same path to the last bit: an evolution that creeps near its budget
+    amplifies last-bit differences).
 
     ``cycle``: ((speed [km/h], share), ...), default ``params.wear.cycle_shares()``;
     ``settings``: the distance step [km] and the revolutions per window
