@@ -316,7 +316,8 @@ def test_turn_limited_steps_follow_a_branch_that_steps_of_full_length_lose_from_
 @pytest.mark.slow
 def test_a_stable_window_below_the_first_hopf_point_is_not_stepped_over():
     """The default steps find the window 63.23-63.36 km/h, so the first bifurcation speed is
-    63.23 km/h, not the Hopf point at 68.20 km/h that steps without a turn limit gave.
+    63.23 km/h, not the Hopf point at 68.20 km/h that steps without a turn limit gave (the
+    two bifurcations at its ends inside one step).
     Check: the Floquet multipliers of the cycle at 63.30 km/h from the variational equation
     (Radau, independent of the collocation): all inside the unit circle but the trivial one."""
     params = axle(WINDOW_AXLE)
@@ -324,19 +325,55 @@ def test_a_stable_window_below_the_first_hopf_point_is_not_stepped_over():
     (lo, hi), rest = d.sev_band_kmh[0], d.sev_band_kmh[1:]
     assert lo == pytest.approx(63.2298, abs=1e-3) and hi == pytest.approx(63.3649, abs=1e-3)
     assert rest[0][0] == pytest.approx(min(h.speed_kmh for h in d.hopf_points)) == pytest.approx(68.2004, abs=1e-3)
-    coarse = bifurcation(params, (20.0, 300.0), NO_LIMIT, extend=False)
+    # without a turn limit and without the separation of events in one step (``event_step``
+    # longer than any step) the steps pass the window; the separation alone finds it too
+    coarse = bifurcation(params, (20.0, 300.0), replace(NO_LIMIT, event_step=1.0), extend=False)
     assert coarse.sev_band_kmh[0][0] == pytest.approx(68.2004, abs=1e-3)
+    separated = bifurcation(params, (20.0, 300.0), NO_LIMIT, extend=False)
+    assert separated.sev_band_kmh[0][0] == pytest.approx(lo, abs=1e-6)
     (stable,) = [c for c in d.cycles_at(63.30) if c.stable]
-    model = get_model("axle4dof")
-    p, orbit = model.pack(params), stable.orbit
+    _assert_stable_by_variational_equation(params, stable.orbit)
+
+
+def _assert_stable_by_variational_equation(params, orbit):
+    """The Floquet multipliers of ``orbit`` from the variational equation (Radau, independent
+    of the collocation): all inside the unit circle but the trivial one."""
+    model = get_model(params.model)
+    p, n = model.pack(params), model.n
 
     def variational(tau, y):
-        return (orbit.period * model.jacobian(orbit.evaluate(tau)[0], orbit.speed, p) @ y.reshape(9, 9)).ravel()
+        return (orbit.period * model.jacobian(orbit.evaluate(tau)[0], orbit.speed, p) @ y.reshape(n, n)).ravel()
 
-    sol = solve_ivp(variational, (0.0, 1.0), np.eye(9).ravel(), method="Radau", rtol=1e-10, atol=1e-12)
-    mu = np.linalg.eigvals(sol.y[:, -1].reshape(9, 9))
+    sol = solve_ivp(variational, (0.0, 1.0), np.eye(n).ravel(), method="Radau", rtol=1e-10, atol=1e-12)
+    mu = np.linalg.eigvals(sol.y[:, -1].reshape(n, n))
     nontrivial = np.delete(mu, np.argmin(np.abs(mu - 1.0)))
     assert np.all(np.abs(nontrivial) < 1.0), np.sort(np.abs(nontrivial))
+
+
+FOLD_AND_PD_AXLE = {"tread.lateral_stiffness_n_per_m": 920226.5167608857,
+                    "tread.lateral_damping_ns_per_m": 80.72624595463276, "operating.toe_deg": 0.5302737357094884,
+                    "operating.camber_deg": -0.9839731715619564, "friction.mu_static": 0.9825602317973973,
+                    "tread.mass_kg": 0.9170751992613078, "operating.vertical_load_n": 4265.608353167772}
+"""Run 216 of a Sobol study of N = 32 at +-10 % (four Hopf points): a stable window of cycles
+from a fold at 53.2900 km/h to a period doubling at 53.3018 km/h, the lowest edge of its SEV
+band. On 20 and on 80 mesh intervals both lay inside one step whose two ends are unstable,
+and the window was missed (first bifurcation speed 53.85 km/h); on 40 a point happened to
+land in it."""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("n_intervals", [20, 80])
+def test_a_window_between_a_fold_and_a_period_doubling_in_one_step_is_found(n_intervals):
+    """A step in which two bifurcations are located is retried shorter, so the stretch between
+    them gets a point of its own. Check: the window's cycle is stable by the variational
+    equation, and the band starts at the fold on every mesh."""
+    params = axle(FOLD_AND_PD_AXLE)
+    d = bifurcation(params, (20.0, 300.0), ContinuationSettings(n_intervals=n_intervals), extend=False)
+    (lo, hi) = d.sev_band_kmh[0]
+    assert lo == pytest.approx(53.2900, abs=1e-3) and hi == pytest.approx(53.3018, abs=1e-3)
+    assert any(abs(s.speed_kmh - hi) < 1e-6 and s.kind is PointKind.PD for s in d.special)
+    (stable,) = [c for c in d.cycles_at(53.296) if c.stable]
+    _assert_stable_by_variational_equation(params, stable.orbit)
 
 
 @pytest.mark.slow

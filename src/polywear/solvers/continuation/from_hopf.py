@@ -128,10 +128,11 @@ def continue_from_hopf(
             finish(BranchEnd.HOPF_REACHED)
             break
         point = BranchPoint(orbit, multipliers, t, iterations, resolved=resolved)
+        events = []
         if prev is not None and np.sign(point.tangent_speed) != np.sign(prev.tangent_speed):
             fold = _locate_fold((stepper, X0, t0, phase_ref), ds, prev, point)
             if fold is not None:
-                _add_special(branch, "LP", fold)
+                events.append(("LP", fold))
         if prev is not None and prev.resolved and resolved:  # counts of unresolved cycles are unknown
             for label in _multiplier_events(prev, point):
                 located = _locate_crossing((stepper, X0, t0, phase_ref), ds, prev, point, label)
@@ -139,7 +140,15 @@ def continue_from_hopf(
                 # cycles the monodromy product loses the trivial multiplier (and a sign
                 # change of a huge real multiplier mimics a crossing of -1)
                 if located is not None and trivial_error(located.multipliers) <= MAX_TRIVIAL_ERROR:
-                    _add_special(branch, label, located)
+                    events.append((label, located))
+        if len(events) > 1 and ds > settings.event_step:
+            # two bifurcations in one step: the stretch between them (e.g. a stable window
+            # from a fold to a period doubling, both ends of the step unstable) would have
+            # no point of its own to tell its stability by
+            ds *= 0.5
+            continue
+        for label, located in events:
+            _add_special(branch, label, located)
         branch.points.append(point)
         if on_step is not None:
             on_step(branch)
