@@ -81,7 +81,7 @@ def continue_from_hopf(
 
     for _ in range(settings.max_steps):
         resolved = True
-        out = stepper.correct(X0, t0, ds, phase_ref)
+        out = stepper.correct(X0, t0, ds, phase_ref, predicted=True)
         if out is not None and stepper.norm(out[0] - X0 - ds * t0) > settings.max_correction * ds:
             out = None  # Newton left the branch (e.g. past a Hopf point): the step is retried shorter
         turn = 0.0 if out is None or settings.max_turn is None else stepper.angle(out[1], t0)
