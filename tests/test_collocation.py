@@ -171,6 +171,40 @@ def test_continued_cycles_match_closed_form_radius_and_stability(normal_form_bra
         assert pt.stable == (r2_num > 0.5)
 
 
+def test_steps_stopped_on_the_predicted_correction_are_the_strict_points(normal_form_branch, monkeypatch):
+    """A branch step stops once quadratic convergence predicts its next correction below
+    ``newton_tol``: the same steps as with every iteration run, in fewer solves, and every
+    point within a few ``newton_tol`` of the discrete branch. The points are not compared one by one: each
+    step starts from the last point and tangent, so a difference of 1e-11 there moves the
+    next point along the branch. What is compared is each point's distance from the closed
+    form (the discretization error, smooth along the branch) at its own speed."""
+    import polywear.solvers.continuation.stepper as stepper
+
+    solves = []
+    solve = Collocation.solve
+    monkeypatch.setattr(Collocation, "solve", lambda self, *a, **k: solves.append(1) or solve(self, *a, **k))
+    hopf, _ = normal_form_branch
+    settings = ContinuationSettings(n_intervals=20, ds_max=0.2)
+    predicted = continue_from_hopf(MODEL, P, branch_start(hopf), (0.5, 1.5), settings, amplitude_ref=0.3)
+    n_predicted = len(solves)
+    monkeypatch.setattr(stepper, "PREDICTED_STOP", 0.0)  # every iteration run
+    solves.clear()
+    strict = continue_from_hopf(MODEL, P, branch_start(hopf), (0.5, 1.5), settings, amplitude_ref=0.3)
+    assert len(predicted.points) == len(strict.points)
+    def radius_error(pt):
+        V = pt.orbit.speed
+        r2_num = np.mean(np.sum(pt.orbit.nodes[:, :2] ** 2, axis=1))
+        return min((r2_num - cycle_radius2(V, b) for b in (+1, -1) if 1 + 4 * (V - 1) >= 0), key=abs)
+
+    # a stopped step is within a few newton_tol of the discrete branch, not at the rounding
+    # floor: 1.9e-10 in r^2 (~5e-10 in the scaled norm) at 0.764, next to the fold at 0.75
+    for a, b in zip(predicted.points, strict.points):
+        assert abs(a.orbit.speed - b.orbit.speed) < 1e-9
+        assert abs(radius_error(a) - radius_error(b)) < 1e-9, (a.orbit.speed, radius_error(a), radius_error(b))
+    assert [pt.newton_iterations for pt in predicted.points] == [pt.newton_iterations for pt in strict.points]
+    assert n_predicted < len(solves)
+
+
 def test_fold_of_cycles_located_at_closed_form(normal_form_branch):
     _, branch = normal_form_branch
     folds = [pt for label, pt, _ in branch.special if label == "LP"]

@@ -76,8 +76,9 @@ class _Stepper:
         Returns ``(X, tangent, iterations, multipliers)`` or None when Newton fails. With
         ``predicted``, Newton also stops once the correction is below :data:`PREDICTED_STOP`
         and the next one that quadratic convergence predicts from the last two is below
-        ``newton_tol`` (that iteration is counted, not run): the point is as accurate, and
-        the tangent and multipliers come from a Jacobian within :data:`PREDICTED_STOP` of it.
+        ``newton_tol`` (that iteration is counted, not run): the point is within a few
+        ``newton_tol`` of the discrete branch (not at the rounding floor), and the tangent
+        and multipliers come from a Jacobian within :data:`PREDICTED_STOP` of it.
         """
         c = self.coll
         border = np.vstack([c.phase_row(phase_ref), self.weights * t0])
