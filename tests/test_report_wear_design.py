@@ -6,6 +6,8 @@ change found and at the bracket's other end; the report's own drive-cycle evolut
 from __future__ import annotations
 
 import json
+import math
+from html import escape as html_escape
 
 import pytest
 
@@ -54,6 +56,31 @@ def test_report_gives_the_least_change_checked_by_evolution(tmp_path):
     html = (tmp_path / "report.html").read_text()
     assert "What stops the polygon, judged by the nonlinear evolution" in html
     assert f"{found['evolutions']} evolutions" in html
+
+
+@pytest.mark.slow
+def test_report_searches_one_grid_level_where_the_refined_search_is_over_budget(tmp_path, monkeypatch):
+    """A model outside WEAR_DESIGN_REFINED_BY_DEFAULT (axle4dof; here tread1dof taken out of
+    it, to keep the test short): one grid level, screened, not refined, and said so; the
+    change found checked by an independent evolution."""
+    from polywear.report import main
+    from polywear.report.verdict import coarse_search_note
+
+    monkeypatch.setattr(main, "WEAR_DESIGN_REFINED_BY_DEFAULT", ())
+    params = _car()
+    result = main.report(params, tmp_path, wear_evolution_km=KM)
+    assert result.settings.wear_design_by_evolution and not result.settings.wear_design_refined
+    found = result.wear_design
+    assert not found["refined"] and found["least_only"]
+    option = found["options"][0]
+    step = abs(math.log(option["value"] / option["nominal"]))
+    assert step == pytest.approx(math.log(4.0) / 8, rel=1e-12)  # the first grid level, as it is
+    at = wear_evolution(perturbed(params, option["key"], option["value"]), KM, params.wear.cycle_shares())
+    assert at.visible_km is None and option["evolution"]["depth_mm"] == pytest.approx(float(at.depth_mm[-1]),
+                                                                                    rel=1e-12)
+    assert coarse_search_note() in result.overall["lines"][-1]
+    assert html_escape(coarse_search_note()) in (tmp_path / "report.html").read_text()
+    assert main.report_search("axle4dof", refined=False).screen is not None  # screened where it is coarse
 
 
 def test_no_wear_design_turns_it_off(tmp_path):

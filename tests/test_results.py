@@ -373,5 +373,6 @@ def test_report_holds_its_results(tmp_path):
     assert result.save(tmp_path / "again.csv").read_bytes() == (tmp_path / "cycles.csv").read_bytes()
     saved = json.loads(result.save(tmp_path / "again.json").read_text())
     assert saved["settings"] == {"speed_range_kmh": [20.0, 300.0], "operating_range_kmh": [80.0, 130.0],
-                                 "wear_evolution_km": 2000.0, "wear_design_by_evolution": True}
+                                 "wear_evolution_km": 2000.0, "wear_design_by_evolution": True,
+                                 "wear_design_refined": True}
     assert saved["verdict"] == json.loads(json.dumps(result.overall, default=float))

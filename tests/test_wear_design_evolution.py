@@ -49,6 +49,36 @@ def test_least_change_for_a_vibrating_car_checked_by_evolution():
     assert before.visible_km is not None and before.visible_km < TARGET
 
 
+@pytest.mark.slow
+def test_one_grid_level_unrefined_is_that_level_checked_by_evolution():
+    """``max_levels=1, refine=False`` (the axle4dof report): the least change is the first grid
+    level where a direction meets the criterion, not refined (two evolutions); where no
+    direction meets it there, each says the search stopped there. Oracle: independent
+    evolutions at the change (no polygon) and at the nominal car (visible)."""
+    params = _car()
+    step = 4.0 ** (1.0 / 8)  # max_factor 4 on EVOLUTION_GRID = 8 levels
+    coarse = WearDesignSettings(judge=Judge.EVOLUTION, max_factor=4.0, max_levels=1, refine=False)
+    result = wear_design(params, keys=(KEY,), target_km=TARGET, cycle=CYCLE, settings=coarse)
+    (option,) = result.options
+    assert option.value == pytest.approx(nominal_value(params, KEY) * step, rel=1e-12)
+    assert option.below is None and result.evolutions == 2 and not result.summary()["refined"]
+    at = wear_evolution(perturbed(params, KEY, option.value), TARGET, CYCLE)
+    assert at.visible_km is None and option.evolution["depth_mm"] == pytest.approx(float(at.depth_mm[-1]), rel=1e-12)
+    assert wear_evolution(params, TARGET, CYCLE).visible_km < TARGET
+    # a grid too fine for one level to reach the change: no option, and why
+    fine = wear_design(params, keys=(KEY,), target_km=TARGET, cycle=CYCLE,
+                       settings=WearDesignSettings(judge=Judge.EVOLUTION, max_factor=1.5, max_levels=1))
+    assert not fine.options and fine.evolutions == 2
+    (note,) = fine.not_found
+    assert note == (f"{KEY}: more: +5 % does not meet the criterion; the search stopped there (1 grid level, "
+                    "WearDesignSettings.max_levels); less: -5 % does not meet the criterion; the search stopped "
+                    "there (1 grid level, WearDesignSettings.max_levels)")
+    with pytest.raises(ValueError, match="max_levels"):
+        WearDesignSettings(max_levels=0)
+    with pytest.raises(ValueError, match="refine = 1: must be True or False"):
+        WearDesignSettings(refine=1)
+
+
 def test_judge_is_checked():
     with pytest.raises(ValueError, match="needs a target"):
         wear_design(Params(), keys=(KEY,), settings=WearDesignSettings(judge=Judge.EVOLUTION), cycle=CYCLE)

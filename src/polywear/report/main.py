@@ -13,7 +13,7 @@ from __future__ import annotations
 import html
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -35,14 +35,26 @@ if TYPE_CHECKING:
     from ..wear.map import WearMap
     from .wear import WearSection
 
-__all__ = ["WEAR_DESIGN_BY_DEFAULT", "Report", "ReportSettings", "operating_verdict", "report"]
+__all__ = ["WEAR_DESIGN_REFINED_BY_DEFAULT", "Report", "ReportSettings", "operating_verdict", "report",
+           "report_search"]
 
-WEAR_DESIGN_BY_DEFAULT = ("tread1dof",)
-"""Models whose report searches, by default, the least change judged by the evolution for
-a car that vibrates on the drive cycle: those where it fits the main job's budget
-(tread1dof: about 20-30 s of CPU time on the default car, docs/wear.md; axle4dof: the 16
-probes of its first grid level 267 s CPU with the full settings, 393 s screened after the
-long windows, load 9-12: several times the 3 min of its whole report)."""
+WEAR_DESIGN_REFINED_BY_DEFAULT = ("tread1dof",)
+"""Models whose report, by default, refines the least change judged by the evolution (for
+a car that vibrates on the drive cycle) to the search's accuracy: those where that fits the
+main job's budget (tread1dof: about 20-30 s of CPU time on the default car, docs/wear.md).
+The others (axle4dof: the refined search alone takes about 3.5 min on 2 cores) search one
+grid level, screened (:func:`report_search`): the least change is known to one grid step
+(+19 %/-16 %), and ``--wear-design`` refines it."""
+
+
+def report_search(model: str, refined: bool):
+    """The report's :class:`~polywear.wear.design.WearDesignSettings`: the least change, one
+    undecided probe per bracket; ``refined`` False: one grid level screened by
+    :data:`~polywear.wear.design.SCREEN`, not refined."""
+    from ..wear.design import SCREEN, Judge, WearDesignSettings
+
+    search = WearDesignSettings(judge=Judge.EVOLUTION, least_only=True, max_undecided=1)
+    return search if refined else replace(search, max_levels=1, refine=False, screen=SCREEN)
 
 
 @dataclass(frozen=True)
@@ -57,7 +69,10 @@ class ReportSettings:
     """Distance of the wear evolutions [km] (0: not run)."""
     wear_design_by_evolution: bool
     """Whether the least change judged by the evolution is searched for a car that vibrates
-    on the drive cycle (``--wear-design/--no-wear-design``)."""
+    on the drive cycle (``--no-wear-design``: not)."""
+    wear_design_refined: bool = True
+    """Whether that search refines the least change (``--wear-design``; by default for the
+    models in :data:`WEAR_DESIGN_REFINED_BY_DEFAULT`), else it searches one grid level."""
 
     def __post_init__(self) -> None:
         for name in ("speed_range_kmh", "operating_range_kmh"):
@@ -313,10 +328,11 @@ def report(
         For a car that vibrates on the drive cycle and wears a visible polygon within
         ``wear_evolution_km``: the least change (toe, camber, bushings, tread; adhesion only
         where none of those does it) after which the evolution shows no polygon within that
-        distance (about ten evolutions, side by side; ``polywear report --wear-design /
-        --no-wear-design``). Default: where it fits the main job's budget, the tread1dof
-        model (about 20-30 s of CPU time on the default car); axle4dof has twice the keys at
-        about five times the cost per evolution (:data:`WEAR_DESIGN_BY_DEFAULT`).
+        distance (about ten to twenty evolutions, side by side; ``polywear report
+        --wear-design / --no-wear-design``). True: refined to the search's accuracy; False:
+        not searched. Default: refined where that fits the main job's budget
+        (:data:`WEAR_DESIGN_REFINED_BY_DEFAULT`, tread1dof), else one grid level of the
+        search (axle4dof: +19 %/-16 % of each key; :func:`report_search`).
     cornering_stiffness : (float, str), optional
         The tire's cornering stiffness C_alpha [N/rad] and where it comes from (a .tir
         file's, at the load), against which the point contact's lateral force is judged
@@ -411,24 +427,25 @@ def report(
                         progress=stage.detail(""), diagram=diagram)
     files.update(_wear_data_files(wear))
 
-    from ..wear.design import Judge, WearDesignSettings, cycle_growth, wear_design
+    from ..wear.design import cycle_growth, wear_design
 
     stops = None
-    if wear_design_by_evolution is None:
-        wear_design_by_evolution = params.model in WEAR_DESIGN_BY_DEFAULT
+    refined = wear_design_by_evolution or (wear_design_by_evolution is None
+                                           and params.model in WEAR_DESIGN_REFINED_BY_DEFAULT)
+    wear_design_by_evolution = wear_design_by_evolution is not False
     worn = dict(wear.evolutions).get("drive cycle")
     if (wear_design_by_evolution and worn is not None and worn.complete and worn.visible_km is not None
             and not cycle_growth(params)[2]):  # vibrates on the cycle and wears a visible polygon
-        say("what stops the polygon: the least change judged by the evolution")
-        search = WearDesignSettings(judge=Judge.EVOLUTION, least_only=True, max_undecided=1)  # the least, in budget
-        stops = wear_design(params, target_km=km, settings=search, progress=stage.detail("wear design: "),
-                            nominal=worn).summary()
+        say("what stops the polygon: the least change judged by the evolution"
+            + ("" if refined else " (one grid level; --wear-design refines it)"))
+        stops = wear_design(params, target_km=km, settings=report_search(params.model, refined),
+                            progress=stage.detail("wear design: "), nominal=worn).summary()
 
     say("one verdict: vibration and wear together, design options judged by the wear")
     from .verdict import verdict as overall_verdict
 
     result = Report(params, diagram, verdict, runs, sens, options, wear, portraits, files, wear_design=stops,
-                    settings=ReportSettings(speed_range_kmh, operating_range, km, wear_design_by_evolution))
+                    settings=ReportSettings(speed_range_kmh, operating_range, km, wear_design_by_evolution, refined))
     result.overall = overall_verdict(result.summary(), params, _sentence(verdict), cornering_stiffness)
     summary = result.summary()
     write_text(out_dir / "summary.json", json.dumps(summary, indent=2, default=float))
@@ -544,6 +561,8 @@ def _wear_design_html(found: dict | None) -> str:
     """What stops the polygon for a car that vibrates on the drive cycle (the least change
     judged by the evolution, the bracket the search left, the undecided probes and why the
     other keys give no option), or nothing."""
+    from .verdict import coarse_search_note
+
     if found is None:
         return ""
     e = html.escape
@@ -568,6 +587,8 @@ def _wear_design_html(found: dict | None) -> str:
         if between:
             text += ("; undecided at " + ", ".join(f"{u['value']:.4g}" for u in between)
                      + " (the evolution stopped at its step budget: the profile changes faster than its steps there)")
+        if not found.get("refined", True):
+            text += f" ({e(coarse_search_note())})"
         lines.append(text)
     notes = "".join(f"<li>{e(n)}</li>" for n in found["not_found"])
     if not lines:

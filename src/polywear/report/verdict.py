@@ -454,6 +454,16 @@ def _band_edges(b: dict) -> str:
             f"{f'{second:.1f}' if second is not None else f'open above {hi:g}'} km/h")
 
 
+def coarse_search_note() -> str:
+    """What the report says beside a least change searched on one grid level (not refined)."""
+    from ..wear.design import EVOLUTION_GRID, WearDesignSettings
+
+    step = WearDesignSettings().max_factor ** (1.0 / EVOLUTION_GRID)
+    return (f"one step of the search's grid ({(step - 1.0) * 100:+.0f} %/{(1.0 / step - 1.0) * 100:+.0f} % of each "
+            f"key), not refined: a smaller change, of this or of another parameter, may do it (polywear report "
+            f"--wear-design refines it)")
+
+
 def _stops(found: dict | None) -> str:
     """The least change judged by the evolution (the report's ``wear_design``) as a sentence
     that follows the design answer, or nothing where it was not searched or found nothing."""
@@ -477,6 +487,8 @@ def _stops(found: dict | None) -> str:
     if undecided:
         text += ("; " + ", ".join(f"{u['relative_change'] * 100:+.1f} %" for u in undecided)
                  + " undecided (the evolution ran out of its budget there, at the edge of locking)")
+    if not found.get("refined", True):
+        text += f"; {coarse_search_note()}"
     return text + "."
 
 

@@ -155,6 +155,14 @@ class WearDesignSettings:
     max_undecided: int = MAX_UNDECIDED
     """Where the evolution judges: a bracket is refined no further after this many of its
     probes were undecided [-] (integer >= 1; the report takes 1)."""
+    max_levels: int | None = None
+    """Where the evolution judges: grid levels searched at most [-] (integer >= 1; None: all
+    :data:`EVOLUTION_GRID`); a direction that meets the criterion at none of them gets a note
+    that the search stopped there."""
+    refine: bool = True
+    """Where the evolution judges: refine the bracket of a direction that meets the criterion
+    by trisection to :data:`EVOLUTION_REFINE`. False: the least change is the grid level where
+    it first meets it (the report for axle4dof, whose time budget holds one grid level)."""
     screen: EvolutionSettings | None = None
     """Where the evolution judges: cheaper settings (e.g. :data:`SCREEN`) that judge every
     probe first; a probe whose screened verdict is undecided or near the criterion
@@ -167,8 +175,11 @@ class WearDesignSettings:
         if not self.max_factor > 1.0:
             raise ValueError(f"WearDesignSettings: max_factor = {self.max_factor!r}: must be above 1")
         check_count(self, "grid")
-        if not isinstance(self.least_only, bool):
-            raise ValueError(f"WearDesignSettings: least_only = {self.least_only!r}: must be True or False")
+        for name in ("least_only", "refine"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"WearDesignSettings: {name} = {getattr(self, name)!r}: must be True or False")
+        if self.max_levels is not None:
+            check_count(self, "max_levels")
         if self.threads is not None:
             check_count(self, "threads")
         check_count(self, "max_undecided")
@@ -284,6 +295,7 @@ class WearDesignResult(Result):
             "undecided": self.undecided,
             "evolutions": self.evolutions,
             "least_only": self.settings.least_only,
+            "refined": self.settings.refine,
             "distances_scale_as": "1/k_e",
         }
 
@@ -506,7 +518,7 @@ def _search_by_evolution(params: Params, keys: Sequence[str], cycle, target_km: 
         return min(((hi, s, lo) for (k, s), (lo, hi) in found.items() if k == key), default=None)
 
     top = math.log(settings.max_factor)
-    levels = np.linspace(0.0, top, EVOLUTION_GRID + 1)[1:]
+    levels = np.linspace(0.0, top, EVOLUTION_GRID + 1)[1:][:settings.max_levels]
     engineering = [k for k in keys if parameter_category(k) in ENGINEERING]
     tiers = [engineering, [k for k in keys if k not in engineering]] if settings.least_only else [list(keys)]
 
@@ -537,14 +549,23 @@ def _search_by_evolution(params: Params, keys: Sequence[str], cycle, target_km: 
                     notes.update({d: f"{_signed(d[1] * level)} does not meet the criterion, a change of another "
                                      "key no larger does (not searched further)" for d in open_})
                     break
-                if i == 0 and len(levels) > 1 and open_:  # the largest change closes a direction that fails there
-                    outs = run([(key, s * top) for key, s in open_])
+                if i == 0 and len(levels) > 1 and levels[-1] == top and open_:  # the largest change closes
+                    outs = run([(key, s * top) for key, s in open_])  # a direction that fails there
                     for d, out in zip(list(open_), outs):
                         if not ok(out):
                             open_.remove(d)
                             notes[d] = (f"no change within x{settings.max_factor:g} meets the criterion"
                                         if failed(out) else
                                         f"the largest change (x{settings.max_factor:g}) is undecided (not searched)")
+            else:  # every level searched: the open directions stopped at settings.max_levels
+                for key, s in open_:
+                    notes[key, s] = (f"{_signed(s * levels[-1])} "
+                                     + ("does not meet the criterion" if failed(cache[key, s * levels[-1]])
+                                        else "is undecided")
+                                     + f"; the search stopped there ({len(levels)} grid level"
+                                     + ("s" if len(levels) > 1 else "") + ", WearDesignSettings.max_levels)")
+        if not settings.refine:
+            return found, notes
         # trisection of every bracket, side by side: two probes per bracket and round; an
         # undecided probe is no end of a bracket, a bracket is refined no further after
         # settings.max_undecided of its probes were undecided, nor where the other direction of
