@@ -5,6 +5,7 @@ visible polygon within the target) and at 3 % less of it (visible before the tar
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 
@@ -65,6 +66,13 @@ def test_one_grid_level_unrefined_is_that_level_checked_by_evolution():
     at = wear_evolution(perturbed(params, KEY, option.value), TARGET, CYCLE)
     assert at.visible_km is None and option.evolution["depth_mm"] == pytest.approx(float(at.depth_mm[-1]), rel=1e-12)
     assert wear_evolution(params, TARGET, CYCLE).visible_km < TARGET
+    # on two speeds, all in one thread (threads = 1) against probes side by side, each with its
+    # windows in threads: the same, bit for bit
+    two = ((110.0, 0.5), (120.0, 0.5))
+    side_by_side = wear_design(params, keys=(KEY,), target_km=TARGET, cycle=two, settings=coarse)
+    serial = wear_design(params, keys=(KEY,), target_km=TARGET, cycle=two, settings=replace(coarse, threads=1))
+    assert serial.options == side_by_side.options and serial.not_found == side_by_side.not_found
+    assert serial.nominal_evolution["visible_km"] < TARGET and side_by_side.evolutions == 2
     # a grid too fine for one level to reach the change: no option, and why
     fine = wear_design(params, keys=(KEY,), target_km=TARGET, cycle=CYCLE,
                        settings=WearDesignSettings(judge=Judge.EVOLUTION, max_factor=1.5, max_levels=1))

@@ -41,7 +41,9 @@ every cycle speed and the linear map alone makes the polygon :data:`CLEARLY_VISI
 the visible depth fails without an evolution. Each option keeps the evolution at its
 least change. A trisection stops where the other direction of its key already meets the
 criterion at a change no larger than the bracket's lower end (that direction's least
-change is the key's).
+change is the key's). ``max_levels`` stops the walk after that many grid levels and
+``refine`` False skips the trisection (the report for axle4dof: one level, whose change is
+then the option, an upper bound of the least change).
 
 Screened (``WearDesignSettings.screen``, e.g. :data:`SCREEN`): every probe is judged first
 by a cheaper evolution, and again with the full settings where the screened verdict is
@@ -151,7 +153,9 @@ class WearDesignSettings:
     engineer sets meets it. False: the least change of every key."""
     threads: int | None = None
     """Threads that run the probes of one level side by side where the evolution judges and
-    no executor is given [-] (default: the CPU count; the result does not depend on it)."""
+    no executor is given [-] (default: the CPU count; each probe's evolution runs its cycle
+    speeds' windows in threads of its own too, except with 1: all in one thread; the result
+    does not depend on it)."""
     max_undecided: int = MAX_UNDECIDED
     """Where the evolution judges: a bracket is refined no further after this many of its
     probes were undecided [-] (integer >= 1; the report takes 1)."""
@@ -428,28 +432,31 @@ def _option(key: str, nominal: float, factor: float, growth: float, order: int, 
 @dataclass(frozen=True)
 class _Probe:
     """One probe of the evolution search (a picklable task): :func:`_meets` judged by the
-    evolution with ``(key, nominal value, factor, full)``, its evolution in one thread; with
-    ``screen`` and not ``full``, judged by the screen first and again with ``settings`` where
-    the screen is not clear (:func:`_screen_clear`). Returns (:func:`_meets`'s answer, evolutions
-    run, whether judged with ``settings``)."""
+    evolution with ``(key, nominal value, factor, full)``, its windows in ``workers`` threads
+    (:func:`~polywear.wear.evolution.wear_evolution`; None: one per cycle speed, which fills
+    the cores a round's last probes leave idle; the result is the same); with ``screen`` and
+    not ``full``, judged by the screen first and again with ``settings`` where the screen is
+    not clear (:func:`_screen_clear`). Returns (:func:`_meets`'s answer, evolutions run,
+    whether judged with ``settings``)."""
 
     params: Params
     cycle: tuple
     target_km: float
     settings: EvolutionSettings
     screen: EvolutionSettings | None = None
+    workers: int | None = 1
 
     def __call__(self, job: tuple[str, float, float, bool]):
         key, nominal, factor, full = job
         runs = 0
         if self.screen is not None and not full:
             out = _meets(self.params, key, nominal, factor, self.cycle, self.target_km, Judge.EVOLUTION,
-                         self.screen, workers=1)
+                         self.screen, workers=self.workers)
             runs += out is not None and out[3] is not None
             if _screen_clear(out, self.target_km, self.params.wear.visible_depth_mm):
                 return out, runs, out is None or out[3] is None  # no evolution: the same with any settings
         out = _meets(self.params, key, nominal, factor, self.cycle, self.target_km, Judge.EVOLUTION,
-                     self.settings, workers=1)
+                     self.settings, workers=self.workers)
         return out, runs + (out is not None and out[3] is not None), True
 
 
@@ -478,7 +485,8 @@ def _search_by_evolution(params: Params, keys: Sequence[str], cycle, target_km: 
                        max_revolutions=min(evolution.max_revolutions or PROBE_MAX_REVOLUTIONS, PROBE_MAX_REVOLUTIONS))
 
     probe = _Probe(params, cycle, target_km, budgeted(settings.evolution),
-                   None if settings.screen is None else budgeted(settings.screen))
+                   None if settings.screen is None else budgeted(settings.screen),
+                   workers=1 if executor is not None or settings.threads == 1 else None)
     nominal = {key: nominal_value(params, key) for key in keys}
     cache: dict[tuple[str, float], tuple | None] = {}
     full: set[tuple[str, float]] = set()  # the probes judged with settings.evolution
