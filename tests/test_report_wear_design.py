@@ -11,6 +11,7 @@ from html import escape as html_escape
 
 import pytest
 
+from polywear.dynamics.design import signed_percent
 from polywear.dynamics.sensitivity import perturbed
 from polywear.params import Params, with_updates
 from polywear.wear.evolution import wear_evolution
@@ -52,7 +53,7 @@ def test_report_gives_the_least_change_checked_by_evolution(tmp_path):
         assert before.visible_km == pytest.approx(below["visible_km"], rel=1e-9)
     # worded at the top and in the design section
     assert "What stops the polygon" in result.overall["lines"][-1]
-    assert f"({option['relative_change'] * 100:+.1f} %)" in result.overall["lines"][-1]
+    assert f"({signed_percent(option['relative_change'])})" in result.overall["lines"][-1]
     html = (tmp_path / "report.html").read_text()
     assert "What stops the polygon, judged by the nonlinear evolution" in html
     assert f"{found['evolutions']} evolutions" in html

@@ -59,6 +59,7 @@ __all__ = [
     "design",
     "default_operating_range",
     "parameter_category",
+    "signed_percent",
 ]
 
 ALIGNMENT_KEYS = ("operating.toe_deg", "operating.camber_deg")
@@ -117,7 +118,8 @@ def _with_unit(key: str, value: float) -> str:
     return f"{value:.4g} {unit}" if unit else f"{value:.4g}"
 
 
-def _percent(r: float) -> str:
+def signed_percent(r: float) -> str:
+    """A relative change ``r`` [-] in percent with its sign, a true minus: '−55.4 %'."""
     return f"{'+' if r >= 0 else '−'}{abs(r) * 100:.1f} %"
 
 
@@ -173,7 +175,7 @@ class DesignOption:
 
     def change_text(self) -> str:
         """'toe angle 0.5° → 0.2228° (−55.4 %)', joined with ' + ' for combinations."""
-        return " + ".join(f"{parameter_label(k)} {c} ({_percent(r)})"
+        return " + ".join(f"{parameter_label(k)} {c} ({signed_percent(r)})"
                           for k, c, r in zip(self.keys, self.value_changes(), self.relative_changes))
 
     def text(self, max_relative_change: float | None = None) -> str:

@@ -561,6 +561,7 @@ def _wear_design_html(found: dict | None) -> str:
     """What stops the polygon for a car that vibrates on the drive cycle (the least change
     judged by the evolution, the bracket the search left, the undecided probes and why the
     other keys give no option), or nothing."""
+    from ..dynamics.design import signed_percent
     from .verdict import coarse_search_note
 
     if found is None:
@@ -574,11 +575,11 @@ def _wear_design_html(found: dict | None) -> str:
         return head + "nothing to change: no polygon becomes visible within that distance.</p>"
     lines = []
     for o in found["options"]:
-        text = (f"{e(o['label'])} {o['nominal']:.4g} &rarr; {o['value']:.4g} ({o['relative_change'] * 100:+.1f} %): "
+        text = (f"{e(o['label'])} {o['nominal']:.4g} &rarr; {o['value']:.4g} ({signed_percent(o['relative_change'])}): "
                 f"depth {o['evolution']['depth_mm']:.3f} mm after {km:,.0f} km, no visible polygon")
         below = o["below"]
         if below is not None:
-            text += (f"; at {below['value']:.4g} ({below['relative_change'] * 100:+.1f} %) "
+            text += (f"; at {below['value']:.4g} ({signed_percent(below['relative_change'])}) "
                      + (f"visible after {below['visible_km']:,.0f} km" if below["visible_km"] is not None
                         else "not an option"))
         else:

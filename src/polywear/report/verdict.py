@@ -456,10 +456,11 @@ def _band_edges(b: dict) -> str:
 
 def coarse_search_note() -> str:
     """What the report says beside a least change searched on one grid level (not refined)."""
+    from ..dynamics.design import signed_percent
     from ..wear.design import EVOLUTION_GRID, WearDesignSettings
 
     step = WearDesignSettings().max_factor ** (1.0 / EVOLUTION_GRID)
-    return (f"one step of the search's grid ({(step - 1.0) * 100:+.0f} %/{(1.0 / step - 1.0) * 100:+.0f} % of each "
+    return (f"one step of the search's grid ({signed_percent(step - 1.0)}/{signed_percent(1.0 / step - 1.0)} of each "
             f"key), not refined: a smaller change, of this or of another parameter, may do it (polywear report "
             f"--wear-design refines it)")
 
@@ -469,7 +470,7 @@ def _stops(found: dict | None) -> str:
     that follows the design answer, or nothing where it was not searched or found nothing."""
     if not found or not found["options"]:
         return ""
-    from ..dynamics.design import parameter_unit
+    from ..dynamics.design import parameter_unit, signed_percent
 
     o = found["options"][0]
     unit = parameter_unit(o["key"])
@@ -478,14 +479,14 @@ def _stops(found: dict | None) -> str:
         return f"{v:.4g}°" if unit == "deg" else f"{v:.4g}{' ' + unit if unit else ''}"
 
     text = (f" What stops the polygon (the nonlinear evolution over {found['target_km']:,.0f} km on the drive "
-            f"cycle): {o['label']} {value(o['nominal'])} → {value(o['value'])} ({o['relative_change'] * 100:+.1f} %)")
+            f"cycle): {o['label']} {value(o['nominal'])} → {value(o['value'])} ({signed_percent(o['relative_change'])})")
     undecided = [u for u in found["undecided"] if u["key"] == o["key"]]
     below = o["below"]
     if below is not None and below["visible_km"] is not None:
-        text += (f"; at {below['relative_change'] * 100:+.1f} % the polygon is visible after about "
+        text += (f"; at {signed_percent(below['relative_change'])} the polygon is visible after about "
                  f"{_km(below['visible_km'])} km")
     if undecided:
-        text += ("; " + ", ".join(f"{u['relative_change'] * 100:+.1f} %" for u in undecided)
+        text += ("; " + ", ".join(signed_percent(u["relative_change"]) for u in undecided)
                  + " undecided (the evolution ran out of its budget there, at the edge of locking)")
     if not found.get("refined", True):
         text += f"; {coarse_search_note()}"
@@ -512,10 +513,10 @@ def _what_to_change(vibrates: bool, visible: bool, evolved: bool, design: dict, 
                     "wears into a polygon: the wear itself must change")
             where, o, linear_clear = wear_option
             if o is not None:
-                from ..dynamics.design import parameter_unit
+                from ..dynamics.design import parameter_unit, signed_percent
 
                 unit = parameter_unit(o.key)
-                return (text + f": {o.label} {o.nominal:.4g} → {o.value:.4g} {unit} ({o.relative_change * 100:+.1f} %) keeps "
+                return (text + f": {o.label} {o.nominal:.4g} → {o.value:.4g} {unit} ({signed_percent(o.relative_change)}) keeps "
                         f"the polygon invisible for {distance_km:,.0f} km {where} by the linear wear map, the least "
                         f"such change (polywear wear design --target-km {distance_km:g} lists all; the nonlinear "
                         "evolution can lock and grow faster: check with --verify-km).")
