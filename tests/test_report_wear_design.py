@@ -96,3 +96,24 @@ def test_no_wear_design_turns_it_off(tmp_path):
     assert "What stops the polygon" not in " ".join(off.overall["lines"])
     code, out, _ = run_main(["report", "--help"])
     assert code == 0 and "--no-wear-design" in out
+
+
+def test_the_other_direction_of_an_unrefined_change_is_worded_beside_it():
+    """Where both directions of a key meet at the searched grid level (the axle4dof default
+    car: tread stiffness -15.9 % and +18.9 %), the verdict and the design section give both."""
+    from polywear.report.main import _wear_design_html
+    from polywear.report.verdict import _stops
+
+    found = {"target_km": 100000.0, "evolutions": 18, "refined": False, "undecided": [], "not_found": [],
+             "nominal_evolution": {"visible_km": 40506.0},
+             "options": [{"key": "tread.lateral_stiffness_n_per_m", "label": "tread lateral stiffness",
+                          "nominal": 1e6, "value": 8.409e5, "relative_change": -0.1591, "below": None,
+                          "evolution": {"depth_mm": 0.0582, "visible_km": None},
+                          "other_direction": {"value": 1.189e6, "relative_change": 0.1892,
+                                              "evolution": {"depth_mm": 0.0123, "visible_km": None}}}]}
+    line = _stops(found)
+    assert "1e+06 N/m → 8.409e+05 N/m (−15.9 %) or → 1.189e+06 N/m (+18.9 %);" in line
+    html = _wear_design_html(found)
+    assert "8.409e+05 (−15.9 %)" in html and "1.189e+06 (+18.9 %) does it too (depth 0.012 mm, no visible polygon)" in html
+    found["options"][0]["other_direction"] = None
+    assert " or → " not in _stops(found) and "does it too" not in _wear_design_html(found)

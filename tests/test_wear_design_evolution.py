@@ -11,7 +11,7 @@ import pytest
 
 from polywear.dynamics.sensitivity import nominal_value, perturbed
 from polywear.params import Params, with_updates
-from polywear.wear.design import EVOLUTION_REFINE, Judge, WearDesignSettings, cycle_growth, wear_design
+from polywear.wear.design import EVOLUTION_REFINE, SCREEN, Judge, WearDesignSettings, cycle_growth, wear_design
 from polywear.wear.evolution import EvolutionSettings, StepBudgetError, wear_evolution
 
 CYCLE = ((110.0, 1.0),)  # the default car vibrates at 110 km/h
@@ -81,6 +81,18 @@ def test_one_grid_level_unrefined_is_that_level_checked_by_evolution():
     assert note == (f"{KEY}: more: +5 % does not meet the criterion; the search stopped there (1 grid level, "
                     "WearDesignSettings.max_levels); less: -5 % does not meet the criterion; the search stopped "
                     "there (1 grid level, WearDesignSettings.max_levels)")
+    # both directions meet at the first level (mu_s -29 % and +41 % with max_factor 16): the
+    # smaller relative change is the option, the other direction beside it, both judged with
+    # the full settings where the screen judged first (independent evolutions)
+    both = wear_design(params, keys=("friction.mu_static",), target_km=TARGET, cycle=CYCLE,
+                       settings=replace(coarse, max_factor=16.0, screen=SCREEN))
+    (option,) = both.options
+    other = option.other_direction
+    assert option.relative_change == pytest.approx(16.0 ** -0.125 - 1.0, rel=1e-12)
+    assert other["relative_change"] == pytest.approx(16.0 ** 0.125 - 1.0, rel=1e-12)
+    for value, evolved in ((option.value, option.evolution), (other["value"], other["evolution"])):
+        again = wear_evolution(perturbed(params, "friction.mu_static", value), TARGET, CYCLE)
+        assert again.visible_km is None and evolved["depth_mm"] == pytest.approx(float(again.depth_mm[-1]), rel=1e-12)
     with pytest.raises(ValueError, match="max_levels"):
         WearDesignSettings(max_levels=0)
     with pytest.raises(ValueError, match="refine = 1: must be True or False"):

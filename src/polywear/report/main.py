@@ -577,6 +577,10 @@ def _wear_design_html(found: dict | None) -> str:
     for o in found["options"]:
         text = (f"{e(o['label'])} {o['nominal']:.4g} &rarr; {o['value']:.4g} ({signed_percent(o['relative_change'])}): "
                 f"depth {o['evolution']['depth_mm']:.3f} mm after {km:,.0f} km, no visible polygon")
+        other = o.get("other_direction")
+        if other is not None:
+            text += (f"; {other['value']:.4g} ({signed_percent(other['relative_change'])}) does it too (depth "
+                     f"{other['evolution']['depth_mm']:.3f} mm, no visible polygon)")
         below = o["below"]
         if below is not None:
             text += (f"; at {below['value']:.4g} ({signed_percent(below['relative_change'])}) "

@@ -480,6 +480,9 @@ def _stops(found: dict | None) -> str:
 
     text = (f" What stops the polygon (the nonlinear evolution over {found['target_km']:,.0f} km on the drive "
             f"cycle): {o['label']} {value(o['nominal'])} → {value(o['value'])} ({signed_percent(o['relative_change'])})")
+    other = o.get("other_direction")
+    if other is not None:
+        text += f" or → {value(other['value'])} ({signed_percent(other['relative_change'])})"
     undecided = [u for u in found["undecided"] if u["key"] == o["key"]]
     below = o["below"]
     if below is not None and below["visible_km"] is not None:

@@ -48,7 +48,8 @@ then the option, an upper bound of the least change).
 Screened (``WearDesignSettings.screen``, e.g. :data:`SCREEN`): every probe is judged first
 by a cheaper evolution, and again with the full settings where the screened verdict is
 undecided or within :data:`SCREEN_MARGIN` of the criterion; the least change of every key
-and its bracket's other end are judged with the full settings after the walk, and where one
+and its bracket's other end (unrefined: every direction that meets it) are judged with the
+full settings after the walk, and where one
 of them changes its verdict the search walks again over the probes already made (so the
 options' evolutions are those of the full settings).
 
@@ -250,6 +251,10 @@ class WearDesignOption:
     """where the evolution judged: the largest change below the least one whose probe shows a
     visible polygon within the target (the search's bracket): ``{"value", "relative_change",
     "visible_km"}``; None: the nominal car (its evolution is the result's)"""
+    other_direction: dict | None = None
+    """where the evolution judged without refining (``WearDesignSettings.refine`` False): the
+    other direction of the same key where it meets the criterion too, not refined either:
+    ``{"value", "relative_change", "evolution"}`` (its evolution with the full settings)"""
 
     def summary(self) -> dict:
         return dict(self.__dict__) | {"growth_per_1000km": _finite(self.growth_per_1000km)}
@@ -422,11 +427,11 @@ class _KeySearch:
 
 
 def _option(key: str, nominal: float, factor: float, growth: float, order: int, evolved: dict | None = None,
-            below: dict | None = None) -> WearDesignOption:
+            below: dict | None = None, other_direction: dict | None = None) -> WearDesignOption:
     return WearDesignOption(
         key=key, label=parameter_label(key), category=parameter_category(key), nominal=nominal,
         value=nominal * factor, relative_change=factor - 1.0, growth_per_1000km=growth, order=order,
-        evolution=evolved, below=below)
+        evolution=evolved, below=below, other_direction=other_direction)
 
 
 @dataclass(frozen=True)
@@ -598,6 +603,8 @@ def _search_by_evolution(params: Params, keys: Sequence[str], cycle, target_km: 
         found, notes = walk()
         ends = [(key, s * x) for key in keys if (best := least(found, key)) is not None
                 for x, s in ((best[0], best[1]), (best[2], best[1])) if x > 0.0 and (key, s * x) not in full]
+        if not settings.refine:  # unrefined, every direction that meets is an option's or its other direction
+            ends += [(key, s * hi) for (key, s), (_, hi) in found.items() if (key, s * hi) not in full]
         if not ends:
             break
         run(ends, confirm=True)
@@ -611,9 +618,13 @@ def _search_by_evolution(params: Params, keys: Sequence[str], cycle, target_km: 
         hi, s, lo = best
         _, g, order, evolved = cache[key, s * hi]
         below = cache[key, s * lo] if lo > 0.0 else None
+        other = found.get((key, -s)) if not settings.refine else None
         by_key[key] = _option(key, nominal[key], math.exp(s * hi), g, order, evolved, None if below is None else {
             "value": nominal[key] * math.exp(s * lo), "relative_change": math.expm1(s * lo),
-            "visible_km": below[3]["visible_km"] if below is not None and below[3] is not None else None})
+            "visible_km": below[3]["visible_km"] if below is not None and below[3] is not None else None},
+            None if other is None else {"value": nominal[key] * math.exp(-s * other[1]),
+                                        "relative_change": math.expm1(-s * other[1]),
+                                        "evolution": cache[key, -s * other[1]][3]})
     undecided = [{"key": key, "value": nominal[key] * math.exp(x), "relative_change": math.expm1(x),
                   "at_km": out[3]["distance_km"]}
                  for (key, x), out in cache.items() if out is not None and out[3] is not None and out[3].get("undecided")]
