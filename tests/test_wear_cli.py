@@ -133,3 +133,22 @@ def test_wear_design_json():
     assert option["key"] == "tread.lateral_damping_ns_per_m" and option["value"] > 80.0
     code, _, err = run_main(["wear", "design", "-k", "tread.mass", "-q"])
     assert code == 2 and "--key tread.mass" in err
+
+
+@pytest.mark.slow
+def test_wear_design_one_grid_level_from_the_command_line():
+    """``--levels 1 --no-refine`` (the report's quick look): the option is the first grid level
+    (+18.9 % of the tread damping on the 110 km/h test car), worded with its evolution."""
+    args = ["wear", "design", "--judge", "evolution", "--target-km", "4000", "--cycle", "110:1",
+            "-s", "wear.energetic_rate_mm3_per_j=0.01", "-k", "tread.lateral_damping_ns_per_m",
+            "--levels", "1", "--no-refine"]
+    code, out, err = run_main([*args, "--json", "-q"])
+    assert code == 0, err
+    summary = json.loads(out)
+    (option,) = summary["options"]
+    assert option["relative_change"] == pytest.approx(4.0 ** 0.125 - 1.0, rel=1e-12) and not summary["refined"]
+    assert summary["evolutions"] == 2 and option["evolution"]["visible_km"] is None
+    code, out, err = run_main([*args, "-q"])
+    assert code == 0 and "-> 95.14 (+18.9%), evolution over 4,000 km" in out, err
+    code, _, err = run_main([*args[:-2], "--levels", "0", "-q"])
+    assert code == 2 and "--levels" in err

@@ -321,6 +321,15 @@ def design_(
     workers: Annotated[
         int, typer.Option("--workers", "-w", min=1, max=64, help="Processes that run a search step's probes side by side (default 1: threads in this process; same result).")
     ] = 1,
+    levels: Annotated[
+        Optional[int], typer.Option("--levels", min=1, help="Where the evolution judges: grid levels searched at most "
+                                    "(default: all 8 up to --max-factor); 1 with --no-refine is the report's quick "
+                                    "look for axle4dof.")
+    ] = None,
+    refine: Annotated[
+        bool, typer.Option("--refine/--no-refine", help="Where the evolution judges: refine the least change found "
+                           "on the grid by trisection (default), or give the grid level itself.")
+    ] = True,
     outputs: Outputs = Outputs(takes_plot=False),
 ) -> None:
     """Least change (toe, camber, damping, stiffness, adhesion) that stops polygonal wear over the drive cycle, vibrating or not."""
@@ -343,7 +352,8 @@ def design_(
 
     outputs.note("wear design: searching (where the evolution judges, each probe is an evolution: minutes) ...")
     with user_errors(ValueError, RuntimeError, ArithmeticError, prefix="wear design: "):
-        result = wear_design(params, keys or None, target_km, pairs, WearDesignSettings(max_factor, judge=Judge(judge)),
+        settings = WearDesignSettings(max_factor, judge=Judge(judge), max_levels=levels, refine=refine)
+        result = wear_design(params, keys or None, target_km, pairs, settings,
                              executor=Executor("processes", workers) if workers > 1 else None)
     if verify_km is not None and result.options and result.judge == Judge.MAP:
         outputs.note(f"wear design: verifying '{result.options[0].label}' by evolution over {verify_km:,.0f} km ...")
@@ -377,6 +387,10 @@ def _print_design(summary: dict) -> None:
             line += "the tread vibrates at a cycle speed"
         else:
             line += f"fastest order {o['order']} at {o['growth_per_1000km']:+.4f}/1000 km"
+        other = o.get("other_direction")
+        if other is not None:
+            line += (f"; or -> {other['value']:.4g} ({other['relative_change']:+.1%}), "
+                     + _evolution_text(other["evolution"]))
         v = o["verification"]
         if v:
             line += (f"; evolution over {v['distance_km']:,.0f} km: depth {v['depth_mm']:.4f} mm "
