@@ -1,7 +1,8 @@
 """What stops polygonal wear: the least parameter change that keeps every polygon order
 from growing over the drive cycle, or pushes the visible-polygon distance beyond a target.
 
-Criterion (linear wear map, exact and fast). On a drive cycle the one profile is worn at
+Criterion (linear wear map, exact and fast; :mod:`polywear.wear.criterion` judges one car,
+by the map or by the evolution). On a drive cycle the one profile is worn at
 every speed in turn, so harmonic n changes per km at the share-weighted complex rate
 ``lambda_n = sum_i share_i ln(1 + dW_n/W_n)(V_i) * revolutions per km``. "Every order
 stable" asks ``max_n Re lambda_n <= 0``. A target distance D asks that the seeded
@@ -37,7 +38,7 @@ largest change whose polygon is visible, is kept in the option as ``below``). Wi
 ``least_only`` (the report) the search stops at the first level where a direction meets
 it (the other directions fail there, so their least change is larger), and keys that an engineer does not set (adhesion) are searched only
 where no alignment, bushing or tread key meets it. A probe where rolling is stable at
-every cycle speed and the linear map alone makes the polygon :data:`CLEARLY_VISIBLE` times
+every cycle speed and the linear map alone makes the polygon ``CLEARLY_VISIBLE`` times
 the visible depth fails without an evolution. Each option keeps the evolution at its
 least change. A trisection stops where the other direction of its key already meets the
 criterion at a change no larger than the bracket's lower end (that direction's least
@@ -65,7 +66,6 @@ import os
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
-from enum import StrEnum
 
 import numpy as np
 
@@ -79,8 +79,9 @@ from ..settings import check_count, check_positive
 from ..dynamics.design import DEFAULT_KEYS, ENGINEERING, parameter_category, parameter_label
 from ..dynamics.least_change import least_factor
 from ..dynamics.sensitivity import nominal_value, parameter_direction, perturbed
-from .evolution import EvolutionResult, EvolutionSettings, StepBudgetError, wear_evolution
-from .map import wear_map
+from .criterion import (Judge, cycle_growth, cycle_rates, evolved_from, evolved_over,
+                        linear_depth_mm, meets_criterion, outcome_text)
+from .evolution import EvolutionResult, EvolutionSettings, wear_evolution
 
 __all__ = ["Judge", "WearDesignOption", "WearDesignResult", "WearDesignSettings", "cycle_rates", "cycle_growth",
            "linear_depth_mm", "wear_design", "verify_option"]
@@ -109,10 +110,6 @@ MAX_UNDECIDED = 2
 """A bracket of the evolution search is refined no further after this many of its probes
 were undecided, by default [-] (inside a creeping stretch most probes creep, each to the
 budget: 4 of the 5 probes within toe 0.52-0.56 deg on the default cycle)."""
-CLEARLY_VISIBLE = 2.0
-"""A probe with stable rolling at every cycle speed whose linear-map depth at the target
-exceeds this many visible depths fails without an evolution (the nonlinear evolution
-follows the linear one while the profile is small) [-]."""
 SCREEN = EvolutionSettings(tolerance=0.1, revolutions=6)
 """Cheaper evolution settings that screen the probes where ``WearDesignSettings.screen`` asks
 for it (the report, axle4dof): a looser distance-step tolerance and the fewest revolutions
@@ -121,18 +118,6 @@ SCREEN_MARGIN = 0.25
 """A screened probe is judged again with the full settings where its verdict is this close
 to the criterion: its polygon visible beyond ``1 - SCREEN_MARGIN`` of the target distance,
 or its depth at the target above ``1 - SCREEN_MARGIN`` of the visible depth [-]."""
-
-
-class Judge(StrEnum):
-    """What judges a wear design option (the value is its text in JSON and on the command line)."""
-
-    AUTO = "auto"
-    """The evolution with a target distance where the nominal tread vibrates at a cycle
-    speed, else the map (a result records the one it used)."""
-    MAP = "map"
-    """The linear wear map (exact while rolling is stable at every cycle speed)."""
-    EVOLUTION = "evolution"
-    """The nonlinear evolution over the target distance (every probe an evolution: minutes)."""
 
 
 @dataclass(frozen=True)
@@ -195,39 +180,6 @@ class WearDesignSettings:
         for name in ("evolution", "screen"):
             if not isinstance(getattr(self, name), EvolutionSettings) and (name, getattr(self, name)) != ("screen", None):
                 raise ValueError(f"WearDesignSettings: {name} = {getattr(self, name)!r}: must be an EvolutionSettings")
-
-
-def cycle_rates(params: Params, cycle=None) -> np.ndarray | None:
-    """Complex rate per km of every order over the cycle, ``sum_i share_i ln(1 + dW/W)_i``
-    times revolutions per km (real part: growth, imaginary: turn); None if steady rolling
-    is unstable at a cycle speed."""
-    cycle = tuple(cycle) if cycle is not None else params.wear.cycle_shares()
-    m = wear_map(params, [v for v, _ in cycle])
-    if not m.rolling_stable.all():
-        return None
-    shares = np.array([s for _, s in cycle])
-    return (shares @ np.log1p(m.relative_change)) * m.revolutions_per_km
-
-
-def cycle_growth(params: Params, cycle=None) -> tuple[float, int, bool]:
-    """(max_n g_n [e-folds per 1000 km], its order, every cycle speed rolling-stable)."""
-    rates = cycle_rates(params, cycle)
-    if rates is None:
-        return math.inf, 0, False
-    k = int(np.argmax(rates.real))
-    return float(rates.real[k] * 1000.0), k + 1, True
-
-
-def linear_depth_mm(params: Params, distance_km: float, cycle=None) -> float:
-    """Peak-to-valley depth [mm] after ``distance_km`` of the seeded roughness grown by the
-    linear map (exact while the profile is small and rolling stable; inf if it is not)."""
-    from .evolution import initial_roughness, peak_to_valley
-
-    rates = cycle_rates(params, cycle)
-    if rates is None:
-        return math.inf
-    W = initial_roughness(params) * np.exp(rates * distance_km)
-    return peak_to_valley(W, params.wear.profile_points) * 1e3
 
 
 @dataclass
@@ -340,67 +292,6 @@ def _finite(x: float):
     return x if math.isfinite(x) else None
 
 
-def _outcome(evolved: dict) -> str:
-    """An evolution of :func:`_evolved` in words."""
-    if evolved.get("undecided"):
-        return f"undecided (over its budget at {evolved['distance_km']:,.0f} km)"
-    return ("no visible polygon" if evolved["visible_km"] is None
-            else f"visible after {evolved['visible_km']:,.0f} km")
-
-
-def _evolved(params: Params, target_km: float, cycle, settings: EvolutionSettings, workers: int | None = None) -> dict:
-    """The evolution over ``target_km`` [km] on ``cycle`` (``workers`` as in
-    :func:`~polywear.wear.evolution.wear_evolution`): the distance it reached [km] (less
-    than ``target_km`` only with ``until_visible``), its depth there [mm], the visible
-    distance [km] (None: not within it) and the dominant order there; or, where it stopped
-    at its step or work budget, ``undecided`` True with the distance it had reached."""
-    try:
-        worn = wear_evolution(params, target_km, cycle, settings, workers=workers)
-    except StepBudgetError as exc:
-        return {"distance_km": exc.done_km, "depth_mm": None, "visible_km": None, "dominant_order": None,
-                "undecided": True}
-    return {"distance_km": float(worn.distance_km[-1]), "depth_mm": float(worn.depth_mm[-1]),
-            "visible_km": worn.visible_km, "dominant_order": int(worn.dominant_order[-1])}
-
-
-def _from_result(worn: EvolutionResult, target_km: float, cycle) -> dict:
-    """:func:`_evolved` of an evolution already run (the report's on the drive cycle), which
-    must be over ``target_km`` [km] on ``cycle``."""
-    if tuple(worn.cycle) != tuple(cycle) or not math.isclose(float(worn.distance_km[-1]), target_km, rel_tol=1e-9):
-        raise ValueError(f"wear_design: the nominal evolution given ran {float(worn.distance_km[-1]):g} km on "
-                         f"{worn.cycle}: need {target_km:g} km on {cycle}")
-    return {"distance_km": target_km, "depth_mm": float(worn.depth_mm[-1]), "visible_km": worn.visible_km,
-            "dominant_order": int(worn.dominant_order[-1])}
-
-
-def _meets(params: Params, key: str, nominal: float, factor: float, cycle, target_km: float | None,
-           judge: Judge = Judge.MAP, settings: EvolutionSettings = EvolutionSettings(), workers: int | None = None):
-    """(criterion met, growth [e-folds per 1000 km], order, the evolution or None) with
-    ``key`` at ``nominal * factor``; None where it cannot be evaluated. An evolution stopped
-    at its budget does not meet it (``undecided`` in the evolution)."""
-    try:
-        changed = perturbed(params, key, nominal * factor)
-    except ValueError:
-        return None
-    visible = params.wear.visible_depth_mm
-    evolved = None
-    try:
-        g, order, stable = cycle_growth(changed, cycle)
-        if target_km is None:
-            ok = stable and g <= 0.0
-        elif judge == "map":
-            ok = stable and linear_depth_mm(changed, target_km, cycle) < visible
-        elif stable and linear_depth_mm(changed, target_km, cycle) > CLEARLY_VISIBLE * visible:
-            ok = False
-        else:
-            evolved = _evolved(changed, target_km, cycle, settings, workers)
-            ok = evolved["visible_km"] is None and not evolved.get("undecided")
-            order = evolved["dominant_order"]
-    except (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError):
-        return None
-    return ok, g, order, evolved
-
-
 @dataclass(frozen=True)
 class _KeySearch:
     """The least change of one key judged by the map (a picklable task of :func:`wear_design`):
@@ -416,7 +307,7 @@ class _KeySearch:
         nominal = nominal_value(self.params, key)
 
         def meets(factor: float):
-            hit = _meets(self.params, key, nominal, factor, self.cycle, self.target_km)
+            hit = meets_criterion(self.params, key, nominal, factor, self.cycle, self.target_km)
             return hit if hit is not None and hit[0] else None
 
         best = least_factor(meets, self.max_factor, self.grid, _REFINE)
@@ -436,12 +327,12 @@ def _option(key: str, nominal: float, factor: float, growth: float, order: int, 
 
 @dataclass(frozen=True)
 class _Probe:
-    """One probe of the evolution search (a picklable task): :func:`_meets` judged by the
+    """One probe of the evolution search (a picklable task): :func:`~.criterion.meets_criterion` judged by the
     evolution with ``(key, nominal value, factor, full)``, its windows in ``workers`` threads
     (:func:`~polywear.wear.evolution.wear_evolution`; None: one per cycle speed, which fills
     the cores a round's last probes leave idle; the result is the same); with ``screen`` and
     not ``full``, judged by the screen first and again with ``settings`` where the screen is
-    not clear (:func:`_screen_clear`). Returns (:func:`_meets`'s answer, evolutions run,
+    not clear (:func:`_screen_clear`). Returns (its answer, evolutions run,
     whether judged with ``settings``)."""
 
     params: Params
@@ -455,12 +346,12 @@ class _Probe:
         key, nominal, factor, full = job
         runs = 0
         if self.screen is not None and not full:
-            out = _meets(self.params, key, nominal, factor, self.cycle, self.target_km, Judge.EVOLUTION,
+            out = meets_criterion(self.params, key, nominal, factor, self.cycle, self.target_km, Judge.EVOLUTION,
                          self.screen, workers=self.workers)
             runs += out is not None and out[3] is not None
             if _screen_clear(out, self.target_km, self.params.wear.visible_depth_mm):
                 return out, runs, out is None or out[3] is None  # no evolution: the same with any settings
-        out = _meets(self.params, key, nominal, factor, self.cycle, self.target_km, Judge.EVOLUTION,
+        out = meets_criterion(self.params, key, nominal, factor, self.cycle, self.target_km, Judge.EVOLUTION,
                      self.settings, workers=self.workers)
         return out, runs + (out is not None and out[3] is not None), True
 
@@ -516,7 +407,7 @@ def _search_by_evolution(params: Params, keys: Sequence[str], cycle, target_km: 
             if judged_full:
                 full.add((key, x))
             if progress is not None and out is not None and out[3] is not None:
-                progress(len(cache), None, f"{key} = {nominal[key] * math.exp(x):.4g}: {_outcome(out[3])}"
+                progress(len(cache), None, f"{key} = {nominal[key] * math.exp(x):.4g}: {outcome_text(out[3])}"
                          + ("" if judged_full else " (screened)"))
         return [cache[p] for p in points]
 
@@ -669,11 +560,11 @@ def wear_design(params: Params, keys: Sequence[str] | None = None, target_km: fl
     depth0 = None if target_km is None else linear_depth_mm(params, target_km, cycle)
     nominal_evolution = None
     if judge == Judge.EVOLUTION:
-        nominal_evolution = (_evolved(params, target_km, cycle, settings.evolution) if nominal is None
-                             else _from_result(nominal, target_km, cycle))
+        nominal_evolution = (evolved_over(params, target_km, cycle, settings.evolution) if nominal is None
+                             else evolved_from(nominal, target_km, cycle))
         nominal_ok = nominal_evolution["visible_km"] is None
         if progress is not None:
-            progress(0, None, f"nominal: {_outcome(nominal_evolution)}")
+            progress(0, None, f"nominal: {outcome_text(nominal_evolution)}")
     else:
         nominal_ok = stable0 and (g0 <= 0.0 if target_km is None else depth0 < params.wear.visible_depth_mm)
     if nominal_ok:
