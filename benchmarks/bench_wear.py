@@ -19,7 +19,12 @@ the machine may be shared, and wall time then measures the load), best of N:
   (today's implementation before issue 22, fixed 1000 km steps) in the same run, CPU and
   wall time, their ratio, the load, and the answers side by side (visible distance, depth
   at the end, dominant order); the fast one twice: in one thread, and with the cycle's
-  speeds in threads (the default, at most one per CPU; the same answer bit for bit).
+  speeds in threads (the default, at most one per CPU; the same answer bit for bit);
+* with ``--design`` instead: the report's search for what stops the polygon on the default
+  car (``--axle``: axle4dof) over 100 000 km on the default cycle, from the nominal car's
+  evolution run once: one grid level screened and not refined (the axle4dof report's
+  default) against the refined search (``--wear-design``), wall and CPU time, their ratio
+  and the answers side by side.
 """
 
 from __future__ import annotations
@@ -66,6 +71,28 @@ def looped_map(params, speeds_kmh, K):
     return out
 
 
+def design_search(model: str, km: float = 100000.0) -> None:
+    """The report's wear design on the default ``model`` car: one grid level, screened, not
+    refined, against the refined search (both from one nominal evolution), wall and CPU."""
+    from polywear.report.main import report_search
+    from polywear.wear.design import wear_design
+
+    params = with_updates(Params(), {"model": model})
+    nominal = wear_evolution(params, km)
+    runs = {}
+    for label, refined in (("one grid level", False), ("refined", True)):
+        load = os.getloadavg()[0]
+        start, cpu = time.perf_counter(), time.process_time()
+        found = wear_design(params, target_km=km, settings=report_search(model, refined), nominal=nominal)
+        runs[label] = (time.perf_counter() - start, time.process_time() - cpu)
+        answers = "; ".join(f"{o.label} {o.relative_change:+.1%}" + (
+            f" (or {o.other_direction['relative_change']:+.1%})" if o.other_direction else "") for o in found.options)
+        print(f"wear design {model}, {km:,.0f} km, {label}: {runs[label][0]:.1f} s wall, {runs[label][1]:.1f} s CPU "
+              f"(load {load:.1f}; {found.evolutions} evolutions): {answers or 'no option'}")
+    (wall_one, cpu_one), (wall_all, cpu_all) = runs["one grid level"], runs["refined"]
+    print(f"  one grid level / refined: x{wall_all / wall_one:.1f} less wall, x{cpu_all / cpu_one:.1f} less CPU")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
@@ -75,8 +102,13 @@ def main() -> None:
     parser.add_argument("--cycle", choices=("default", "110"), default="default",
                         help="the default three-speed drive cycle, or 110 km/h alone")
     parser.add_argument("--only-fast", action="store_true", help="the fast evolution only (no baseline run)")
+    parser.add_argument("--design", action="store_true",
+                        help="only the report's wear design search: one grid level against the refined search")
     args = parser.parse_args()
     print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    if args.design:
+        design_search("axle4dof" if args.axle else "tread1dof")
+        return
     speeds = np.linspace(20.0, 300.0, 300)
     for name in ("tread1dof", "axle4dof"):
         params = with_updates(Params(), {"model": name})
