@@ -83,7 +83,7 @@ def design_search(model: str, km: float = 100000.0) -> None:
     for label, refined in (("one grid level", False), ("refined", True)):
         load = os.getloadavg()[0]
         start, cpu = time.perf_counter(), time.process_time()
-        found = wear_design(params, target_km=km, settings=report_search(model, refined), nominal=nominal)
+        found = wear_design(params, target_km=km, settings=report_search(refined), nominal=nominal)
         runs[label] = (time.perf_counter() - start, time.process_time() - cpu)
         answers = "; ".join(f"{o.label} {o.relative_change:+.1%}" + (
             f" (or {o.other_direction['relative_change']:+.1%})" if o.other_direction else "") for o in found.options)

@@ -47,7 +47,7 @@ grid level, screened (:func:`report_search`): the least change is known to one g
 (+19 %/-16 %), and ``--wear-design`` refines it."""
 
 
-def report_search(model: str, refined: bool):
+def report_search(refined: bool):
     """The report's :class:`~polywear.wear.design.WearDesignSettings`: the least change, one
     undecided probe per bracket; ``refined`` False: one grid level screened by
     :data:`~polywear.wear.design.SCREEN`, not refined."""
@@ -438,7 +438,7 @@ def report(
             and not cycle_growth(params)[2]):  # vibrates on the cycle and wears a visible polygon
         say("what stops the polygon: the least change judged by the evolution"
             + ("" if refined else " (one grid level; --wear-design refines it)"))
-        stops = wear_design(params, target_km=km, settings=report_search(params.model, refined),
+        stops = wear_design(params, target_km=km, settings=report_search(refined),
                             progress=stage.detail("wear design: "), nominal=worn).summary()
 
     say("one verdict: vibration and wear together, design options judged by the wear")
