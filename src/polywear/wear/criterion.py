@@ -14,7 +14,8 @@ import numpy as np
 
 from ..dynamics.sensitivity import perturbed
 from ..params import Params
-from .evolution import EvolutionResult, EvolutionSettings, StepBudgetError, wear_evolution
+from .evolution import (EvolutionResult, EvolutionSettings, StepBudgetError, initial_roughness, peak_to_valley,
+                        wear_evolution)
 from .map import wear_map
 
 __all__ = ["CLEARLY_VISIBLE", "Judge", "cycle_rates", "cycle_growth", "linear_depth_mm", "evolved_from",
@@ -62,8 +63,6 @@ def cycle_growth(params: Params, cycle=None) -> tuple[float, int, bool]:
 def linear_depth_mm(params: Params, distance_km: float, cycle=None) -> float:
     """Peak-to-valley depth [mm] after ``distance_km`` of the seeded roughness grown by the
     linear map (exact while the profile is small and rolling stable; inf if it is not)."""
-    from .evolution import initial_roughness, peak_to_valley
-
     rates = cycle_rates(params, cycle)
     if rates is None:
         return math.inf
@@ -105,7 +104,8 @@ def evolved_from(worn: EvolutionResult, target_km: float, cycle) -> dict:
 
 
 def meets_criterion(params: Params, key: str, nominal: float, factor: float, cycle, target_km: float | None,
-           judge: Judge = Judge.MAP, settings: EvolutionSettings = EvolutionSettings(), workers: int | None = None):
+                    judge: Judge = Judge.MAP, settings: EvolutionSettings = EvolutionSettings(),
+                    workers: int | None = None):
     """(criterion met, growth [e-folds per 1000 km], order, the evolution or None) with
     ``key`` at ``nominal * factor``; None where it cannot be evaluated. An evolution stopped
     at its budget does not meet it (``undecided`` in the evolution)."""
