@@ -385,3 +385,13 @@ def test_rodas_agrees_with_radau_on_axle4dof():
     ref = integrate(model, u0, V, p, 0.05, method="radau", **kw)
     scale = np.abs(ref.u - model.equilibrium(V, p)).max(axis=0)
     assert np.abs(fast.u - ref.u).max(axis=0) / scale == pytest.approx(0.0, abs=1e-6)
+
+
+def test_a_tiny_first_step_is_taken_however_long_the_run():
+    # the underflow bound is relative to t: a first step of 1e-14 s, below 16 eps of t_end = 100 s,
+    # is refused only where it would not move t (it was refused at t = 0 against t_end)
+    w, zeta = 2.0 * np.pi, 0.05
+    p = np.array([w, zeta])
+    tr = integrate(OSCILLATOR, [1.0, 0.0], 0.0, p, 100.0, rtol=1e-9, atol=1e-9, h0=1e-14)
+    assert tr.t[-1] == 100.0
+    assert np.abs(tr.u_end - _osc_exact(100.0, w, zeta)).max() < 1e-6

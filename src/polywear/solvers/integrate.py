@@ -99,6 +99,10 @@ _FAC_MIN = 0.2  # h_new >= h / 5
 _FAC_MAX = 6.0  # h_new <= 6 h
 
 _OK, _UNDERFLOW, _MAX_STEPS, _NONFINITE = 0, 1, 2, 3
+_UNDERFLOW_FLOOR = 1e-6
+"""A step underflows where it is below 16 machine epsilons of max(|t|, this fraction of
+t_end) [-]. Relative to t_end itself, a first step of 1.4e-13 s (tread1dof at 80 km/h
+from steady rolling, damping 60 N s/m) was refused over 43.9 s and taken over 35 s."""
 
 
 @dataclass(frozen=True)
@@ -319,7 +323,7 @@ def _rodas4(rhs: Callable[..., None], jac: Callable[..., None], u0: np.ndarray, 
         if stats[0] >= max_steps:
             status = _MAX_STEPS
             break
-        if h <= h_min_rel * max(abs(t), t_end):
+        if h <= h_min_rel * max(abs(t), _UNDERFLOW_FLOOR * t_end):  # relative to t: a first step may be tiny
             status = _NONFINITE if last_nonfinite else _UNDERFLOW
             break
         if t + 1.01 * h > t_end:
