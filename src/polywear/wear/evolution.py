@@ -487,6 +487,7 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
     h = min(settings.step_km, distance_km)
     longest_step = MAX_STEP_FACTOR * settings.step_km
     wins = window_set(W)
+    before, h_before = None, h  # the windows at the start of the step before, and its length [km]
     budget = step_budget(distance_km, settings)
     visible_m = params.wear.visible_depth_mm * 1e-3
 
@@ -525,7 +526,7 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
                  list(last))
         W_pred, h, n_revs = predict(W, wins, h, cycle, R)
         ends = window_set(W_pred)
-        W_new = corrected(W, wins, n_revs, ends, W_pred)
+        W_new = corrected(W, wins, n_revs, ends, W_pred, before, h / h_before if before is not None else 1.0)
         error = step_error(W_new, W_pred)
         if error > REJECT * tolerance and h > SHORTEST_REJECTED * settings.step_km:
             states, settles, windows, linear, last[:] = saved  # the step again, shorter
@@ -542,7 +543,7 @@ def _evolve(params: Params, distance_km: float, cycle, settings: EvolutionSettin
         distance.append(done)
         orders_hist.append([w.order for w in wins])
         locked_hist.append([w.locked and math.isfinite(w.order) for w in wins])
-        wins = ends
+        before, h_before, wins = wins, h, ends
         h = min(longest_step, h * min(MAX_GROWTH, 0.9 * math.sqrt(tolerance / max(error, 1e-12))))
         if progress is not None:
             progress(done, distance_km, "")

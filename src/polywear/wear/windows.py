@@ -83,11 +83,11 @@ _RTOL = 1e-5
 2e-3 of the largest from 1e-8, near locking at 80 km/h; the evolution costs 0.7x that at
 1e-6 and its answers move by 0.01 %: docs/wear.md)."""
 _ATOL_FRACTION = 1e-9
+"""Absolute tolerance of each state, as a fraction of its size in steady rolling [-]."""
 SAMPLES_PER_ORDER = 16
 """Samples of the friction power per revolution per order K [-] (and at least 8000 per
 second): at 16 the writes are within 2e-6 (coherent) and 3e-5 (drifting) of the largest
 from those at 128 on windows at 80, 110 and 120 km/h; 32 before (docs/wear.md, point 8)."""
-"""Absolute tolerance of each state, as a fraction of its size in steady rolling [-]."""
 
 
 def table_points(orders: int) -> int:
@@ -381,6 +381,16 @@ def _slow_orders(nu, eps, revolutions, K) -> list[int]:
                    and 1 <= round(j * nu) <= K})
 
 
+def _taper(M: int) -> np.ndarray:
+    """Weights (M, 1) of the least squares of :func:`_split`: the square root of a Hann taper
+    over the window's M revolutions, ``sin(pi (k + 1/2) / M)``. Untapered, the slow
+    modulation of a strong drifting line (its sidebands a few thousandths of an order away,
+    ten times the coherent write of a small harmonic) leaks into the coherent write by about
+    1/M, and S_n / W_n scattered by 3 % from window to window; tapered, by 0.2 % (tread
+    damping 60 N s/m at 80 km/h, docs/wear.md, point 14)."""
+    return np.sin(math.pi * (np.arange(M) + 0.5) / M)[:, None]
+
+
 def _split(D, nu, eps, revolutions, reference=None):
     """Coherent part S (K,), drifting parts C (R, K) and their ratios r (R,) of the
     per-revolution writes D (M, K) of a vibration at order nu (see module notes).
@@ -395,7 +405,8 @@ def _split(D, nu, eps, revolutions, reference=None):
     is counted as drifting. Lines j > SIDEBANDS (``eps`` longer than SIDEBANDS; resolved
     ones only) are fitted, with their ratio r_j, only on the harmonics within NEAR_SPAN of
     their nearest one, where a revolution's DFT puts their write: fitted on every harmonic,
-    their columns, close to the coherent one, would degrade S everywhere."""
+    their columns, close to the coherent one, would degrade S everywhere. Where lines are
+    fitted, the least squares are weighted by :func:`_taper`."""
     M, K = D.shape
     k = np.arange(M)
     fast, slow, near = [], [], []
@@ -405,7 +416,8 @@ def _split(D, nu, eps, revolutions, reference=None):
         (near if j > SIDEBANDS else fast if eps[j - 1] * M >= RESOLVABLE else slow).append(j)
     ratios = [np.exp(sign * 2j * math.pi * j * nu) for j in fast for sign in (1, -1)]
     A = np.column_stack([np.ones(M)] + [r ** k for r in ratios])
-    coef = np.linalg.lstsq(A, D, rcond=None)[0]
+    taper = _taper(M) if fast or near else np.ones((M, 1))
+    coef = np.linalg.lstsq(A * taper, D * taper, rcond=None)[0]
     coherent, drifting = coef[0].copy(), [c for c in coef[1:]]
     taken = {int(round(j * nu)) for j in slow}
     for j in near:
@@ -416,7 +428,7 @@ def _split(D, nu, eps, revolutions, reference=None):
         taken.update(orders)
         r = np.exp(2j * math.pi * j * nu)
         idx = np.array(orders) - 1
-        coef_m = np.linalg.lstsq(np.column_stack([A, r ** k]), D[:, idx], rcond=None)[0]
+        coef_m = np.linalg.lstsq(np.column_stack([A, r ** k]) * taper, D[:, idx] * taper, rcond=None)[0]
         coherent[idx] = coef_m[0]
         for other, c_m in zip(drifting, coef_m[1:-1]):
             other[idx] = c_m
