@@ -34,7 +34,8 @@ Fast dynamics and slow wear alternate (``docs/wear.md``). For a distance step ``
    ``MAX_EXPONENT`` in a step, take the additive form). A step is a predictor-corrector
    pair (:func:`~.step.predict`, :func:`~.step.corrected`): the writes at its start give the predicted
    profile, where the windows of the step's end are run; the step then takes the mean of
-   the start and end rates (trapezoid, second order), and the end windows start the next
+   the start and end rates (trapezoid, second order; the exponents with its curvature term
+   from the start of the step before, :func:`~.step.curvature`), and the end windows start the next
    step. **Error control.** The largest difference of a harmonic between the two,
    relative to the largest harmonic, is the step's error estimate: the next step is
    ``h sqrt(tolerance / error)`` (at most twice the last, at most ``MAX_STEP_FACTOR``

@@ -5,7 +5,7 @@ the current profile, from a given state, for a settling time, then for ``M`` who
 revolutions. Each revolution ``k`` writes harmonics ``D_k`` (a DFT of the sampled
 friction power, :func:`_per_revolution`). The dominant frequency of the tread velocity
 gives the vibration's order ``nu = f / f_rot``; the writes are split by least squares
-with the known ratios ``r_j = exp(+-2 pi i j nu)`` into ``D_k = S + sum_j C_j r_j^k``
+(tapered, :func:`_taper`) with the known ratios ``r_j = exp(+-2 pi i j nu)`` into ``D_k = S + sum_j C_j r_j^k``
 (:func:`_split`): S is written in the same place every revolution, the C_j drift
 (``docs/wear.md``). A vibration is locked when its order is an integer to within
 ``LOCK_TOLERANCE`` or when its phase relative to the tire settles (``SETTLED_PHASE``).
