@@ -22,7 +22,7 @@ the machine may be shared, and wall time then measures the load), best of N:
   speeds in threads (the default, at most one per CPU; the same answer bit for bit);
 * with ``--design`` instead: the report's search for what stops the polygon on the default
   car (``--axle``: axle4dof) over 100 000 km on the default cycle, from the nominal car's
-  evolution run once: one grid level screened and not refined (the axle4dof report's
+  evolution run once: one grid level screened and refined by one round (the axle4dof report's
   default) against the refined search (``--wear-design``), wall and CPU time, their ratio
   and the answers side by side.
 """
@@ -72,15 +72,15 @@ def looped_map(params, speeds_kmh, K):
 
 
 def design_search(model: str, km: float = 100000.0) -> None:
-    """The report's wear design on the default ``model`` car: one grid level, screened, not
-    refined, against the refined search (both from one nominal evolution), wall and CPU."""
+    """The report's wear design on the default ``model`` car: one grid level, screened, refined
+    by one round, against the refined search (both from one nominal evolution), wall and CPU."""
     from polywear.report.main import report_search
     from polywear.wear.design import wear_design
 
     params = with_updates(Params(), {"model": model})
     nominal = wear_evolution(params, km)
     runs = {}
-    for label, refined in (("one grid level", False), ("refined", True)):
+    for label, refined in (("one grid level, one round", False), ("refined", True)):
         load = os.getloadavg()[0]
         start, cpu = time.perf_counter(), time.process_time()
         found = wear_design(params, target_km=km, settings=report_search(refined), nominal=nominal)
@@ -89,8 +89,8 @@ def design_search(model: str, km: float = 100000.0) -> None:
             f" (or {o.other_direction['relative_change']:+.1%})" if o.other_direction else "") for o in found.options)
         print(f"wear design {model}, {km:,.0f} km, {label}: {runs[label][0]:.1f} s wall, {runs[label][1]:.1f} s CPU "
               f"(load {load:.1f}; {found.evolutions} evolutions): {answers or 'no option'}")
-    (wall_one, cpu_one), (wall_all, cpu_all) = runs["one grid level"], runs["refined"]
-    print(f"  one grid level / refined: x{wall_all / wall_one:.1f} less wall, x{cpu_all / cpu_one:.1f} less CPU")
+    (wall_one, cpu_one), (wall_all, cpu_all) = runs["one grid level, one round"], runs["refined"]
+    print(f"  one grid level, one round / refined: x{wall_all / wall_one:.1f} less wall, x{cpu_all / cpu_one:.1f} less CPU")
 
 
 def main() -> None:
@@ -103,7 +103,7 @@ def main() -> None:
                         help="the default three-speed drive cycle, or 110 km/h alone")
     parser.add_argument("--only-fast", action="store_true", help="the fast evolution only (no baseline run)")
     parser.add_argument("--design", action="store_true",
-                        help="only the report's wear design search: one grid level against the refined search")
+                        help="only the report's wear design search: one grid level and one round against the refined search")
     args = parser.parse_args()
     print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
     if args.design:

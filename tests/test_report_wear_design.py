@@ -62,26 +62,35 @@ def test_report_gives_the_least_change_checked_by_evolution(tmp_path):
 @pytest.mark.slow
 def test_report_searches_one_grid_level_where_the_refined_search_is_over_budget(tmp_path, monkeypatch):
     """A model outside WEAR_DESIGN_REFINED_BY_DEFAULT (axle4dof; here tread1dof taken out of
-    it, to keep the test short): one grid level, screened, not refined, and said so; the
-    change found checked by an independent evolution."""
+    it, to keep the test short): one grid level, screened, refined by one round, and said so;
+    the change found and the largest below it checked by independent evolutions."""
     from polywear.report import main
-    from polywear.report.verdict import coarse_search_note
+    from polywear.report.verdict import search_accuracy_note
 
     monkeypatch.setattr(main, "WEAR_DESIGN_REFINED_BY_DEFAULT", ())
     params = _car()
     result = main.report(params, tmp_path, wear_evolution_km=KM)
     assert result.settings.wear_design_by_evolution and not result.settings.wear_design_refined
     found = result.wear_design
-    assert not found["refined"] and found["least_only"]
+    assert found["refined"] and found["refine_rounds"] == 1 and found["least_only"]
     option = found["options"][0]
-    step = abs(math.log(option["value"] / option["nominal"]))
-    assert step == pytest.approx(math.log(4.0) / 8, rel=1e-12)  # the first grid level, as it is
-    at = wear_evolution(perturbed(params, option["key"], option["value"]), KM, params.wear.cycle_shares())
+    thirds = 3.0 * abs(math.log(option["value"] / option["nominal"])) / (math.log(4.0) / 8)
+    assert min(abs(thirds - k) for k in (1, 2, 3)) < 1e-9  # a third of the first grid level, two, or all of it
+    cycle = params.wear.cycle_shares()
+    at = wear_evolution(perturbed(params, option["key"], option["value"]), KM, cycle)
     assert at.visible_km is None and option["evolution"]["depth_mm"] == pytest.approx(float(at.depth_mm[-1]),
                                                                                     rel=1e-12)
-    assert coarse_search_note() in result.overall["lines"][-1]
-    assert html_escape(coarse_search_note()) in (tmp_path / "report.html").read_text()
+    if option["below"] is not None:  # else the bracket's lower end is the car as it is
+        assert wear_evolution(perturbed(params, option["key"], option["below"]["value"]), KM, cycle).visible_km < KM
+    note = search_accuracy_note(found, option)
+    lower = "the car as it is" if option["below"] is None else signed_percent(option["below"]["relative_change"])
+    assert (f"refined by 1 round of the search, not to its 2 %: the least change lies between {lower} (a visible "
+            f"polygon) and {signed_percent(option['relative_change'])}") in note
+    assert note in result.overall["lines"][-1]
+    assert html_escape(note) in (tmp_path / "report.html").read_text()
     assert main.report_search(refined=False).screen is not None  # screened where it is coarse
+    assert search_accuracy_note(found | {"refine_rounds": None}, option) == ""  # refined to its accuracy
+    assert "not refined" in search_accuracy_note(found | {"refined": False}, option)
 
 
 def test_no_wear_design_turns_it_off(tmp_path):
@@ -104,7 +113,8 @@ def test_the_other_direction_of_an_unrefined_change_is_worded_beside_it():
     from polywear.report.main import _wear_design_html
     from polywear.report.verdict import _stops
 
-    found = {"target_km": 100000.0, "evolutions": 18, "refined": False, "undecided": [], "not_found": [],
+    found = {"target_km": 100000.0, "evolutions": 18, "refined": False, "refine_rounds": 0, "undecided": [],
+             "not_found": [],
              "nominal_evolution": {"visible_km": 40506.0},
              "options": [{"key": "tread.lateral_stiffness_n_per_m", "label": "tread lateral stiffness",
                           "nominal": 1e6, "value": 8.409e5, "relative_change": -0.1591, "below": None,

@@ -95,6 +95,8 @@ def test_one_grid_level_unrefined_is_that_level_checked_by_evolution():
         assert again.visible_km is None and evolved["depth_mm"] == pytest.approx(float(again.depth_mm[-1]), rel=1e-12)
     with pytest.raises(ValueError, match="max_levels"):
         WearDesignSettings(max_levels=0)
+    with pytest.raises(ValueError, match="refine_rounds"):
+        WearDesignSettings(refine_rounds=0)
     with pytest.raises(ValueError, match="refine = 1: must be True or False"):
         WearDesignSettings(refine=1)
 
@@ -132,3 +134,25 @@ def test_nominal_evolution_given_must_match_the_target_and_cycle():
     with pytest.raises(ValueError, match="nominal evolution given ran 500 km"):
         wear_design(params, keys=(KEY,), target_km=TARGET, cycle=CYCLE, nominal=short,
                     settings=WearDesignSettings(judge=Judge.EVOLUTION))
+
+
+@pytest.mark.slow
+def test_one_round_probes_each_open_direction_of_a_key_once():
+    """``refine_rounds=1`` where both directions of a key meet at the first grid level (mu_s
+    -29 % and +41 % with max_factor 16): the round probes each direction once, at a third of
+    its bracket (2 + 2 evolutions, not 2 + 4); the option is the least change found, at a third
+    of the level or, where the third shows a polygon, at the level. Oracle: independent
+    evolutions at the option (no polygon) and at its bracket's lower end (visible)."""
+    params = _car()
+    key = "friction.mu_static"
+    one = WearDesignSettings(judge=Judge.EVOLUTION, max_factor=16.0, max_levels=1, refine_rounds=1)
+    result = wear_design(params, keys=(key,), target_km=TARGET, cycle=CYCLE, settings=one)
+    assert result.evolutions == 4 and result.summary()["refined"] and result.summary()["refine_rounds"] == 1
+    (option,) = result.options
+    thirds = 3.0 * abs(math.log(option.value / option.nominal)) / (math.log(16.0) / 8)
+    assert min(abs(thirds - 1.0), abs(thirds - 3.0)) < 1e-9
+    assert wear_evolution(perturbed(params, key, option.value), TARGET, CYCLE).visible_km is None
+    lower = option.nominal if option.below is None else option.below["value"]
+    assert wear_evolution(perturbed(params, key, lower), TARGET, CYCLE).visible_km < TARGET
+    if abs(thirds - 3.0) < 1e-9:  # the third failed in both directions: the level is the answer
+        assert option.below is not None

@@ -41,9 +41,10 @@ def report(
         "--wear-design/--no-wear-design", help="For a car that vibrates on the drive cycle and wears a visible "
         "polygon within --wear-km: the least change (toe, camber, bushings, tread; adhesion where none of those "
         "does it) after which the evolution shows no polygon within --wear-km (ten to twenty evolutions). "
-        "--wear-design: refined to the search's accuracy; --no-wear-design: not searched. Default: refined for "
-        "tread1dof; for axle4dof one grid step of the search (+19 %/-16 % of each key), which fits its time "
-        "budget (the refined search takes minutes there).", show_default=False)] = None,
+        "--wear-design: refined to the search's accuracy (2 %); --no-wear-design: not searched. Default: refined "
+        "for tread1dof; for axle4dof one grid step of the search (+19 %/-16 % of each key) refined by one round "
+        "(to a third or two thirds of that step), which fits its time budget (the refined search takes minutes "
+        "there).", show_default=False)] = None,
     json_: JsonOpt = False,
     quiet: QuietOpt = False,
 ) -> None:

@@ -43,18 +43,19 @@ WEAR_DESIGN_REFINED_BY_DEFAULT = ("tread1dof",)
 a car that vibrates on the drive cycle) to the search's accuracy: those where that fits the
 main job's budget (tread1dof: about 20-30 s of CPU time on the default car, docs/wear.md).
 The others (axle4dof: the refined search alone takes about 3.5 min on 2 cores) search one
-grid level, screened (:func:`report_search`): the least change is known to one grid step
-(+19 %/-16 %), and ``--wear-design`` refines it."""
+grid level, screened, and refine it by one round (:func:`report_search`): the least change
+is known to a third or two thirds of a grid step (+19 %/-16 %), and ``--wear-design``
+refines it to 2 %."""
 
 
 def report_search(refined: bool):
     """The report's :class:`~polywear.wear.design.WearDesignSettings`: the least change, one
     undecided probe per bracket; ``refined`` False: one grid level screened by
-    :data:`~polywear.wear.design.SCREEN`, not refined."""
+    :data:`~polywear.wear.design.SCREEN`, refined by one round."""
     from ..wear.design import SCREEN, Judge, WearDesignSettings
 
     search = WearDesignSettings(judge=Judge.EVOLUTION, least_only=True, max_undecided=1)
-    return search if refined else replace(search, max_levels=1, refine=False, screen=SCREEN)
+    return search if refined else replace(search, max_levels=1, refine_rounds=1, screen=SCREEN)
 
 
 @dataclass(frozen=True)
@@ -71,8 +72,9 @@ class ReportSettings:
     """Whether the least change judged by the evolution is searched for a car that vibrates
     on the drive cycle (``--no-wear-design``: not)."""
     wear_design_refined: bool = True
-    """Whether that search refines the least change (``--wear-design``; by default for the
-    models in :data:`WEAR_DESIGN_REFINED_BY_DEFAULT`), else it searches one grid level."""
+    """Whether that search refines the least change to its accuracy (``--wear-design``; by
+    default for the models in :data:`WEAR_DESIGN_REFINED_BY_DEFAULT`), else it searches one
+    grid level and refines it by one round (:func:`report_search`)."""
 
     def __post_init__(self) -> None:
         for name in ("speed_range_kmh", "operating_range_kmh"):
@@ -332,7 +334,7 @@ def report(
         --wear-design / --no-wear-design``). True: refined to the search's accuracy; False:
         not searched. Default: refined where that fits the main job's budget
         (:data:`WEAR_DESIGN_REFINED_BY_DEFAULT`, tread1dof), else one grid level of the
-        search (axle4dof: +19 %/-16 % of each key; :func:`report_search`).
+        search (axle4dof: +19 %/-16 % of each key) refined by one round (:func:`report_search`).
     cornering_stiffness : (float, str), optional
         The tire's cornering stiffness C_alpha [N/rad] and where it comes from (a .tir
         file's, at the load), against which the point contact's lateral force is judged
@@ -437,7 +439,7 @@ def report(
     if (wear_design_by_evolution and worn is not None and worn.complete and worn.visible_km is not None
             and not cycle_growth(params)[2]):  # vibrates on the cycle and wears a visible polygon
         say("what stops the polygon: the least change judged by the evolution"
-            + ("" if refined else " (one grid level; --wear-design refines it)"))
+            + ("" if refined else " (one grid level, one round; --wear-design refines it)"))
         stops = wear_design(params, target_km=km, settings=report_search(refined),
                             progress=stage.detail("wear design: "), nominal=worn).summary()
 
@@ -562,7 +564,7 @@ def _wear_design_html(found: dict | None) -> str:
     judged by the evolution, the bracket the search left, the undecided probes and why the
     other keys give no option), or nothing."""
     from ..dynamics.design import signed_percent
-    from .verdict import coarse_search_note
+    from .verdict import search_accuracy_note
 
     if found is None:
         return ""
@@ -592,8 +594,8 @@ def _wear_design_html(found: dict | None) -> str:
         if between:
             text += ("; undecided at " + ", ".join(f"{u['value']:.4g}" for u in between)
                      + " (the evolution stopped at its step budget: the profile changes faster than its steps there)")
-        if not found.get("refined", True):
-            text += f" ({e(coarse_search_note())})"
+        if note := search_accuracy_note(found, o):
+            text += f" ({e(note)})"
         lines.append(text)
     notes = "".join(f"<li>{e(n)}</li>" for n in found["not_found"])
     if not lines:

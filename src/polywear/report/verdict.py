@@ -454,15 +454,26 @@ def _band_edges(b: dict) -> str:
             f"{f'{second:.1f}' if second is not None else f'open above {hi:g}'} km/h")
 
 
-def coarse_search_note() -> str:
-    """What the report says beside a least change searched on one grid level (not refined)."""
+def search_accuracy_note(found: dict, option: dict) -> str:
+    """What the report says beside a least change ``option`` that the search (the summary of
+    :func:`~polywear.wear.design.wear_design`, ``found``) did not refine to its accuracy: one
+    grid level not refined, or refined by a few rounds only; "" where it was refined."""
     from ..dynamics.design import signed_percent
-    from ..wear.design import EVOLUTION_GRID, WearDesignSettings
+    from ..wear.design import EVOLUTION_GRID, EVOLUTION_REFINE, WearDesignSettings
 
+    rounds = found.get("refine_rounds") if found.get("refined", True) else 0
+    if rounds is None:
+        return ""
     step = WearDesignSettings().max_factor ** (1.0 / EVOLUTION_GRID)
-    return (f"one step of the search's grid ({signed_percent(step - 1.0)}/{signed_percent(1.0 / step - 1.0)} of each "
-            f"key), not refined: a smaller change, of this or of another parameter, may do it (polywear report "
-            f"--wear-design refines it)")
+    grid = f"one step of the search's grid ({signed_percent(step - 1.0)}/{signed_percent(1.0 / step - 1.0)} of each key)"
+    if rounds == 0:
+        return (f"{grid}, not refined: a smaller change, of this or of another parameter, may do it (polywear "
+                f"report --wear-design refines it)")
+    below = option.get("below")
+    lower = "the car as it is" if below is None else signed_percent(below["relative_change"])
+    return (f"{grid}, refined by {rounds} round{'s' if rounds > 1 else ''} of the search, not to its "
+            f"{EVOLUTION_REFINE * 100:g} %: the least change lies between {lower} (a visible polygon) and "
+            f"{signed_percent(option['relative_change'])} (polywear report --wear-design refines it)")
 
 
 def _stops(found: dict | None) -> str:
@@ -491,8 +502,8 @@ def _stops(found: dict | None) -> str:
     if undecided:
         text += ("; " + ", ".join(signed_percent(u["relative_change"]) for u in undecided)
                  + " undecided (the evolution ran out of its budget there, at the edge of locking)")
-    if not found.get("refined", True):
-        text += f"; {coarse_search_note()}"
+    if note := search_accuracy_note(found, o):
+        text += f"; {note}"
     return text + "."
 
 

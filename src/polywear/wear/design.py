@@ -31,8 +31,10 @@ geometric grid of :data:`EVOLUTION_GRID` steps to ``max_factor``: at each level 
 direction (more and less of each key) is probed, side by side (threads, or the
 executor); after the first level, a direction whose largest change fails is closed (the
 search assumes the criterion holds beyond the least change). A direction that meets the
-criterion at a level is refined by trisection in ``ln f`` (two probes per round, side by
-side) to :data:`EVOLUTION_REFINE`; an undecided probe is no end of the bracket, and after
+criterion at a level is refined in ``ln f`` to :data:`EVOLUTION_REFINE`, two probes per key
+and round, side by side: a trisection where only one direction of the key is open, one probe
+at a third of each bracket where both are (the direction that meets sooner closes the
+other); ``refine_rounds`` bounds the rounds; an undecided probe is no end of the bracket, and after
 ``max_undecided`` (:data:`MAX_UNDECIDED`) undecided probes the bracket stays as it is (its lower end, the
 largest change whose polygon is visible, is kept in the option as ``below``). With
 ``least_only`` (the report) the search stops at the first level where a direction meets
@@ -40,11 +42,13 @@ it (the other directions fail there, so their least change is larger), and keys 
 where no alignment, bushing or tread key meets it. A probe where rolling is stable at
 every cycle speed and the linear map alone makes the polygon ``CLEARLY_VISIBLE`` times
 the visible depth fails without an evolution. Each option keeps the evolution at its
-least change. A trisection stops where the other direction of its key already meets the
-criterion at a change no larger than the bracket's lower end (that direction's least
-change is the key's). ``max_levels`` stops the walk after that many grid levels and
-``refine`` False skips the trisection (the report for axle4dof: one level, whose change is
-then the option, an upper bound of the least change).
+least change. A bracket is refined no further where the other direction of its key already
+meets the criterion at a change no larger than the bracket's lower end (that direction's
+least change is the key's). The refinement's probes are near the criterion by construction
+and are judged with the full settings at once, also where a screen is given. ``max_levels``
+stops the walk after that many grid levels and ``refine`` False skips the refinement (the
+level's change is then the option, an upper bound of the least change); the report for
+axle4dof searches one level and refines it by one round.
 
 Screened (``WearDesignSettings.screen``, e.g. :data:`SCREEN`): every probe is judged first
 by a cheaper evolution, and again with the full settings where the screened verdict is
@@ -63,6 +67,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
@@ -151,8 +156,13 @@ class WearDesignSettings:
     that the search stopped there."""
     refine: bool = True
     """Where the evolution judges: refine the bracket of a direction that meets the criterion
-    by trisection to :data:`EVOLUTION_REFINE`. False: the least change is the grid level where
-    it first meets it (the report for axle4dof, whose time budget holds one grid level)."""
+    to :data:`EVOLUTION_REFINE` (module notes; ``refine_rounds`` bounds it). False: the least
+    change is the grid level where it first meets it."""
+    refine_rounds: int | None = None
+    """Where the evolution judges and ``refine``: rounds of the refinement at most (each round
+    two probes per key, side by side) [-] (integer >= 1; None: until every bracket is
+    :data:`EVOLUTION_REFINE` wide). One round leaves a bracket a third or two thirds of a
+    grid step wide (the report for axle4dof)."""
     screen: EvolutionSettings | None = None
     """Where the evolution judges: cheaper settings (e.g. :data:`SCREEN`) that judge every
     probe first; a probe whose screened verdict is undecided or near the criterion
@@ -168,8 +178,9 @@ class WearDesignSettings:
         for name in ("least_only", "refine"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"WearDesignSettings: {name} = {getattr(self, name)!r}: must be True or False")
-        if self.max_levels is not None:
-            check_count(self, "max_levels")
+        for name in ("max_levels", "refine_rounds"):
+            if getattr(self, name) is not None:
+                check_count(self, name)
         if self.threads is not None:
             check_count(self, "threads")
         check_count(self, "max_undecided")
@@ -257,6 +268,7 @@ class WearDesignResult(Result):
             "evolutions": self.evolutions,
             "least_only": self.settings.least_only,
             "refined": self.settings.refine,
+            "refine_rounds": self.settings.refine_rounds if self.settings.refine else 0,
             "distances_scale_as": "1/k_e",
         }
 
@@ -470,18 +482,23 @@ def _search_by_evolution(params: Params, keys: Sequence[str], cycle, target_km: 
                                      + ("s" if len(levels) > 1 else "") + ", WearDesignSettings.max_levels)")
         if not settings.refine:
             return found, notes
-        # trisection of every bracket, side by side: two probes per bracket and round; an
+        # the brackets refined side by side, two probes per key and round: trisection of a
+        # bracket whose key has no other open, one probe at a third of each where both
+        # directions of a key are open (the one that meets sooner closes the other); an
         # undecided probe is no end of a bracket, a bracket is refined no further after
         # settings.max_undecided of its probes were undecided, nor where the other direction of
         # its key already meets the criterion at a change no larger than the bracket's lower end
         undecided_in = dict.fromkeys(found, 0)
-        while True:
-            rounds = {d: [lo + (hi - lo) * j / 3.0 for j in (1, 2)] for d, (lo, hi) in found.items()
-                      if hi - lo > EVOLUTION_REFINE and undecided_in[d] < settings.max_undecided
-                      and found.get((d[0], -d[1]), (0.0, math.inf))[1] > lo}
+        for _ in range(settings.refine_rounds or sys.maxsize):
+            open_ = [d for d, (lo, hi) in found.items() if hi - lo > EVOLUTION_REFINE
+                     and undecided_in[d] < settings.max_undecided and found.get((d[0], -d[1]), (0.0, math.inf))[1] > lo]
+            rounds = {(key, s): [lo + (hi - lo) * j / 3.0 for j in ((1,) if (key, -s) in open_ else (1, 2))]
+                      for (key, s) in open_ for lo, hi in [found[key, s]]}
             if not rounds:
-                return found, notes
-            outs = iter(run([(key, s * x) for (key, s), xs in rounds.items() for x in xs]))
+                break
+            # near the criterion by construction: judged with the full settings at once (a screen
+            # would judge most of them twice)
+            outs = iter(run([(key, s * x) for (key, s), xs in rounds.items() for x in xs], confirm=True))
             for d, xs in rounds.items():
                 lo, hi = found[d]
                 got = [next(outs) for _ in xs]
@@ -489,6 +506,7 @@ def _search_by_evolution(params: Params, keys: Sequence[str], cycle, target_km: 
                 j = next((i for i, out in enumerate(got) if ok(out)), len(xs))
                 found[d] = (max([x for x, out in zip(xs[:j], got[:j]) if failed(out)], default=lo),
                             xs[j] if j < len(xs) else hi)
+        return found, notes
 
     while True:  # with a screen: the least change of every key and its other end judged with the full settings
         found, notes = walk()
