@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 import pytest
 
@@ -137,7 +138,7 @@ def test_wear_design_json():
 
 @pytest.mark.slow
 def test_wear_design_one_grid_level_from_the_command_line():
-    """``--levels 1 --no-refine`` (the report's quick look): the option is the first grid level
+    """``--levels 1 --no-refine`` (the quick look): the option is the first grid level
     (+18.9 % of the tread damping on the 110 km/h test car), worded with its evolution."""
     args = ["wear", "design", "--judge", "evolution", "--target-km", "4000", "--cycle", "110:1",
             "-s", "wear.energetic_rate_mm3_per_j=0.01", "-k", "tread.lateral_damping_ns_per_m",
@@ -152,3 +153,14 @@ def test_wear_design_one_grid_level_from_the_command_line():
     assert code == 0 and "-> 95.14 (+18.9%), evolution over 4,000 km" in out, err
     code, _, err = run_main([*args[:-2], "--levels", "0", "-q"])
     assert code == 2 and "--levels" in err
+    # one round of refinement (the axle4dof report's search): one direction open, so a
+    # trisection of the first level (two probes more); the option at a third, two or three of it
+    code, out, err = run_main([*args[:-1], "--rounds", "1", "--json", "-q"])
+    assert code == 0, err
+    summary = json.loads(out)
+    (option,) = summary["options"]
+    thirds = 3.0 * math.log1p(option["relative_change"]) / math.log(4.0 ** 0.125)
+    assert min(abs(thirds - k) for k in (1, 2, 3)) < 1e-9 and summary["refine_rounds"] == 1
+    assert summary["evolutions"] == 4 and option["evolution"]["visible_km"] is None
+    code, _, err = run_main([*args[:-1], "--rounds", "0", "-q"])
+    assert code == 2 and "--rounds" in err

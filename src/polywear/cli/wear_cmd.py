@@ -323,13 +323,17 @@ def design_(
     ] = 1,
     levels: Annotated[
         Optional[int], typer.Option("--levels", min=1, help="Where the evolution judges: grid levels searched at most "
-                                    "(default: all 8 up to --max-factor); 1 with --no-refine is the report's quick "
-                                    "look for axle4dof.")
+                                    "(default: all 8 up to --max-factor); 1 with --rounds 1 is the report's search "
+                                    "for axle4dof.")
     ] = None,
     refine: Annotated[
         bool, typer.Option("--refine/--no-refine", help="Where the evolution judges: refine the least change found "
-                           "on the grid by trisection (default), or give the grid level itself.")
+                           "on the grid to 2 % (default), or give the grid level itself.")
     ] = True,
+    rounds: Annotated[
+        Optional[int], typer.Option("--rounds", min=1, help="Where the evolution judges: rounds of the refinement at "
+                                    "most, two probes per key each (default: until 2 %).")
+    ] = None,
     outputs: Outputs = Outputs(takes_plot=False),
 ) -> None:
     """Least change (toe, camber, damping, stiffness, adhesion) that stops polygonal wear over the drive cycle, vibrating or not."""
@@ -352,7 +356,8 @@ def design_(
 
     outputs.note("wear design: searching (where the evolution judges, each probe is an evolution: minutes) ...")
     with user_errors(ValueError, RuntimeError, ArithmeticError, prefix="wear design: "):
-        settings = WearDesignSettings(max_factor, judge=Judge(judge), max_levels=levels, refine=refine)
+        settings = WearDesignSettings(max_factor, judge=Judge(judge), max_levels=levels, refine=refine,
+                                      refine_rounds=rounds)
         result = wear_design(params, keys or None, target_km, pairs, settings,
                              executor=Executor("processes", workers) if workers > 1 else None)
     if verify_km is not None and result.options and result.judge == Judge.MAP:
