@@ -233,3 +233,21 @@ def test_panel_labels_of_a_multi_panel_diagram_do_not_overlap(nominal_diagram):
     boxes = [t.get_window_extent(renderer) for t in labels]
     assert all(not a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
     plt.close(fig)
+
+
+def test_glance_gives_the_wear_change_where_there_is_no_band_to_move():
+    """A car without SEV band that still wears into a polygon (toe 0.05 deg at 110 km/h): the
+    glance's "What to change" is the verdict's answer, a change of the wear itself, not "no
+    design option clears the SEV band"."""
+    from polywear.report.verdict import glance
+
+    answer = ("What to change: there is no SEV band to move out of 80-130 km/h, but the tire still wears into a "
+              "polygon: the wear itself must change: tread lateral stiffness 1e+06 -> 1.565e+06 N/m (+56.5 %) ...")
+    summary = {"operating": {"speed_kmh": 110.0}, "design": {"operating_range_kmh": [80.0, 130.0], "options": [],
+                                                              "reason": "No SEV band in 20-300 km/h"}}
+    judged = {"vibrates": False, "visible_km": {"operating speed": 29000.0, "drive cycle": None},
+              "polygon_visible": True, "dominant_order": 10, "design_options": [], "point_contact": None,
+              "patch": None, "lines": ["At 110 km/h: no self-excited vibration.", answer]}
+    lines = glance(summary, judged, Params())
+    assert lines[0] == "At risk: yes" and lines[2] == answer
+    assert not any("no design option clears the SEV band" in line for line in lines)

@@ -417,6 +417,7 @@ def test_stable_rolling_car_with_a_visible_polygon_gets_a_wear_warning_not_safe(
     assert "Nothing to change" not in text and "nothing to move" not in text.replace(NO_BAND["reason"], "")
     assert "the wear itself must change" in v["lines"][-1] and "keeps the polygon invisible for 100,000 km" in v["lines"][-1]
     assert v["wear_design_option"]["key"] in v["lines"][-1] or v["wear_design_option"]["label"] in v["lines"][-1]
+    assert v["glance"][2] == v["lines"][-1]  # at a glance too: the wear change, not "no option clears the band"
     # the same car without a visible polygon: safe
     quiet = _alone(110.0, None, 10)
     v = verdict({**summary, "wear": _wear_summary(quiet, {**quiet, "label": "drive cycle"})}, params,

@@ -415,6 +415,8 @@ def glance(summary: dict, judged: dict, params: Params) -> list[str]:
     best = _best_option(design, judged.get("design_options") or [])
     if not risk:
         lines.append("What to change: nothing for the vibration" + (" (the wear is not judged)." if unjudged else "."))
+    elif best is None and not design["options"] and visible and judged.get("lines"):
+        lines.append(judged["lines"][-1])  # no band to move: the verdict's answer, a change of the wear itself
     elif best is None:
         lines.append("What to change: no design option clears the SEV band from the operating range "
                      f"{design['operating_range_kmh'][0]:g}-{design['operating_range_kmh'][1]:g} km/h"
