@@ -164,3 +164,5 @@ def test_wear_design_one_grid_level_from_the_command_line():
     assert summary["evolutions"] == 4 and option["evolution"]["visible_km"] is None
     code, _, err = run_main([*args[:-1], "--rounds", "0", "-q"])
     assert code == 2 and "--rounds" in err
+    code, _, err = run_main([*args, "--rounds", "1", "-q"])  # with --no-refine
+    assert code == 2 and "--rounds 1 with --no-refine: there is no refinement to bound" in err

@@ -97,6 +97,8 @@ def test_one_grid_level_unrefined_is_that_level_checked_by_evolution():
         WearDesignSettings(max_levels=0)
     with pytest.raises(ValueError, match="refine_rounds"):
         WearDesignSettings(refine_rounds=0)
+    with pytest.raises(ValueError, match="refine_rounds = 1 with refine = False: no rounds without the refinement"):
+        WearDesignSettings(refine=False, refine_rounds=1)
     with pytest.raises(ValueError, match="refine = 1: must be True or False"):
         WearDesignSettings(refine=1)
 

@@ -343,6 +343,8 @@ def design_(
         raise UserError(f"--max-factor {max_factor:g}: must be in (1, 100]")
     if verify_km is not None and not (math.isfinite(verify_km) and 0 < verify_km <= 1e6):
         raise UserError(f"--verify-km {verify_km:g}: must be in (0, 1e6]")
+    if rounds is not None and not refine:
+        raise UserError(f"--rounds {rounds} with --no-refine: there is no refinement to bound")
     from ..wear.design import Judge, WearDesignSettings, verify_option, wear_design
 
     if judge not in tuple(Judge):

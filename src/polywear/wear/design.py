@@ -181,6 +181,9 @@ class WearDesignSettings:
         for name in ("max_levels", "refine_rounds"):
             if getattr(self, name) is not None:
                 check_count(self, name)
+        if self.refine_rounds is not None and not self.refine:
+            raise ValueError(f"WearDesignSettings: refine_rounds = {self.refine_rounds!r} with refine = False: "
+                             "no rounds without the refinement")
         if self.threads is not None:
             check_count(self, "threads")
         check_count(self, "max_undecided")
