@@ -137,13 +137,28 @@ def test_wear_design_json():
 
 
 @pytest.mark.slow
-def test_wear_design_one_grid_level_from_the_command_line():
+def test_wear_design_one_grid_level_from_the_command_line(monkeypatch):
     """``--levels 1 --no-refine`` (the quick look): the option is the first grid level
-    (+18.9 % of the tread damping on the 110 km/h test car), worded with its evolution."""
+    (+18.9 % of the tread damping on the 110 km/h test car), worded with its evolution; the
+    progress bar gets every evolution (the nominal car's, then each probe's)."""
+    from contextlib import contextmanager
+
+    from polywear.cli import common
+
+    reports = []
+
+    @contextmanager
+    def recording(description, enabled=True):
+        yield lambda done, total, message="": reports.append((description, done, message))
+
+    monkeypatch.setattr(common, "progress", recording)
     args = ["wear", "design", "--judge", "evolution", "--target-km", "4000", "--cycle", "110:1",
             "-s", "wear.energetic_rate_mm3_per_j=0.01", "-k", "tread.lateral_damping_ns_per_m",
             "--levels", "1", "--no-refine"]
     code, out, err = run_main([*args, "--json", "-q"])
+    assert [(d, n) for d, n, _ in reports] == [("wear design [evolutions]", 0), ("wear design [evolutions]", 1),
+                                               ("wear design [evolutions]", 2)], reports
+    assert reports[0][2].startswith("nominal: visible after") and reports[1][2].startswith("tread.lateral_damping")
     assert code == 0, err
     summary = json.loads(out)
     (option,) = summary["options"]

@@ -357,11 +357,14 @@ def design_(
     from ..parallel import Executor
 
     outputs.note("wear design: searching (where the evolution judges, each probe is an evolution: minutes) ...")
-    with user_errors(ValueError, RuntimeError, ArithmeticError, prefix="wear design: "):
+    with (
+        outputs.progress("wear design [evolutions]") as update,
+        user_errors(ValueError, RuntimeError, ArithmeticError, prefix="wear design: "),
+    ):
         settings = WearDesignSettings(max_factor, judge=Judge(judge), max_levels=levels, refine=refine,
                                       refine_rounds=rounds)
         result = wear_design(params, keys or None, target_km, pairs, settings,
-                             executor=Executor("processes", workers) if workers > 1 else None)
+                             executor=Executor("processes", workers) if workers > 1 else None, progress=update)
     if verify_km is not None and result.options and result.judge == Judge.MAP:
         outputs.note(f"wear design: verifying '{result.options[0].label}' by evolution over {verify_km:,.0f} km ...")
         verify_option(params, result.options[0], verify_km, pairs)
