@@ -65,9 +65,9 @@ becomes visible, with the original parameters beside it.
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
-import sys
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
@@ -492,11 +492,13 @@ def _search_by_evolution(params: Params, keys: Sequence[str], cycle, target_km: 
         # settings.max_undecided of its probes were undecided, nor where the other direction of
         # its key already meets the criterion at a change no larger than the bracket's lower end
         undecided_in = dict.fromkeys(found, 0)
-        for _ in range(settings.refine_rounds or sys.maxsize):
+        for _ in itertools.islice(itertools.count(), settings.refine_rounds):  # None: unbounded
             open_ = [d for d, (lo, hi) in found.items() if hi - lo > EVOLUTION_REFINE
                      and undecided_in[d] < settings.max_undecided and found.get((d[0], -d[1]), (0.0, math.inf))[1] > lo]
-            rounds = {(key, s): [lo + (hi - lo) * j / 3.0 for j in ((1,) if (key, -s) in open_ else (1, 2))]
-                      for (key, s) in open_ for lo, hi in [found[key, s]]}
+            rounds = {}
+            for key, s in open_:
+                lo, hi = found[key, s]
+                rounds[key, s] = [lo + (hi - lo) * j / 3.0 for j in ((1,) if (key, -s) in open_ else (1, 2))]
             if not rounds:
                 break
             # near the criterion by construction: judged with the full settings at once (a screen
